@@ -1,0 +1,5 @@
+"""Allow ``python -m allsky``."""
+
+from allsky.cli import main
+
+raise SystemExit(main())

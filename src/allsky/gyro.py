@@ -1,0 +1,90 @@
+"""Strapped-down rate gyros 1, 2, 3 (roll, pitch, yaw).
+
+Error model, per frame of length ``dt``::
+
+    rate_arcsec_s = S @ (dtheta_body / dt) * RAD2ARCSEC + drift + b_rw + n_arw
+    S = diag(1 + scale_factor_error) @ (I + M)
+
+``dtheta_body`` is the body-angle increment over the frame (so the gyro
+sees the exact mean rate of the frame, as its pulse train would); ``M`` holds
+the input-axis misalignments (row i: gyro i's sensitivity to body x, y, z,
+zero diagonal). ``drift`` is the constant bias, ``b_rw`` a rate random walk,
+``n_arw`` the angle random walk as white rate noise of density ``N`` with
+standard deviation ``N / sqrt(dt)`` over a frame. The output saturates at
+the gyro's range. The output is in the electronics' unit, arcsec/s.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky import units
+from allsky.jit import njit
+
+
+class GyroParams(NamedTuple):
+    """Gyro triad parameters (all rates in arcsec/s)."""
+
+    sensitivity: np.ndarray  #: [-] 3x3 matrix S = diag(1+sf) (I+M)
+    drift_arcsec_s: np.ndarray  #: [arcsec/s] constant bias per gyro (1 arcsec/s = 1 deg/h)
+    arw_arcsec_rt_s: float  #: [arcsec/sqrt(s)] angle random walk density
+    rrw_arcsec_s_rt_s: float  #: [arcsec/s/sqrt(s)] rate random walk density
+    range_arcsec_s: float  #: [arcsec/s] output saturation
+
+
+def make_params(drift_deg_h, scale_factor_error_ppm, misalignment_arcsec, arw_deg_rt_h,
+                rrw_deg_h_rt_h, range_deg_s) -> GyroParams:
+    """Build :class:`GyroParams` from scenario units."""
+    m = np.array(misalignment_arcsec, dtype=float) * units.ARCSEC2RAD
+    np.fill_diagonal(m, 0.0)
+    sf = np.array(scale_factor_error_ppm, dtype=float) * units.PPM
+    s = np.diag(1.0 + sf) @ (np.eye(3) + m)
+    return GyroParams(
+        sensitivity=s,
+        drift_arcsec_s=np.array(drift_deg_h, dtype=float) * units.DEG_H2ARCSEC_S,
+        # deg/sqrt(h) -> arcsec/sqrt(s): 3600 arcsec/deg / 60 sqrt(s)/sqrt(h)
+        arw_arcsec_rt_s=float(arw_deg_rt_h) * 60.0,
+        # deg/h/sqrt(h) -> arcsec/s/sqrt(s)
+        rrw_arcsec_s_rt_s=float(rrw_deg_h_rt_h) / 60.0,
+        range_arcsec_s=float(range_deg_s) * units.DEG2ARCSEC,
+    )
+
+
+@njit
+def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s):
+    """Measured rates [arcsec/s] for a frame's body-angle increment [rad].
+
+    ``bias_rw_arcsec_s`` (3) is the rate-random-walk state, advanced here.
+    """
+    s = p.sensitivity
+    k = 206264.80624709636 / dt_s
+    sig_arw = p.arw_arcsec_rt_s / np.sqrt(dt_s)
+    sig_rrw = p.rrw_arcsec_s_rt_s * np.sqrt(dt_s)
+    for i in range(3):
+        if sig_rrw > 0.0:
+            bias_rw_arcsec_s[i] += sig_rrw * np.random.normal(0.0, 1.0)
+        r = (s[i, 0] * dtheta_rad[0] + s[i, 1] * dtheta_rad[1] + s[i, 2] * dtheta_rad[2]) * k
+        r += p.drift_arcsec_s[i] + bias_rw_arcsec_s[i]
+        if sig_arw > 0.0:
+            r += sig_arw * np.random.normal(0.0, 1.0)
+        if r > p.range_arcsec_s:
+            r = p.range_arcsec_s
+        elif r < -p.range_arcsec_s:
+            r = -p.range_arcsec_s
+        out_rate_arcsec_s[i] = r
+
+
+def perfect_calibration(p: GyroParams) -> dict:
+    """The values a perfect Modes 3-5 calibration would store for these gyros.
+
+    Scale factor = true angle / counted angle; cross-coupling = counts on the
+    other axis per unit true angle (SPEC section 4).
+    """
+    s = p.sensitivity
+    return {
+        "drift_deg_h": {"roll": float(p.drift_arcsec_s[0]), "pitch": float(p.drift_arcsec_s[1]),
+                        "yaw": float(p.drift_arcsec_s[2])},
+        "scale_factor": {"roll": float(1.0 / s[0, 0]), "yaw": float(1.0 / s[2, 2])},
+        "cross_coupling": {"roll_into_pitch": float(s[1, 0]), "roll_into_yaw": float(s[2, 0]),
+                           "yaw_into_pitch": float(s[1, 2]), "yaw_into_roll": float(s[0, 2])},
+    }

@@ -1,0 +1,49 @@
+"""Cold-gas jets 39, 40, 41 (roll, pitch, yaw couples).
+
+Each axis fires a couple: two jets of thrust ``F`` on opposite sides, each at
+``r`` from the centre of mass, so the couple gives a pure torque ``2 F r``
+[N m] and no net force. A firing couple uses propellant at ``2 F / (Isp g0)``
+[kg/s]. With the tank empty the valves open on nothing.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky import units
+from allsky.jit import njit
+
+
+class JetParams(NamedTuple):
+    """The three jet couples."""
+
+    torque_n_m: np.ndarray  #: [N m] torque of each axis's couple, 2 F r
+    flow_kg_s: np.ndarray  #: [kg/s] propellant flow of each firing couple
+
+
+def make_params(thrust_n, moment_arm_m, isp_s) -> JetParams:
+    """Build :class:`JetParams` from per-jet thrust [N], arm [m] and specific impulse [s]."""
+    f = np.asarray(thrust_n, dtype=float)
+    r = np.asarray(moment_arm_m, dtype=float)
+    return JetParams(2.0 * f * r, 2.0 * f / (float(isp_s) * units.G0_M_S2))
+
+
+@njit
+def jets(p, valve, dt_s, propellant_kg, torque_n_m):
+    """Torque of the three couples for valve commands ``valve`` (-1/0/+1) held over a frame.
+
+    ``propellant_kg`` (1 element) is decremented; returns False when the tank
+    is empty (then no torque).
+    """
+    use = 0.0
+    for i in range(3):
+        use += abs(valve[i]) * p.flow_kg_s[i] * dt_s
+    if propellant_kg[0] <= 0.0 or use > propellant_kg[0]:
+        propellant_kg[0] = 0.0
+        for i in range(3):
+            torque_n_m[i] = 0.0
+        return False
+    propellant_kg[0] -= use
+    for i in range(3):
+        torque_n_m[i] = valve[i] * p.torque_n_m[i]
+    return True

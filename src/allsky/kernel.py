@@ -1,0 +1,361 @@
+"""The per-frame loop: one compiled function that runs the vehicle frame by frame.
+
+It reads top to bottom like the patent's block diagram::
+
+    sensors (gyros 1-3, sun sensor 104, star tracker 105)
+    -> summing amplifiers 4-6 (drift DACs 7/9/11 via S1-S3, rate commands 120/128 via S16/S17)
+    -> voltage-to-frequency converters 8/10/12 -> up/down counters 14/16/18
+                                            (and drift counters 13/15/17 via S4-S6)
+    -> computer 111 (sequencer 21 steps S7/S8; CPU 22 -> storage registers 25-27)
+    -> DACs 28-30 and optical errors through S9-S15 -> control amplifiers 31-33
+    -> PWPF modulators 34-36 -> jets 39-41 -> rigid-body plant
+    -> master sequencer 20's watch of the error signals, telemetry
+
+The master sequencer itself (switch actions, mode rules) is Python
+(:mod:`allsky.master_sequencer`): it sets the switches, then calls
+:func:`run_leg` with a *leg*, the condition that ends the current step of a
+mode. The loop returns when that condition is met, at the leg's timeout, or
+on an abort (propellant gone, Sun or star lost). All state lives in the
+arrays of :class:`State`, so a mission can be saved and resumed between legs.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky.computer_sequencer import sequencer_step
+from allsky.control_amp import ControlParams, control_amp
+from allsky.cpu import N_WORK, target_step
+from allsky.dac import dac
+from allsky.gyro import GyroParams, gyro_output
+from allsky.jets import JetParams, jets
+from allsky.jit import njit
+from allsky.plant import RigidBodyParams, rk4_step
+from allsky.pwpf import PwpfParams, pwpf_step
+from allsky.quaternion import rotate_to_body
+from allsky.rate_command import rate_command
+from allsky.star_tracker import StarTrackerParams, star_tracker
+from allsky.storage_register import store
+from allsky.summing_amp import summing_amp
+from allsky.sun_acquisition import SunAcquisitionParams, sun_acquisition
+from allsky.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
+from allsky.updown_counter import count
+from allsky.vfc import VfcParams, vfc
+from allsky.word_registers import N_COMPUTED, N_PROGRAMMED
+
+# Computer programs a leg can run.
+PROGRAM_NONE = 0
+PROGRAM_MODE1 = 1  #: the Mode 1 sun-acquisition controller drives the loops
+PROGRAM_TARGET_ROLL = 2  #: Mode 6-1: CPU services the roll axis
+PROGRAM_TARGET = 3  #: Mode 6-2: CPU services all three axes
+
+# What ends a leg.
+WATCH_SETTLE = 0  #: all signals of ``settle_mask`` below the threshold for ``hold_s``
+WATCH_HANDOVER = 1  #: ``handover_signal`` inside the hand-over threshold after ``blank_s``
+WATCH_ELAPSED = 2  #: ``hold_s`` of leg time
+
+# Signals the master sequencer watches (index = bit of settle_mask).
+SIG_SUN_PITCH = 0
+SIG_SUN_YAW = 1
+SIG_TRACKER_YAW = 2
+SIG_TRACKER_PITCH = 3
+SIG_ERROR_ROLL = 4
+SIG_ERROR_PITCH = 5
+SIG_ERROR_YAW = 6
+N_SIGNALS = 7
+
+# Leg exit codes.
+EXIT_DONE = 1
+EXIT_TIMEOUT = -1
+EXIT_PROPELLANT = -2
+EXIT_SUN_LOST = -3
+EXIT_STAR_LOST = -4
+
+# Telemetry columns (see allsky.telemetry for names and units).
+N_TLM = 40
+
+
+class ElectronicsParams(NamedTuple):
+    """Word lengths and scalings of the counters, DACs, registers and rate commands."""
+
+    counter_bits: int  #: [bit] up/down counters 14, 16, 18
+    drift_counter_bits: int  #: [bit] drift counters 13, 15, 17
+    overflow_mode: int  #: updown_counter.WRAP or SATURATE
+    drift_dac_bits: int  #: [bit] drift DACs 7, 9, 11
+    drift_lsb_arcsec_s: float  #: [arcsec/s per count] pulse weight / drift interval
+    register_bits: int  #: [bit] registers 25-27 and DACs 28-30
+    register_lsb_arcsec: float  #: [arcsec]
+    rate_command_arcsec_s: float  #: [arcsec/s] rate-command modules 120, 128
+    computer_step_frames: int  #: [frames] per S7/S8 step
+
+
+class SequencerParams(NamedTuple):
+    """Thresholds of master sequencer 20's watch."""
+
+    settle_threshold_arcsec: float  #: [arcsec] "settled" error bound (50")
+    handover_arcsec: float  #: [arcsec] hand-over threshold (7200")
+    sensor_loss_s: float  #: [s] Sun/star absence tolerated while in use
+
+
+class Params(NamedTuple):
+    """Everything the frame loop reads; built once per mission by :mod:`allsky.mission`."""
+
+    frame_s: float  #: [s]
+    telemetry_every: int  #: [frames] per telemetry row (0 = none)
+    sun0_inertial: np.ndarray  #: [-] Sun direction at t = 0
+    sun_rate_inertial: np.ndarray  #: [1/s] its time derivative (the Sun's ~1 deg/day motion)
+    plant: RigidBodyParams
+    gyro: GyroParams
+    sun: SunSensorParams
+    tracker: StarTrackerParams
+    vfc: VfcParams
+    electronics: ElectronicsParams
+    control: ControlParams
+    pwpf: PwpfParams
+    jets: JetParams
+    mode1: SunAcquisitionParams
+    sequencer: SequencerParams
+
+
+class State(NamedTuple):
+    """The whole mission state, as arrays (mutated in place by the loop)."""
+
+    time_s: np.ndarray  #: (1,) [s] mission time
+    frame: np.ndarray  #: (1,) int64 frame counter
+    x: np.ndarray  #: (7,) plant state [q_w, q_x, q_y, q_z, w (rad/s)]
+    dtheta_rad: np.ndarray  #: (3,) body-angle increment of the last frame
+    gyro_rw_arcsec_s: np.ndarray  #: (3,) gyro rate-random-walk state
+    vfc_residue_pulses: np.ndarray  #: (3,) fractional pulses carried by converters 8/10/12
+    counters: np.ndarray  #: (3,) int64 up/down counters 14, 16, 18 [pulses]
+    drift_counters: np.ndarray  #: (3,) int64 drift counters 13, 15, 17 [pulses]
+    overflow: np.ndarray  #: (6,) int64 latched overflow flags (14,16,18,13,15,17)
+    registers: np.ndarray  #: (3,) int64 storage registers 25, 26, 27 [LSB]
+    switches: np.ndarray  #: (20,) uint8 switch bank S1-S19 (see switch_bank)
+    rate_sign: np.ndarray  #: (2,) int64 direction of rate-command modules 120, 128
+    pwpf_filter_v: np.ndarray  #: (3,) modulator filter states
+    pwpf_out: np.ndarray  #: (3,) int64 valve commands -1/0/+1
+    pwpf_on_frames: np.ndarray  #: (3,) int64 frames since each valve opened
+    propellant_kg: np.ndarray  #: (1,)
+    cpu: np.ndarray  #: (N_WORK,) CPU 22 working store
+    word23: np.ndarray  #: (6,) computed word register 23
+    word24: np.ndarray  #: (2,) programmed word register 24 [arcsec]
+
+
+def new_state(q0, rate0_rad_s, propellant_kg) -> State:
+    """A fresh state at ejection: everything zero, switches open, neutral registers."""
+    from allsky.switch_bank import new_bank
+    from allsky.word_registers import neutral_computed
+
+    x = np.zeros(7)
+    x[0:4] = q0
+    x[4:7] = rate0_rad_s
+    return State(
+        time_s=np.zeros(1), frame=np.zeros(1, dtype=np.int64), x=x, dtheta_rad=np.zeros(3),
+        gyro_rw_arcsec_s=np.zeros(3), vfc_residue_pulses=np.zeros(3),
+        counters=np.zeros(3, dtype=np.int64), drift_counters=np.zeros(3, dtype=np.int64),
+        overflow=np.zeros(6, dtype=np.int64), registers=np.zeros(3, dtype=np.int64),
+        switches=new_bank(), rate_sign=np.ones(2, dtype=np.int64),
+        pwpf_filter_v=np.zeros(3), pwpf_out=np.zeros(3, dtype=np.int64),
+        pwpf_on_frames=np.zeros(3, dtype=np.int64),
+        propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
+        word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
+    )
+
+
+def copy_state(s: State) -> State:
+    """A deep copy (for saving a mission at a mode boundary)."""
+    return State(*(a.copy() for a in s))
+
+
+assert N_COMPUTED == 6
+
+
+class Leg(NamedTuple):
+    """One step of a mode: what the computer runs and what ends the step."""
+
+    seed: int  #: seeds the noise of this leg (derived from the mission seed and leg number)
+    mode_code: float  #: mode number for telemetry (1..5, 6.1, 6.2)
+    program: int  #: PROGRAM_*
+    watch: int  #: WATCH_*
+    settle_mask: int  #: bits of the SIG_* signals that must settle
+    handover_signal: int  #: SIG_* watched for WATCH_HANDOVER
+    blank_s: float  #: [s] the watched signal is ignored this long after the leg starts
+    hold_s: float  #: [s] settle time (WATCH_SETTLE) or duration (WATCH_ELAPSED)
+    timeout_s: float  #: [s] the leg gives up after this long
+
+
+@njit
+def _sun_inertial(p, t_s, out):
+    n = 0.0
+    for i in range(3):
+        out[i] = p.sun0_inertial[i] + p.sun_rate_inertial[i] * t_s
+        n += out[i] * out[i]
+    n = np.sqrt(n)
+    for i in range(3):
+        out[i] /= n
+
+
+@njit
+def run_leg(p, s, leg, tlm, tlm_rows):
+    """Run frames until the leg's condition, timeout or an abort.
+
+    ``tlm`` is a preallocated (rows, N_TLM) telemetry buffer and
+    ``tlm_rows`` (1,) its fill count. Returns ``(exit_code, leg_time_s)``.
+    """
+    np.random.seed(leg.seed)
+    dt = p.frame_s
+    el = p.electronics
+    sq = p.sequencer
+    sw = s.switches
+    # Per-leg scratch (allocated once per leg, not per frame).
+    sun_i = np.empty(3)
+    sun_b = np.empty(3)
+    coarse = np.empty(3)
+    fine = np.empty(3)
+    trk = np.empty(3)
+    gyro = np.empty(3)
+    comp = np.empty(3)
+    line = np.empty(3)
+    pos = np.empty(3)
+    rate = np.empty(3)
+    volts = np.empty(3)
+    torque = np.zeros(3)
+    sig = np.zeros(N_SIGNALS)
+    work = np.empty((6, 10))
+    pw = p.vfc.pulse_weight_arcsec
+    timer = 0.0
+    sun_gone = 0.0
+    star_gone = 0.0
+    t_leg = 0.0
+    n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
+    for _ in range(n_max):
+        # --- sensors -------------------------------------------------------
+        _sun_inertial(p, s.time_s[0], sun_i)
+        rotate_to_body(s.x, sun_i, sun_b)
+        sun_sensor(p.sun, sun_b, fine)
+        star_tracker(p.tracker, s.x, trk)
+        gyro_output(p.gyro, s.dtheta_rad, dt, s.gyro_rw_arcsec_s, gyro)
+        # --- summing amplifiers 4, 5, 6 ------------------------------------
+        for a in range(3):
+            drift = dac(s.drift_counters[a], el.drift_dac_bits, el.drift_lsb_arcsec_s)
+            if a == 0:
+                cmd = rate_command(el.rate_command_arcsec_s, s.rate_sign[0])
+                cmd_sw = sw[16]
+            elif a == 2:
+                cmd = rate_command(el.rate_command_arcsec_s, s.rate_sign[1])
+                cmd_sw = sw[17]
+            else:
+                cmd = 0.0
+                cmd_sw = 0
+            comp[a], line[a] = summing_amp(gyro[a], drift, sw[1 + a], cmd, cmd_sw)
+        # --- converters 8/10/12, counters 14/16/18, drift counters 13/15/17
+        for a in range(3):
+            n = vfc(p.vfc, a, comp[a], dt, s.vfc_residue_pulses)
+            count(s.counters, a, n, el.counter_bits, el.overflow_mode, s.overflow, a)
+            if sw[4 + a]:
+                count(s.drift_counters, a, n, el.drift_counter_bits, el.overflow_mode,
+                      s.overflow, 3 + a)
+        # --- computer 111 ---------------------------------------------------
+        if leg.program == PROGRAM_TARGET_ROLL or leg.program == PROGRAM_TARGET:
+            a = sequencer_step(sw, s.frame[0], el.computer_step_frames)
+            if a == 0 or (a > 0 and leg.program == PROGRAM_TARGET):
+                err = target_step(a, s.counters[a] * pw, s.word23, s.word24, s.cpu)
+                store(s.registers, a, err, el.register_bits, el.register_lsb_arcsec)
+        # --- DACs 28-30 and optical errors -> control amplifiers 31-33 -------
+        if leg.program == PROGRAM_MODE1:
+            coarse_sun(p.sun, sun_b, coarse)
+            sun_acquisition(p.mode1, p.sun.linear_range_arcsec, fine, coarse, comp, pos, rate)
+        else:
+            pos[0] = sw[12] * trk[0] \
+                + sw[9] * dac(s.registers[0], el.register_bits, el.register_lsb_arcsec)
+            pos[1] = sw[13] * trk[1] + sw[14] * fine[0] \
+                + sw[10] * dac(s.registers[1], el.register_bits, el.register_lsb_arcsec)
+            pos[2] = sw[15] * fine[1] \
+                + sw[11] * dac(s.registers[2], el.register_bits, el.register_lsb_arcsec)
+            for a in range(3):
+                rate[a] = line[a]
+        for a in range(3):
+            volts[a] = control_amp(p.control, a, pos[a], rate[a])
+        # --- PWPF modulators 34-36 -> jets 39-41 ------------------------------
+        for a in range(3):
+            pwpf_step(p.pwpf, a, volts[a], s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames)
+        tank_ok = jets(p.jets, s.pwpf_out, dt, s.propellant_kg, torque)
+        # --- plant ----------------------------------------------------------
+        rk4_step(p.plant, s.x, torque, dt, s.dtheta_rad, work)
+        s.time_s[0] += dt
+        s.frame[0] += 1
+        t_leg += dt
+        # --- telemetry -------------------------------------------------------
+        if p.telemetry_every > 0 and s.frame[0] % p.telemetry_every == 0 \
+                and tlm_rows[0] < tlm.shape[0]:
+            _record(tlm[tlm_rows[0]], s, leg, fine, trk, volts)
+            tlm_rows[0] += 1
+        # --- master sequencer 20's watch -------------------------------------
+        if not tank_ok:
+            return EXIT_PROPELLANT, t_leg
+        sun_in_use = sw[14] == 1 or sw[15] == 1
+        star_in_use = sw[12] == 1 or sw[13] == 1
+        sun_gone = sun_gone + dt if (sun_in_use and fine[2] < 0.5) else 0.0
+        star_gone = star_gone + dt if (star_in_use and trk[2] < 0.5) else 0.0
+        if sun_gone > sq.sensor_loss_s:
+            return EXIT_SUN_LOST, t_leg
+        if star_gone > sq.sensor_loss_s:
+            return EXIT_STAR_LOST, t_leg
+        sig[SIG_SUN_PITCH] = fine[0] if fine[2] > 0.5 else 1e9
+        sig[SIG_SUN_YAW] = fine[1] if fine[2] > 0.5 else 1e9
+        sig[SIG_TRACKER_YAW] = trk[0] if trk[2] > 0.5 else 1e9
+        sig[SIG_TRACKER_PITCH] = trk[1] if trk[2] > 0.5 else 1e9
+        sig[SIG_ERROR_ROLL] = s.cpu[3]
+        sig[SIG_ERROR_PITCH] = s.cpu[4]
+        sig[SIG_ERROR_YAW] = s.cpu[5]
+        if leg.watch == WATCH_ELAPSED:
+            if t_leg >= leg.hold_s - 0.5 * dt:
+                return EXIT_DONE, t_leg
+        elif leg.watch == WATCH_HANDOVER:
+            if t_leg > leg.blank_s and abs(sig[leg.handover_signal]) < sq.handover_arcsec:
+                return EXIT_DONE, t_leg
+        else:
+            ok = True
+            for k in range(N_SIGNALS):
+                if (leg.settle_mask >> k) & 1 and abs(sig[k]) >= sq.settle_threshold_arcsec:
+                    ok = False
+            timer = timer + dt if ok else 0.0
+            if timer >= leg.hold_s - 0.5 * dt:
+                return EXIT_DONE, t_leg
+    return EXIT_TIMEOUT, t_leg
+
+
+@njit
+def _record(row, s, leg, fine, trk, volts):
+    row[0] = s.time_s[0]
+    row[1] = leg.mode_code
+    for i in range(7):
+        row[2 + i] = s.x[i]
+    row[9] = fine[0]
+    row[10] = fine[1]
+    row[11] = fine[2]
+    row[12] = trk[0]
+    row[13] = trk[1]
+    row[14] = trk[2]
+    for i in range(3):
+        row[15 + i] = s.counters[i]
+        row[18 + i] = s.drift_counters[i]
+        row[21 + i] = s.registers[i]
+        row[24 + i] = s.pwpf_out[i]
+        row[27 + i] = volts[i]
+        row[30 + i] = s.cpu[3 + i]
+    row[33] = s.propellant_kg[0]
+    m = 0
+    for k in range(1, 20):
+        if k != 7 and k != 8 and s.switches[k]:
+            m |= 1 << (k - 1)
+    row[34] = m
+    row[35] = s.switches[7]
+    of = 0
+    for i in range(6):
+        if s.overflow[i]:
+            of |= 1 << i
+    row[36] = of
+    row[37] = s.cpu[0]
+    row[38] = s.cpu[1]
+    row[39] = s.cpu[2]

@@ -1,0 +1,313 @@
+"""A mission: the vehicle, its electronics and the master sequencer, from a scenario.
+
+:class:`Mission` builds the frame loop's parameters from a validated
+scenario, runs the modes one at a time (:meth:`Mission.run_mode`) or all of
+them (:meth:`Mission.run`), and can be saved at any mode boundary and resumed
+(:meth:`Mission.save`, :meth:`Mission.load`). :func:`run_mission` is the
+library function behind ``allsky run``.
+"""
+
+import json
+import math
+from datetime import timedelta
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky import (
+    control_amp, gyro, jets, kernel, plant, pwpf, quaternion, sky, star_tracker, sun_acquisition,
+    sun_sensor, switch_bank, targeting, units, updown_counter, vfc,
+)
+from allsky import master_sequencer as ms
+from allsky import word_registers as wr
+from allsky.telemetry import COLUMNS
+
+EXIT_TEXT = {
+    kernel.EXIT_PROPELLANT: "propellant exhausted",
+    kernel.EXIT_SUN_LOST: "Sun lost",
+    kernel.EXIT_STAR_LOST: "star lost",
+}
+STATE_FORMAT = 1
+
+
+class ModeRecord(NamedTuple):
+    """One line of the mode timeline."""
+
+    mode: str
+    start_s: float
+    end_s: float
+    exit: str
+
+
+def _sun_motion(date_utc):
+    """Sun direction at the mission start and its rate [1/s] (finite difference over 1 h)."""
+    s0 = sky.sun_direction_inertial(date_utc)
+    s1 = sky.sun_direction_inertial(date_utc + timedelta(hours=1))
+    return s0, (s1 - s0) / units.HOUR_S
+
+
+def build_params(cfg) -> kernel.Params:
+    """Frame-loop parameters from a validated scenario."""
+    dt = float(cfg.mission.frame_s)
+    s0, sdot = _sun_motion(cfg.mission.date_utc)
+    lo, hi = cfg.star_tracker.magnitude_window
+    stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
+    stars_inertial = np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars],
+                              dtype=float).reshape(-1, 3)
+    el = cfg.electronics
+    return kernel.Params(
+        frame_s=dt,
+        telemetry_every=int(cfg.mission.telemetry_every_frames),
+        sun0_inertial=s0, sun_rate_inertial=sdot,
+        plant=plant.make_params(cfg.vehicle.inertia_kg_m2),
+        gyro=gyro.make_params(cfg.gyro.drift_deg_h, cfg.gyro.scale_factor_error_ppm,
+                              cfg.gyro.misalignment_arcsec, cfg.gyro.arw_deg_rt_h,
+                              cfg.gyro.rrw_deg_h_rt_h, cfg.gyro.range_deg_s),
+        sun=sun_sensor.SunSensorParams(
+            float(cfg.sun_sensor.linear_range_arcsec),
+            math.cos(cfg.sun_sensor.presence_half_angle_deg * units.DEG2RAD),
+            float(cfg.sun_sensor.noise_arcsec), cfg.sun_sensor.coarse_noise_deg * units.DEG2RAD),
+        tracker=star_tracker.StarTrackerParams(
+            cfg.star_tracker.fov_long_half_deg * units.DEG2RAD,
+            cfg.star_tracker.fov_narrow_half_deg * units.DEG2RAD,
+            float(cfg.star_tracker.noise_arcsec), stars_inertial),
+        vfc=vfc.VfcParams(float(el.vfc_pulse_weight_arcsec), float(el.vfc_max_rate_pps)),
+        electronics=kernel.ElectronicsParams(
+            counter_bits=int(el.counter_bits), drift_counter_bits=int(el.drift_counter_bits),
+            overflow_mode=(updown_counter.WRAP if el.counter_overflow == "wrap"
+                           else updown_counter.SATURATE),
+            drift_dac_bits=int(el.drift_dac_bits),
+            drift_lsb_arcsec_s=el.vfc_pulse_weight_arcsec / cfg.sequencer.drift_count_s,
+            register_bits=int(el.register_bits),
+            register_lsb_arcsec=float(el.register_lsb_arcsec),
+            rate_command_arcsec_s=el.rate_command_deg_s * units.DEG2ARCSEC,
+            computer_step_frames=int(el.computer_step_frames)),
+        control=control_amp.ControlParams(
+            np.array(cfg.control.position_gain_v_per_arcsec, dtype=float),
+            np.array(cfg.control.rate_gain_v_per_arcsec_s, dtype=float),
+            float(cfg.control.position_limit_arcsec), float(cfg.control.output_limit_v)),
+        pwpf=pwpf.make_params(cfg.pwpf.filter_gain, cfg.pwpf.time_constant_s,
+                              cfg.pwpf.on_threshold_v, cfg.pwpf.off_threshold_v,
+                              cfg.pwpf.full_on_v, cfg.jets.min_on_time_s, dt),
+        jets=jets.make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s),
+        mode1=sun_acquisition.SunAcquisitionParams(
+            float(cfg.sequencer.mode1_slew_gain_per_s),
+            cfg.sequencer.mode1_slew_rate_deg_s * units.DEG2ARCSEC),
+        sequencer=kernel.SequencerParams(
+            float(cfg.sequencer.settle_threshold_arcsec), float(cfg.sequencer.handover_arcsec),
+            float(cfg.sequencer.sensor_loss_s)),
+    )
+
+
+def ejection_state(cfg) -> kernel.State:
+    """Mission state at ejection: attitude and tip-off rates drawn from the mission seed."""
+    rng = np.random.default_rng([int(cfg.mission.seed), 0])
+    att = cfg.ejection.attitude
+    q0 = quaternion.random_unit(rng) if isinstance(att, str) else np.asarray(att, dtype=float)
+    w0 = rng.uniform(-1.0, 1.0, 3) * cfg.ejection.tipoff_rate_max_deg_s * units.DEG2RAD
+    return kernel.new_state(q0, w0, cfg.jets.propellant_kg)
+
+
+def target_inertial(cfg) -> np.ndarray:
+    """Unit vector to the scenario's target."""
+    if cfg.target.star is not None:
+        return sky.star_direction_inertial(cfg.target.star, cfg.mission.date_utc)
+    return sky.radec_to_unit(cfg.target.ra_deg, cfg.target.dec_deg)
+
+
+def reference_star_inertial(cfg) -> np.ndarray:
+    """The star the tracker's magnitude window selects (the brightest in the window)."""
+    lo, hi = cfg.star_tracker.magnitude_window
+    stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
+    if not stars:
+        raise ValueError("no catalog star inside star_tracker.magnitude_window")
+    s = stars[0]
+    return sky.radec_to_unit(s.ra_deg, s.dec_deg)
+
+
+class Mission:
+    """One flight of the all-sky pointing system, mode by mode."""
+
+    def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None):
+        self.cfg = cfg
+        self.params = build_params(cfg)
+        if not telemetry:
+            self.params = self.params._replace(telemetry_every=0)
+        self.state = ejection_state(cfg) if state is None else state
+        self.next_mode = next_mode
+        h = history or {}
+        self.timeline = [ModeRecord(*r) for r in h.get("timeline", [])]
+        self.leg_count = int(h.get("leg_count", 0))
+        self.counted_arcsec = dict(h.get("counted_arcsec", {}))
+        self.status = h.get("status", "running")
+        self.abort_reason = h.get("abort_reason")
+        self.programmed_roll_deg = h.get("programmed_roll_deg")
+        self.programmed_yaw_deg = h.get("programmed_yaw_deg")
+        self.drift_count_s = float(cfg.sequencer.drift_count_s)
+        self.blanking_s = float(cfg.sequencer.tracker_blanking_s)
+        self.settle_s = float(cfg.sequencer.settle_time_s)
+        self.pulse_weight_arcsec = float(cfg.electronics.vfc_pulse_weight_arcsec)
+        self.apply_calibration = bool(cfg.calibration.apply)
+        self._tlm = []
+        self._mode_deadline = None
+        self._mode = None
+
+    # -- used by the mode rules ------------------------------------------------
+    def switch(self, close=(), open_=()):
+        """Operate the switch bank (coupled pairs move together)."""
+        switch_bank.operate(self.state.switches, close=close, open_=open_)
+
+    def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
+            on_timeout=None):
+        """Run the frame loop until ``what`` happens; raise :class:`ModeAbort` if it does not."""
+        remaining = self._mode_deadline - self.state.time_s[0]
+        if hold_s is None:
+            hold_s = self.settle_s
+        seed = int(np.random.SeedSequence([int(self.cfg.mission.seed), 1,
+                                           self.leg_count]).generate_state(1)[0])
+        self.leg_count += 1
+        leg = kernel.Leg(seed, ms.MODE_CODE[self._mode], program, watch, mask, signal,
+                         float(blank_s), float(hold_s), float(max(remaining, 0.0)))
+        every = self.params.telemetry_every
+        rows = int(math.ceil(leg.timeout_s / self.params.frame_s / every)) + 1 if every else 0
+        buf = np.empty((rows, len(COLUMNS)))
+        filled = np.zeros(1, dtype=np.int64)
+        code, _ = kernel.run_leg(self.params, self.state, leg, buf, filled)
+        if every:
+            self._tlm.append(buf[: filled[0]])
+        if code == kernel.EXIT_DONE:
+            return
+        if code == kernel.EXIT_TIMEOUT:
+            limit = self.cfg.sequencer.timeout_s[self._mode]
+            raise ms.ModeAbort(f"Mode {self._mode}: {on_timeout or what + ' not achieved'}"
+                               f" within the mode timeout of {limit:g} s")
+        raise ms.ModeAbort(f"Mode {self._mode}: {EXIT_TEXT[code]} while waiting for: {what}")
+
+    # -- running ---------------------------------------------------------------
+    @property
+    def finished(self) -> bool:
+        return self.status != "running"
+
+    def run_mode(self) -> ModeRecord:
+        """Run the next mode; returns its timeline record."""
+        if self.finished:
+            raise RuntimeError(f"mission already {self.status}")
+        name = ms.MODES[self.next_mode]
+        if name == "6-1" and self.programmed_roll_deg is None:
+            self._program_target()
+        self._mode = name
+        start = float(self.state.time_s[0])
+        self._mode_deadline = start + float(self.cfg.sequencer.timeout_s[name])
+        try:
+            exit_text = ms.RULES[name](self)
+        except ms.ModeAbort as e:
+            exit_text = f"aborted: {e}"
+            self.status = "aborted"
+            self.abort_reason = str(e)
+        rec = ModeRecord(name, start, float(self.state.time_s[0]), exit_text)
+        self.timeline.append(rec)
+        self.next_mode += 1
+        if self.status == "running" and self.next_mode == len(ms.MODES):
+            self.status = "complete"
+        return rec
+
+    def run(self):
+        """Run the remaining modes; returns the summary dictionary."""
+        while not self.finished:
+            self.run_mode()
+        return self.summary()
+
+    def _program_target(self):
+        """Ground computation of register 24 for the Sun at the start of Mode 6."""
+        t = float(self.state.time_s[0])
+        sun = self.params.sun0_inertial + self.params.sun_rate_inertial * t
+        roll, yaw = targeting.programmed_angles_deg(sun, reference_star_inertial(self.cfg),
+                                                    target_inertial(self.cfg))
+        self.programmed_roll_deg, self.programmed_yaw_deg = roll, yaw
+
+    # -- results ---------------------------------------------------------------
+    def telemetry(self) -> np.ndarray:
+        """The decimated telemetry recorded so far (this process), one row per record."""
+        if not self._tlm:
+            return np.empty((0, len(COLUMNS)))
+        return np.vstack(self._tlm)
+
+    def pointing_error_arcsec(self) -> float:
+        """True angle between the roll axis and the target."""
+        x_body = quaternion.dcm_body_from_inertial(self.state.x[0:4])[0]
+        return sky.separation_deg(x_body, target_inertial(self.cfg)) * units.DEG2ARCSEC
+
+    def calibration(self) -> dict:
+        """What the mission stored: drift DAC values and register 23."""
+        el = self.params.electronics
+        drift = [float(d * el.drift_lsb_arcsec_s) for d in self.state.drift_counters]
+        out = {"drift_deg_h": dict(zip(("roll", "pitch", "yaw"), drift))}
+        out.update(wr.computed_as_dict(self.state.word23))
+        return out
+
+    def summary(self) -> dict:
+        """The ``--json`` summary (a stable contract)."""
+        done = [r.mode for r in self.timeline]
+        target = {"programmed_roll_deg": self.programmed_roll_deg,
+                  "programmed_yaw_deg": self.programmed_yaw_deg,
+                  "pointing_error_arcsec": (self.pointing_error_arcsec()
+                                            if self.status == "complete" else None)}
+        if self.cfg.target.star is not None:
+            target["star"] = self.cfg.target.star
+        else:
+            target["ra_deg"], target["dec_deg"] = self.cfg.target.ra_deg, self.cfg.target.dec_deg
+        return {
+            "status": self.status,
+            "abort_reason": self.abort_reason,
+            "modes": [{"mode": r.mode, "start_s": r.start_s, "end_s": r.end_s, "exit": r.exit}
+                      for r in self.timeline],
+            "calibration": self.calibration() if "5" in done else None,
+            "truth": gyro.perfect_calibration(self.params.gyro),
+            "calibration_applied": self.apply_calibration,
+            "target": target,
+            "propellant_kg": float(self.cfg.jets.propellant_kg - self.state.propellant_kg[0]),
+            "mission_time_s": float(self.state.time_s[0]),
+            "seed": int(self.cfg.mission.seed),
+            "counter_overflow": {
+                name: bool(f) for name, f in zip(
+                    ("counter14", "counter16", "counter18", "drift13", "drift15", "drift17"),
+                    self.state.overflow)},
+        }
+
+    # -- save / resume -------------------------------------------------------------
+    def save(self, path) -> Path:
+        """Save the mission at the current mode boundary (``.npz``: state arrays + history)."""
+        path = Path(path)
+        history = {"format": STATE_FORMAT, "next_mode": self.next_mode,
+                   "timeline": [list(r) for r in self.timeline], "leg_count": self.leg_count,
+                   "counted_arcsec": self.counted_arcsec, "status": self.status,
+                   "abort_reason": self.abort_reason,
+                   "programmed_roll_deg": self.programmed_roll_deg,
+                   "programmed_yaw_deg": self.programmed_yaw_deg,
+                   "scenario": self.cfg.as_dict()}
+        arrays = {f"state_{k}": v for k, v in self.state._asdict().items()}
+        with path.open("wb") as f:
+            np.savez(f, history=np.array(json.dumps(history)), **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path, telemetry=True):
+        """Resume a mission saved by :meth:`save` (its own scenario is restored)."""
+        from allsky.config import scenario_from_dict
+
+        with np.load(Path(path), allow_pickle=False) as z:
+            history = json.loads(str(z["history"]))
+            state = kernel.State(**{k: z[f"state_{k}"].copy() for k in kernel.State._fields})
+        if history.get("format") != STATE_FORMAT:
+            raise ValueError(f"{path}: not an allsky mission state (format {STATE_FORMAT})")
+        cfg = scenario_from_dict(history["scenario"])
+        return cls(cfg, telemetry=telemetry, state=state, next_mode=history["next_mode"],
+                   history=history)
+
+
+def run_mission(cfg, telemetry=True) -> Mission:
+    """Fly a whole mission (Modes 1 to 6-2) and return it."""
+    m = Mission(cfg, telemetry=telemetry)
+    m.run()
+    return m

@@ -1,0 +1,21 @@
+"""Storage registers 25 (roll), 26 (pitch), 27 (yaw).
+
+Written by CPU 22 through selector S8 with an angle error [arcsec]; each
+holds it as a signed integer of ``bits`` bits in units of ``lsb_arcsec``
+(rounded to nearest, saturated at full scale), to be read by DACs 28-30.
+"""
+
+from allsky.jit import njit
+
+
+@njit
+def store(registers, axis, value_arcsec, bits, lsb_arcsec):
+    """Quantise ``value_arcsec`` into ``registers[axis]``."""
+    hi = (1 << (bits - 1)) - 1
+    lo = -(1 << (bits - 1))
+    code = int(round(value_arcsec / lsb_arcsec))
+    if code > hi:
+        code = hi
+    elif code < lo:
+        code = lo
+    registers[axis] = code

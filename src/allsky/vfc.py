@@ -1,0 +1,34 @@
+"""Voltage-to-frequency converters 8, 10, 12.
+
+Each turns a rate [arcsec/s] into a pulse train, one pulse per
+``pulse_weight_arcsec`` of angle, up or down by sign, at most
+``max_rate_pps`` pulses per second (the converter saturates beyond). The
+fraction of a pulse left at the end of a frame is carried into the next one,
+so no pulse is lost or invented: after any number of frames the pulses put
+out equal the integral of the (clipped) input truncated toward zero.
+"""
+
+from typing import NamedTuple
+
+from allsky.jit import njit
+
+
+class VfcParams(NamedTuple):
+    """Converter scaling, shared by the three axes."""
+
+    pulse_weight_arcsec: float  #: [arcsec/pulse]
+    max_rate_pps: float  #: [pulses/s] saturation
+
+
+@njit
+def vfc(p, axis, rate_arcsec_s, dt_s, residue_pulses):
+    """Pulses [signed int] put out over one frame; carries the remainder in ``residue_pulses``."""
+    pps = rate_arcsec_s / p.pulse_weight_arcsec
+    if pps > p.max_rate_pps:
+        pps = p.max_rate_pps
+    elif pps < -p.max_rate_pps:
+        pps = -p.max_rate_pps
+    total = residue_pulses[axis] + pps * dt_s
+    n = int(total)  # toward zero
+    residue_pulses[axis] = total - n
+    return n

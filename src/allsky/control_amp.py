@@ -26,14 +26,14 @@ class ControlParams(NamedTuple):
 
     position_gain_v_per_arcsec: np.ndarray  #: [V/arcsec] per axis
     rate_gain_v_per_arcsec_s: np.ndarray  #: [V/(arcsec/s)] per axis
-    position_limit_arcsec: float  #: [arcsec] input limiter
+    position_limit_arcsec: np.ndarray  #: [arcsec] input limiter per axis
     output_limit_v: float  #: [V] output saturation
 
 
 @njit
 def control_amp(p, axis, position_arcsec, rate_arcsec_s):
     """Output voltage [V] of amplifier ``axis``."""
-    lim = p.position_limit_arcsec
+    lim = p.position_limit_arcsec[axis]
     pos = min(max(position_arcsec, -lim), lim)
     v = p.position_gain_v_per_arcsec[axis] * pos - p.rate_gain_v_per_arcsec_s[axis] * rate_arcsec_s
     return min(max(v, -p.output_limit_v), p.output_limit_v)

@@ -29,6 +29,8 @@ EXIT_TEXT = {
     kernel.EXIT_STAR_LOST: "star lost",
 }
 STATE_FORMAT = 1
+# [s] expected time from the end of the 6-1 roll to its settling (for the Sun prediction)
+SETTLE_ALLOWANCE_S = 30.0
 
 
 class ModeRecord(NamedTuple):
@@ -86,7 +88,8 @@ def build_params(cfg) -> kernel.Params:
         control=control_amp.ControlParams(
             np.array(cfg.control.position_gain_v_per_arcsec, dtype=float),
             np.array(cfg.control.rate_gain_v_per_arcsec_s, dtype=float),
-            float(cfg.control.position_limit_arcsec), float(cfg.control.output_limit_v)),
+            np.array(cfg.control.position_limit_arcsec, dtype=float),
+            float(cfg.control.output_limit_v)),
         pwpf=pwpf.make_params(cfg.pwpf.filter_gain, cfg.pwpf.time_constant_s,
                               cfg.pwpf.on_threshold_v, cfg.pwpf.off_threshold_v,
                               cfg.pwpf.full_on_v, cfg.jets.min_on_time_s, dt),
@@ -219,11 +222,21 @@ class Mission:
         return self.summary()
 
     def _program_target(self):
-        """Ground computation of register 24 for the Sun at the start of Mode 6."""
-        t = float(self.state.time_s[0])
-        sun = self.params.sun0_inertial + self.params.sun_rate_inertial * t
-        roll, yaw = targeting.programmed_angles_deg(sun, reference_star_inertial(self.cfg),
-                                                    target_inertial(self.cfg))
+        """Ground computation of register 24.
+
+        The Sun holds pitch and yaw through Mode 6-1, so the frame the yaw of
+        6-2 starts from is the reference attitude of the Sun *at the end of
+        6-1*; the angles are computed for the Sun predicted at that time
+        (roll at the commanded rate plus a settle allowance), two passes.
+        """
+        star, target = reference_star_inertial(self.cfg), target_inertial(self.cfg)
+        t0 = float(self.state.time_s[0])
+        rate_deg_s = float(self.cfg.electronics.rate_command_deg_s)
+        roll = 0.0
+        for _ in range(2):
+            t = t0 + abs(roll) / rate_deg_s + SETTLE_ALLOWANCE_S
+            sun = self.params.sun0_inertial + self.params.sun_rate_inertial * t
+            roll, yaw = targeting.programmed_angles_deg(sun, star, target)
         self.programmed_roll_deg, self.programmed_yaw_deg = roll, yaw
 
     # -- results ---------------------------------------------------------------

@@ -351,6 +351,8 @@ RULES = {
     "control.rate_gain_v_per_arcsec_s": vec(3, _all(_positive)),
     "control.position_limit_arcsec": vec(3, _all(_positive)),
     "control.output_limit_v": POS,
+    "control.integral_time_s": POS,
+    "control.integral_limit_arcsec": POS,
     "electronics.vfc_pulse_weight_arcsec": POS,
     "electronics.vfc_max_rate_pps": POS,
     "electronics.counter_bits": BITS(8, 62),

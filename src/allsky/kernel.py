@@ -132,6 +132,7 @@ class State(NamedTuple):
     registers: np.ndarray  #: (3,) int64 storage registers 25, 26, 27 [LSB]
     switches: np.ndarray  #: (20,) uint8 switch bank S1-S19 (see switch_bank)
     rate_sign: np.ndarray  #: (2,) int64 direction of rate-command modules 120, 128
+    amp_integral_arcsec: np.ndarray  #: (3,) control-amplifier integrals
     pwpf_filter_v: np.ndarray  #: (3,) modulator filter states
     pwpf_out: np.ndarray  #: (3,) int64 valve commands -1/0/+1
     pwpf_on_frames: np.ndarray  #: (3,) int64 frames since each valve opened
@@ -155,7 +156,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         counters=np.zeros(3, dtype=np.int64), drift_counters=np.zeros(3, dtype=np.int64),
         overflow=np.zeros(6, dtype=np.int64), registers=np.zeros(3, dtype=np.int64),
         switches=new_bank(), rate_sign=np.ones(2, dtype=np.int64),
-        pwpf_filter_v=np.zeros(3), pwpf_out=np.zeros(3, dtype=np.int64),
+        amp_integral_arcsec=np.zeros(3), pwpf_filter_v=np.zeros(3), pwpf_out=np.zeros(3, dtype=np.int64),
         pwpf_on_frames=np.zeros(3, dtype=np.int64),
         propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
@@ -275,7 +276,10 @@ def run_leg(p, s, leg, tlm, tlm_rows):
             for a in range(3):
                 rate[a] = line[a]
         for a in range(3):
-            volts[a] = control_amp(p.control, a, pos[a], rate[a])
+            integrate = leg.program != PROGRAM_MODE1 and not (a == 0 and sw[18]) \
+                and not (a == 2 and sw[19])
+            volts[a] = control_amp(p.control, a, pos[a], rate[a], s.amp_integral_arcsec,
+                                   integrate, dt)
         # --- PWPF modulators 34-36 -> jets 39-41 ------------------------------
         for a in range(3):
             pwpf_step(p.pwpf, a, volts[a], s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames)

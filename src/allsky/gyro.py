@@ -22,6 +22,10 @@ from allsky import units
 from allsky.jit import njit
 
 
+#: [s] interval between steps of the rate random walk
+RRW_STEP_S = 1.0
+
+
 class GyroParams(NamedTuple):
     """Gyro triad parameters (all rates in arcsec/s)."""
 
@@ -51,22 +55,25 @@ def make_params(drift_deg_h, scale_factor_error_ppm, misalignment_arcsec, arw_de
 
 
 @njit
-def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s):
+def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_bias):
     """Measured rates [arcsec/s] for a frame's body-angle increment [rad].
 
-    ``bias_rw_arcsec_s`` (3) is the rate-random-walk state, advanced here.
+    ``bias_rw_arcsec_s`` (3) is the rate-random-walk state. It is advanced
+    only when ``step_bias`` is true, by a step of ``K sqrt(RRW_STEP_S)``: once
+    a second is plenty for a walk of a few 0.001 deg/h over a mission, and
+    saves three random draws per frame.
     """
     s = p.sensitivity
     k = 206264.80624709636 / dt_s
     sig_arw = p.arw_arcsec_rt_s / np.sqrt(dt_s)
-    sig_rrw = p.rrw_arcsec_s_rt_s * np.sqrt(dt_s)
+    sig_rrw = p.rrw_arcsec_s_rt_s * np.sqrt(RRW_STEP_S)
     for i in range(3):
-        if sig_rrw > 0.0:
-            bias_rw_arcsec_s[i] += sig_rrw * np.random.normal(0.0, 1.0)
+        if step_bias and sig_rrw > 0.0:
+            bias_rw_arcsec_s[i] += sig_rrw * np.random.standard_normal()
         r = (s[i, 0] * dtheta_rad[0] + s[i, 1] * dtheta_rad[1] + s[i, 2] * dtheta_rad[2]) * k
         r += p.drift_arcsec_s[i] + bias_rw_arcsec_s[i]
         if sig_arw > 0.0:
-            r += sig_arw * np.random.normal(0.0, 1.0)
+            r += sig_arw * np.random.standard_normal()
         if r > p.range_arcsec_s:
             r = p.range_arcsec_s
         elif r < -p.range_arcsec_s:

@@ -27,7 +27,7 @@ from allsky.computer_sequencer import sequencer_step
 from allsky.control_amp import ControlParams, control_amp
 from allsky.cpu import N_WORK, target_step
 from allsky.dac import dac
-from allsky.gyro import GyroParams, gyro_output
+from allsky.gyro import RRW_STEP_S, GyroParams, gyro_output
 from allsky.jets import JetParams, jets
 from allsky.jit import njit
 from allsky.plant import RigidBodyParams, rk4_step
@@ -224,6 +224,7 @@ def run_leg(p, s, leg, tlm, tlm_rows):
     sig = np.zeros(N_SIGNALS)
     work = np.empty((6, 10))
     pw = p.vfc.pulse_weight_arcsec
+    rrw_every = max(1, int(round(RRW_STEP_S / dt)))
     timer = 0.0
     sun_gone = 0.0
     star_gone = 0.0
@@ -235,7 +236,8 @@ def run_leg(p, s, leg, tlm, tlm_rows):
         rotate_to_body(s.x, sun_i, sun_b)
         sun_sensor(p.sun, sun_b, fine)
         star_tracker(p.tracker, s.x, trk)
-        gyro_output(p.gyro, s.dtheta_rad, dt, s.gyro_rw_arcsec_s, gyro)
+        gyro_output(p.gyro, s.dtheta_rad, dt, s.gyro_rw_arcsec_s, gyro,
+                    s.frame[0] % rrw_every == 0)
         # --- summing amplifiers 4, 5, 6 ------------------------------------
         for a in range(3):
             drift = dac(s.drift_counters[a], el.drift_dac_bits, el.drift_lsb_arcsec_s)

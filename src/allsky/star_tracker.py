@@ -64,6 +64,6 @@ def star_tracker(p, q, out):
         out[1] = 0.0
         out[2] = 0.0
         return
-    out[0] = yaw_best * RAD2ARCSEC + p.noise_arcsec * np.random.normal(0.0, 1.0)
-    out[1] = pitch_best * RAD2ARCSEC + p.noise_arcsec * np.random.normal(0.0, 1.0)
+    out[0] = yaw_best * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
+    out[1] = pitch_best * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
     out[2] = 1.0

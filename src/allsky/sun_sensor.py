@@ -40,8 +40,8 @@ def sun_sensor(p, sun_body, out):
         out[2] = 0.0
         return
     lim = p.linear_range_arcsec
-    pitch = np.arctan2(-sz, sx) * RAD2ARCSEC + p.noise_arcsec * np.random.normal(0.0, 1.0)
-    yaw = np.arctan2(sy, sx) * RAD2ARCSEC + p.noise_arcsec * np.random.normal(0.0, 1.0)
+    pitch = np.arctan2(-sz, sx) * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
+    yaw = np.arctan2(sy, sx) * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
     out[0] = min(max(pitch, -lim), lim)
     out[1] = min(max(yaw, -lim), lim)
     out[2] = 1.0
@@ -52,7 +52,7 @@ def coarse_sun(p, sun_body, out):
     """Coarse sun eyes: a noisy unit Sun vector in body axes over the whole sphere."""
     n = 0.0
     for i in range(3):
-        out[i] = sun_body[i] + p.coarse_noise_rad * np.random.normal(0.0, 1.0)
+        out[i] = sun_body[i] + p.coarse_noise_rad * np.random.standard_normal()
         n += out[i] * out[i]
     n = np.sqrt(n)
     for i in range(3):

@@ -11,7 +11,6 @@ seeds on ``W`` worker processes, extrapolated to 1000 missions.
 import argparse
 import os
 import resource
-import shutil
 import statistics
 import subprocess
 import sys

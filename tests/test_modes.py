@@ -57,7 +57,7 @@ def test_mode_1_puts_roll_axis_on_the_sun(saved_states):
 
 
 def test_mode_2_rolls_then_hands_over_at_7200_arcsec(saved_states):
-    m, rec, t = fly(saved_states, "2")
+    m, _rec, t = fly(saved_states, "2")
     s12 = switch_closed(t, 12)
     s16, s18 = switch_closed(t, 16), switch_closed(t, 18)
     assert np.array_equal(s16, s18)  # coupled pair
@@ -82,7 +82,7 @@ def test_mode_2_rolls_then_hands_over_at_7200_arcsec(saved_states):
 
 
 def test_mode_3_counts_drift_for_40_s_then_compensates(saved_states):
-    m, rec, t = fly(saved_states, "3")
+    m, _rec, t = fly(saved_states, "3")
     counting = switch_closed(t, 4)
     assert np.array_equal(counting, switch_closed(t, 5))
     assert np.array_equal(counting, switch_closed(t, 6))
@@ -123,7 +123,7 @@ def test_mode_4_blanks_the_tracker_then_calibrates_roll(saved_states):
 
 
 def test_mode_5_pitches_to_star_yaws_a_turn_and_pitches_back(saved_states):
-    m, rec, t = fly(saved_states, "5")
+    m, _rec, t = fly(saved_states, "5")
     s13, s14, s15 = switch_closed(t, 13), switch_closed(t, 14), switch_closed(t, 15)
     s17, s19 = switch_closed(t, 17), switch_closed(t, 19)
     assert np.array_equal(s17, s19)
@@ -148,7 +148,7 @@ def test_mode_5_pitches_to_star_yaws_a_turn_and_pitches_back(saved_states):
 
 
 def test_mode_6_1_rolls_to_programmed_angle_and_presets_counters(saved_states):
-    m, rec, t = fly(saved_states, "6-1")
+    m, _rec, t = fly(saved_states, "6-1")
     roll_prog = m.programmed_roll_deg * 3600
     assert abs(m.state.cpu[3]) < SETTLE  # roll error settled
     assert closed_now(m) == {1, 2, 3, 9, 14, 15}
@@ -167,7 +167,7 @@ def test_mode_6_1_rolls_to_programmed_angle_and_presets_counters(saved_states):
 
 
 def test_mode_6_2_yaws_onto_the_target(saved_states):
-    m, rec, t = fly(saved_states, "6-2")
+    m, _rec, t = fly(saved_states, "6-2")
     assert m.status == "complete"
     assert closed_now(m) == {1, 2, 3, 9, 10, 11}
     s17 = switch_closed(t, 17)

@@ -20,7 +20,7 @@ import copy
 import difflib
 import math
 import tomllib
-from datetime import date, datetime, time, timezone
+from datetime import UTC, date, datetime, time
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
@@ -208,7 +208,7 @@ def _all(rule):
 def _date(key, v):
     if isinstance(v, str):
         try:
-            v = datetime.fromisoformat(v.strip().replace("Z", "+00:00"))
+            v = datetime.fromisoformat(v.strip())
         except ValueError:
             raise ConfigError(key, v, "must be an ISO-8601 date-time, e.g. "
                               "2026-11-22T12:00:00Z") from None
@@ -216,7 +216,7 @@ def _date(key, v):
         v = datetime.combine(v, time(0, 0))
     elif not isinstance(v, datetime):
         raise ConfigError(key, v, "must be a TOML date-time or an ISO-8601 string")
-    v = v.replace(tzinfo=timezone.utc) if v.tzinfo is None else v.astimezone(timezone.utc)
+    v = v.replace(tzinfo=UTC) if v.tzinfo is None else v.astimezone(UTC)
     lo, hi = EPHEMERIS_YEARS
     if not lo <= v.year <= hi:
         raise ConfigError(key, v.isoformat(), f"outside the ephemeris range {lo}-{hi}")
@@ -312,7 +312,11 @@ def vec(n, *rules):
 
 
 POS, NONNEG = num(_positive), num(_nonneg)
-BITS = lambda lo, hi: num(_in_range(lo, hi), integer=True)  # noqa: E731
+
+
+def BITS(lo, hi):  # noqa: N802 - reads like the other rule constants
+    return num(_in_range(lo, hi), integer=True)
+
 
 #: One rule per key: the whole schema's checks in one table.
 RULES = {

@@ -21,7 +21,6 @@ import numpy as np
 from allsky import units
 from allsky.jit import njit
 
-
 #: [s] interval between steps of the rate random walk
 RRW_STEP_S = 1.0
 

@@ -224,7 +224,7 @@ def run_leg(p, s, leg, tlm, tlm_rows):
     sig = np.zeros(N_SIGNALS)
     work = np.empty((6, 10))
     pw = p.vfc.pulse_weight_arcsec
-    rrw_every = max(1, int(round(RRW_STEP_S / dt)))
+    rrw_every = max(1, round(RRW_STEP_S / dt))
     timer = 0.0
     sun_gone = 0.0
     star_gone = 0.0

@@ -11,16 +11,26 @@ has CPU 22 read the counters through S7 and store the results in
 register 23 (:func:`calibration_sequencer`).
 """
 
-import math
 
 import numpy as np
 
 from allsky import cpu, switch_bank, units
 from allsky import word_registers as wr
 from allsky.kernel import (
-    PROGRAM_MODE1, PROGRAM_NONE, PROGRAM_TARGET, PROGRAM_TARGET_ROLL, SIG_ERROR_PITCH,
-    SIG_ERROR_ROLL, SIG_ERROR_YAW, SIG_SUN_PITCH, SIG_SUN_YAW, SIG_TRACKER_PITCH,
-    SIG_TRACKER_YAW, WATCH_ELAPSED, WATCH_HANDOVER, WATCH_SETTLE,
+    PROGRAM_MODE1,
+    PROGRAM_NONE,
+    PROGRAM_TARGET,
+    PROGRAM_TARGET_ROLL,
+    SIG_ERROR_PITCH,
+    SIG_ERROR_ROLL,
+    SIG_ERROR_YAW,
+    SIG_SUN_PITCH,
+    SIG_SUN_YAW,
+    SIG_TRACKER_PITCH,
+    SIG_TRACKER_YAW,
+    WATCH_ELAPSED,
+    WATCH_HANDOVER,
+    WATCH_SETTLE,
 )
 
 MODES = ("1", "2", "3", "4", "5", "6-1", "6-2")
@@ -136,8 +146,8 @@ def mode_6_1(m):
     m.leg("roll error and Sun errors settled", PROGRAM_TARGET_ROLL, WATCH_SETTLE,
           mask=_mask(SIG_ERROR_ROLL, SIG_SUN_PITCH, SIG_SUN_YAW))
     pitch_arcsec, yaw_arcsec = cpu.mode6_preset_arcsec(s.word23, s.cpu)
-    s.counters[1] = int(round(pitch_arcsec / m.pulse_weight_arcsec))
-    s.counters[2] = int(round(yaw_arcsec / m.pulse_weight_arcsec))
+    s.counters[1] = round(pitch_arcsec / m.pulse_weight_arcsec)
+    s.counters[2] = round(yaw_arcsec / m.pulse_weight_arcsec)
     return "roll settled; pitch and yaw counters preset"
 
 

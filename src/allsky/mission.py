@@ -16,8 +16,22 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky import (
-    control_amp, gyro, jets, kernel, plant, pwpf, quaternion, sky, star_tracker, sun_acquisition,
-    sun_sensor, switch_bank, targeting, units, updown_counter, vfc,
+    control_amp,
+    gyro,
+    jets,
+    kernel,
+    plant,
+    pwpf,
+    quaternion,
+    sky,
+    star_tracker,
+    sun_acquisition,
+    sun_sensor,
+    switch_bank,
+    targeting,
+    units,
+    updown_counter,
+    vfc,
 )
 from allsky import master_sequencer as ms
 from allsky import word_registers as wr
@@ -174,7 +188,7 @@ class Mission:
         leg = kernel.Leg(seed, ms.MODE_CODE[self._mode], program, watch, mask, signal,
                          float(blank_s), float(hold_s), float(max(remaining, 0.0)))
         every = self.params.telemetry_every
-        rows = int(math.ceil(leg.timeout_s / self.params.frame_s / every)) + 1 if every else 0
+        rows = math.ceil(leg.timeout_s / self.params.frame_s / every) + 1 if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
         code, _ = kernel.run_leg(self.params, self.state, leg, buf, filled)

@@ -40,8 +40,8 @@ def format_report(summary: dict) -> str:
     if tgt["pointing_error_arcsec"] is not None:
         applied = "" if summary["calibration_applied"] else " (calibration NOT applied)"
         lines.append(f"  final pointing error {tgt['pointing_error_arcsec']:.1f} arcsec{applied}")
-    lines += ["", f"Propellant used {summary['propellant_kg']:.3f} kg; "
-                  f"mission time {summary['mission_time_s']:.1f} s"]
+    lines += ["", (f"Propellant used {summary['propellant_kg']:.3f} kg; "
+                  f"mission time {summary['mission_time_s']:.1f} s")]
     flagged = [k for k, v in summary["counter_overflow"].items() if v]
     if flagged:
         lines.append(f"Counter overflow flagged: {', '.join(flagged)}")

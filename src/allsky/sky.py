@@ -10,7 +10,7 @@ catalog's visual magnitudes (Canopus -0.62, Sirius -1.44).
 import difflib
 import functools
 import math
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from typing import NamedTuple
 
 import ephem
@@ -33,7 +33,7 @@ class Star(NamedTuple):
 def _utc(date_utc: datetime) -> datetime:
     if date_utc.tzinfo is None:
         return date_utc
-    return date_utc.astimezone(timezone.utc).replace(tzinfo=None)
+    return date_utc.astimezone(UTC).replace(tzinfo=None)
 
 
 def check_date(date_utc: datetime) -> None:
@@ -82,7 +82,7 @@ def star_names() -> tuple:
     return tuple(sorted(ephem.stars.stars))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _canonical(name: str) -> str:
     by_lower = {n.lower(): n for n in ephem.stars.stars}
     key = name.strip().lower()

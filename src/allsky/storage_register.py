@@ -13,7 +13,7 @@ def store(registers, axis, value_arcsec, bits, lsb_arcsec):
     """Quantise ``value_arcsec`` into ``registers[axis]``."""
     hi = (1 << (bits - 1)) - 1
     lo = -(1 << (bits - 1))
-    code = int(round(value_arcsec / lsb_arcsec))
+    code = round(value_arcsec / lsb_arcsec)
     if code > hi:
         code = hi
     elif code < lo:

@@ -314,7 +314,7 @@ def vec(n, *rules):
 POS, NONNEG = num(_positive), num(_nonneg)
 
 
-def BITS(lo, hi):  # noqa: N802 - reads like the other rule constants
+def BITS(lo, hi):
     return num(_in_range(lo, hi), integer=True)
 
 

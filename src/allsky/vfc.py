@@ -3,9 +3,11 @@
 Each turns a rate [arcsec/s] into a pulse train, one pulse per
 ``pulse_weight_arcsec`` of angle, up or down by sign, at most
 ``max_rate_pps`` pulses per second (the converter saturates beyond). The
-fraction of a pulse left at the end of a frame is carried into the next one,
-so no pulse is lost or invented: after any number of frames the pulses put
-out equal the integral of the (clipped) input truncated toward zero.
+fraction of a pulse left at the end of a frame is carried into the next one
+with its sign (like the charge left on the converter's integrator), so no
+pulse is lost or invented: the pulses put out plus the carried residue equal
+the exact integral of the (clipped) input, the count is within one pulse of
+it, and equals it truncated toward zero while the input keeps one sign.
 """
 
 from typing import NamedTuple

@@ -1,7 +1,14 @@
 """The ``allsky`` command line: parse, call one library function, present.
 
-Exit codes: 0 success; 1 a mission that ended aborted; 2 usage or
-configuration error (a one-line message, never a traceback).
+Commands::
+
+    allsky run [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--telemetry PATH]
+    allsky config show [SCENARIO] [--set KEY=VALUE ...]
+    allsky config check FILE [--set KEY=VALUE ...]
+
+Exit codes: 0 success; 1 a mission that ended aborted; 2 a usage or
+configuration error, reported as one line ``allsky: error: ...`` on stderr
+(never a traceback).
 """
 
 import argparse
@@ -24,27 +31,64 @@ def _parser() -> argparse.ArgumentParser:
             sp.add_argument("scenario", metavar="FILE", help="scenario TOML file")
         else:
             sp.add_argument("scenario", nargs="?", metavar="SCENARIO",
-                            help="scenario TOML file (default: the packaged default mission)")
+                            help="scenario TOML file, merged over the packaged default "
+                                 "(default: the packaged default mission)")
         sp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        dest="overrides", help="override a key (dotted path, TOML value)")
+                        dest="overrides",
+                        help="override a key: dotted path, TOML value "
+                             "(e.g. gyro.drift_deg_h=[1,0,0], target.star=Vega); repeatable")
 
     run = sub.add_parser("run", help="fly Modes 1 to 6-2 and print the report")
     scenario_args(run)
     run.add_argument("--json", metavar="PATH", help="write the mission summary as JSON")
     run.add_argument("--telemetry", metavar="PATH", help="write the telemetry as CSV")
 
+    cmp_ = sub.add_parser("compare", help="fly the legacy calibration (Modes 4-5) and the "
+                                          "dither method on identical vehicles; compare")
+    scenario_args(cmp_)
+    cmp_.add_argument("--runs", type=_positive_int, default=1, metavar="N",
+                      help="repeat over N seeds (from mission.seed on) and give statistics")
+    cmp_.add_argument("--workers", type=_positive_int, default=2, metavar="W",
+                      help="worker processes for --runs (default 2: both cores)")
+    cmp_.add_argument("--json", metavar="PATH", help="write the comparison as JSON")
+    cmp_.add_argument("--plot", metavar="PNG",
+                      help="write scale-factor error against calibration time (PNG)")
+
     cfg = sub.add_parser("config", help="show or check a scenario")
     csub = cfg.add_subparsers(dest="config_command", required=True, metavar="ACTION")
-    show = csub.add_parser("show", help="print the fully resolved configuration (TOML)")
+    show = csub.add_parser("show", help="print the fully resolved configuration as TOML")
     scenario_args(show)
     check = csub.add_parser("check", help="validate a scenario file")
     scenario_args(check, required=True)
     return p
 
 
+def _positive_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{v} must be >= 1")
+    return v
+
+
+def _run(cfg, args) -> int:
+    # Imported here so that `allsky config` never pays for compiling the simulator.
+    if args.command == "compare":
+        from allsky.compare import run_from_cli
+    else:
+        from allsky.report import run_from_cli
+
+    return run_from_cli(cfg, args)
+
+
 def main(argv=None) -> int:
-    """Run the command line; returns the exit code."""
-    args = _parser().parse_args(argv)
+    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as e:  # --help, --version, or a usage error (argparse printed it)
+        return 0 if e.code is None else e.code if isinstance(e.code, int) else 2
     try:
         cfg = load_scenario(args.scenario, args.overrides)
         if args.command == "config":
@@ -53,9 +97,7 @@ def main(argv=None) -> int:
             else:
                 print(f"ok: {args.scenario}")
             return 0
-        from allsky.report import run_from_cli
-
-        return run_from_cli(cfg, args)
+        return _run(cfg, args)
     except ConfigError as e:
         print(f"allsky: error: {e}", file=sys.stderr)
         return 2

@@ -1,46 +1,504 @@
-"""Scenarios: TOML files, ``--set`` overrides, validation, a frozen result.
+"""Scenarios: TOML files, ``KEY=VALUE`` overrides, validation, a frozen result.
 
-A scenario file is merged over the packaged default
-(``scenarios/default.toml``), key by key, so a file states only what it
-changes; a file's ``[target]`` table replaces the default target as a whole.
-The default defines the schema: a section or key it does not have is an
-error naming the nearest valid keys. Every value is checked once, here, for
-type, finiteness and its physical rule; anything wrong raises
-:class:`ConfigError` naming the key, the value and the rule.
+The packaged default (``scenarios/default.toml``, :data:`DEFAULT_SCENARIO_PATH`)
+is the schema: every key it has, with the unit in the key's name, and nothing
+else. A user scenario file is merged over the default, table by table and key
+by key, so a file states only what it changes. A section or key the default
+does not have is an error naming the nearest valid keys.
 
-Overrides are ``KEY=VALUE`` strings, KEY a dotted path
-(``gyro.drift_deg_h``, ``sequencer.timeout_s.6-1``), VALUE in TOML value
-syntax (``[800,-300,1500]``, ``2027-03-01T00:00:00Z``, ``"Vega"``); a bare word
-that is not TOML is taken as a string (``target.star=Vega``). The target is
-either ``target.star`` or ``target.ra_deg`` + ``target.dec_deg``: setting one
-form replaces the other.
+Overrides (``allsky ... --set KEY=VALUE``) are applied after the file, in
+order, by the same merge. KEY is a dotted path (``gyro.drift_deg_h``,
+``sequencer.timeout_s.6-1``); VALUE is in TOML value syntax
+(``[800,-300,1500]``, ``2027-03-01T00:00:00Z``, ``"Vega"``, ``{ "1" = 600 }``);
+a VALUE that is not TOML is taken as a plain string (``target.star=Vega``).
+
+The target is given in exactly one of two forms: ``target.star`` (a name in
+PyEphem's catalog, any case) or ``target.ra_deg`` + ``target.dec_deg`` (J2000,
+degrees). A table that sets both forms is an error; setting either form (in a
+file or by an override) removes the other form inherited from the default,
+the file or an earlier override. In the result the unused form is ``None``.
+
+``mission.date_utc`` may be a TOML date-time (with an offset, or local, which
+is read as UTC), a TOML date (midnight UTC) or an ISO-8601 string; it becomes
+a timezone-aware UTC :class:`~datetime.datetime`. ``ejection.attitude`` is
+``"random"`` or a quaternion ``[w, x, y, z]`` (scalar first) rotating
+inertial-frame components into body-frame components; it is normalised on
+load. ``vehicle.inertia_kg_m2`` is stored exactly symmetric (the upper
+triangle, after checking symmetry to a relative 1e-9).
+
+Every value is checked once, here: its type (an integer is accepted where a
+float is expected; a boolean or a string is never a number), finiteness, its
+own rule (:data:`RULES`, one entry per key) and the rules tying keys together
+(:data:`CROSS_RULES`). Anything wrong raises :class:`ConfigError` naming the
+key, the value and the rule; no other exception escapes for any file content.
 """
 
 import copy
 import difflib
+import functools
 import math
+import re
 import tomllib
+from collections.abc import Callable, Mapping
 from datetime import UTC, date, datetime, time
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
+from typing import NamedTuple
 
 import numpy as np
 
+#: The packaged default scenario; it also defines the schema.
 DEFAULT_SCENARIO_PATH = Path(str(resources.files("allsky") / "scenarios" / "default.toml"))
+#: The master-sequencer modes, the keys of ``sequencer.timeout_s``.
 MODE_KEYS = ("1", "2", "3", "4", "5", "6-1", "6-2")
-EPHEMERIS_YEARS = (1900, 2100)
-# Keys that may appear although the default does not set them.
-OPTIONAL_KEYS = {"target": ("star", "ra_deg", "dec_deg")}
+#: Dates the ephemeris is trusted for (PyEphem; the same as ``allsky.sky.EPHEMERIS_YEARS``).
+EPHEMERIS_START_UTC = datetime(1900, 1, 1, tzinfo=UTC)
+EPHEMERIS_END_UTC = datetime(2100, 12, 31, 23, 59, 59, 999999, tzinfo=UTC)
+#: The two forms of ``[target]``; keys the default need not contain.
+TARGET_STAR_FORM = ("star",)
+TARGET_RADEC_FORM = ("ra_deg", "dec_deg")
+
+_KEY_PART = re.compile(r"[A-Za-z0-9_-]+")
+
+
+class _Absent:
+    """Marks a ConfigError with no value to show (pickles as this very object)."""
+
+    def __reduce__(self):
+        return "_ABSENT"
+
+
+_ABSENT = _Absent()
 
 
 class ConfigError(Exception):
-    """A scenario value that breaks a rule; ``str()`` is one line: key = value: rule."""
+    """A scenario that cannot be used: ``str()`` is one line, ``key = value: rule``.
 
-    def __init__(self, key, value, rule):
-        self.key, self.value, self.rule = key, value, rule
-        shown = repr(value) if not isinstance(value, float) else f"{value!r}"
-        super().__init__(f"{key} = {shown}: {rule}" if key else rule)
+    Attributes
+    ----------
+    key : str or None
+        Dotted key path (``gyro.arw_deg_rt_h``), or None for a whole-file problem.
+    value : object
+        The offending value (a number as the float it became; None when none is shown).
+    rule : str
+        The rule that was broken, in words.
+    """
+
+    def __init__(self, key, value=_ABSENT, rule=""):
+        self.key, self.rule, self._given = key, rule, value
+        self.value = None if value is _ABSENT else value
+        if key is None:
+            text = rule
+        elif value is _ABSENT:
+            text = f"{_show_key(key)}: {rule}"
+        else:
+            text = f"{_show_key(key)} = {_show_value(value)}: {rule}"
+        # One line whatever the file held (a key or a path may contain newlines).
+        super().__init__(text.replace("\r", "\\r").replace("\n", "\\n"))
+
+    def __reduce__(self):  # so that it crosses process boundaries intact
+        return type(self), (self.key, self._given, self.rule)
+
+
+def _show_key(key: str) -> str:
+    return key if key.isprintable() else repr(key)
+
+
+def _show_value(value, limit=120) -> str:
+    text = value.isoformat() if isinstance(value, datetime | date | time) else repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+# ---------------------------------------------------------------------------
+# Checkers. Each takes (key, value as read) and returns the frozen value or
+# raises ConfigError. A Cond is one numeric rule: its text and its test.
+# ---------------------------------------------------------------------------
+
+class Cond(NamedTuple):
+    """A rule on one number: the words shown when it fails, and the test."""
+
+    text: str
+    ok: Callable[[float], bool]
+
+
+def _g(x) -> str:
+    return str(x) if isinstance(x, int) else f"{x:g}"
+
+
+POSITIVE = Cond("must be > 0", lambda x: x > 0)
+NON_NEGATIVE = Cond("must be >= 0", lambda x: x >= 0)
+
+
+def at_least(lo):
+    return Cond(f"must be >= {_g(lo)}", lambda x: x >= lo)
+
+
+def below(hi):
+    return Cond(f"must be < {_g(hi)}", lambda x: x < hi)
+
+
+def in_closed(lo, hi):
+    return Cond(f"must be in [{_g(lo)}, {_g(hi)}]", lambda x: lo <= x <= hi)
+
+
+def in_open(lo, hi):
+    return Cond(f"must be in ({_g(lo)}, {_g(hi)})", lambda x: lo < x < hi)
+
+
+def in_open_closed(lo, hi):
+    return Cond(f"must be in ({_g(lo)}, {_g(hi)}]", lambda x: lo < x <= hi)
+
+
+def in_closed_open(lo, hi):
+    return Cond(f"must be in [{_g(lo)}, {_g(hi)})", lambda x: lo <= x < hi)
+
+
+def magnitude_at_most(limit):
+    return Cond(f"magnitude must be <= {_g(limit)}", lambda x: abs(x) <= limit)
+
+
+_TOML_TYPE_NAMES = ((bool, "a boolean"), (int, "an integer"), (float, "a float"),
+                    (str, "a string"), (list, "an array"), (dict, "a table"),
+                    (datetime, "a date-time"), (date, "a date"), (time, "a time"))
+
+
+def _type_name(v) -> str:
+    for t, name in _TOML_TYPE_NAMES:
+        if isinstance(v, t):
+            return name
+    return type(v).__name__
+
+
+def _as_float(v):
+    """``(float, None)`` or ``(None, reason)``: a finite number, ints accepted, bools not."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return None, f"must be a number, not {_type_name(v)}"
+    try:
+        x = float(v)
+    except OverflowError:  # an integer too large for a float
+        return None, "must be finite"
+    if not math.isfinite(x):
+        return None, "must be finite (not nan or inf)"
+    return x, None
+
+
+def _apply(conds, key, x, shown, where=""):
+    for c in conds:
+        if not c.ok(x):
+            raise ConfigError(key, shown, f"{where}{c.text}")
+
+
+def number(*conds: Cond):
+    """A finite float (an integer is accepted) obeying every ``Cond``."""
+    def check(key, v):
+        x, why = _as_float(v)
+        if why:
+            raise ConfigError(key, v, why)
+        _apply(conds, key, x, x)  # shown as the float it became: -1 -> -1.0
+        return x
+    return check
+
+
+def integer(*conds: Cond):
+    """An integer (not a float, not a boolean) obeying every ``Cond``."""
+    def check(key, v):
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ConfigError(key, v, f"must be an integer, not {_type_name(v)}")
+        _apply(conds, key, v, v)
+        return v
+    return check
+
+
+def _array(key, v, shape):
+    """Nested tuples of finite floats with the exact ``shape`` (1 or 2 dimensions)."""
+    what = (f"an array of {shape[0]} numbers" if len(shape) == 1 else
+            f"a {shape[0]}x{shape[1]} array ({shape[0]} arrays of {shape[1]} numbers)")
+    if not isinstance(v, list) or len(v) != shape[0]:
+        got = f"{len(v)} elements" if isinstance(v, list) else _type_name(v)
+        raise ConfigError(key, v, f"must be {what}, not {got}")
+    if len(shape) == 2:
+        if not all(isinstance(r, list) and len(r) == shape[1] for r in v):
+            raise ConfigError(key, v, f"must be {what}")
+        return tuple(tuple(_element(key, v, x, f"[{i}][{j}]") for j, x in enumerate(row))
+                     for i, row in enumerate(v))
+    return tuple(_element(key, v, x, f"{i}") for i, x in enumerate(v))
+
+
+def _element(key, whole, x, index):
+    f, why = _as_float(x)
+    if why:
+        raise ConfigError(key, whole, f"element {index} {why}")
+    return f
+
+
+def vector(n: int, *conds: Cond):
+    """An array of ``n`` finite floats, each obeying every ``Cond``."""
+    def check(key, v):
+        xs = _array(key, v, (n,))
+        for i, x in enumerate(xs):
+            _apply(conds, key, x, v, where=f"element {i} ")
+        return xs
+    return check
+
+
+def one_of(*choices: str):
+    """One of the given strings."""
+    def check(key, v):
+        if not isinstance(v, str) or v not in choices:
+            quoted = [f'"{c}"' for c in choices]
+            raise ConfigError(key, v, f"must be {', '.join(quoted[:-1])} or {quoted[-1]}")
+        return v
+    return check
+
+
+def boolean(key, v):
+    """``true`` or ``false``."""
+    if not isinstance(v, bool):
+        raise ConfigError(key, v, f"must be true or false, not {_type_name(v)}")
+    return v
+
+
+def utc_datetime(key, v):
+    """A date-time in the ephemeris range, returned timezone-aware in UTC."""
+    shown = v
+    if isinstance(v, str):
+        try:
+            v = datetime.fromisoformat(v.strip())
+        except ValueError:
+            raise ConfigError(key, shown, "must be an ISO-8601 date-time such as "
+                              "2026-11-22T12:00:00Z") from None
+    elif isinstance(v, date) and not isinstance(v, datetime):
+        v = datetime.combine(v, time(0, 0))
+    elif not isinstance(v, datetime):
+        raise ConfigError(key, v, f"must be a TOML date-time or an ISO-8601 string, "
+                          f"not {_type_name(v)}")
+    rule = (f"must be within the ephemeris range {EPHEMERIS_START_UTC.date()}.."
+            f"{EPHEMERIS_END_UTC.date()} (UTC)")
+    try:
+        v = v.replace(tzinfo=UTC) if v.tzinfo is None else v.astimezone(UTC)
+    except OverflowError:  # year 1 or 9999 moved across midnight by its offset
+        raise ConfigError(key, shown, rule) from None
+    if not EPHEMERIS_START_UTC <= v <= EPHEMERIS_END_UTC:
+        raise ConfigError(key, shown, rule)
+    return v
+
+
+def inertia_tensor(key, v):
+    """A rigid body's inertia tensor: symmetric, positive definite, triangle inequalities."""
+    j = np.array(_array(key, v, (3, 3)))
+    scale = float(np.abs(j).max())
+    if scale == 0.0:
+        raise ConfigError(key, v, "must be positive definite (all elements are 0)")
+    js = j / scale  # dimensionless, so no overflow for any finite input
+    if not np.all(np.abs(js - js.T) <= 1e-9):
+        raise ConfigError(key, v, "must be symmetric (to a relative 1e-9)")
+    a, b, c = np.linalg.eigvalsh(js)  # ascending
+    moments = ", ".join(f"{float(m) * scale:.6g}" for m in (a, b, c))
+    if a <= 1e-12 * c:
+        raise ConfigError(key, v, f"must be positive definite (principal moments {moments})")
+    if a + b < c * (1 - 1e-9):
+        raise ConfigError(key, v, f"principal moments {moments} break the triangle inequality"
+                          " (each must be <= the sum of the other two)")
+    # Mirror the upper triangle: exactly symmetric, and unchanged when loaded again.
+    return tuple(tuple(float(j[min(r, k), max(r, k)]) for k in range(3)) for r in range(3))
+
+
+def misalignment_matrix(key, v):
+    """Gyro input-axis misalignments: 3x3, zero diagonal, each within 1 degree."""
+    m = _array(key, v, (3, 3))
+    if any(m[i][i] != 0.0 for i in range(3)):
+        raise ConfigError(key, v, "diagonal must be 0: scale-factor error is set by "
+                          "gyro.scale_factor_error_ppm")
+    if any(abs(x) > 3600.0 for row in m for x in row):
+        raise ConfigError(key, v, "every element's magnitude must be <= 3600 arcsec")
+    return m
+
+
+def attitude(key, v):
+    """``"random"``, or a quaternion [w, x, y, z] (inertial -> body), returned normalised."""
+    if v == "random":
+        return "random"
+    if not isinstance(v, list):
+        raise ConfigError(key, v, 'must be "random" or a quaternion [w, x, y, z] '
+                          "(inertial -> body)")
+    given = _array(key, v, (4,))
+    big = max(abs(x) for x in given)
+    if big == 0.0:
+        raise ConfigError(key, v, "quaternion [w, x, y, z] must not be all zero")
+    if abs(math.fsum(x * x for x in given) - 1.0) <= 4e-16:
+        return given  # already unit: kept bit for bit, so a saved scenario loads unchanged
+    q = np.array(given) / big  # scaled first so that 1e-320 or 1e308 normalise too
+    return tuple(float(x) for x in q / np.linalg.norm(q))
+
+
+def mode_timeouts(key, v):
+    """A table with exactly the keys ``MODE_KEYS``, each a time > 0 s."""
+    if not isinstance(v, dict):
+        raise ConfigError(key, v, f"must be a table of the modes {', '.join(MODE_KEYS)}")
+    missing = [m for m in MODE_KEYS if m not in v]
+    extra = [m for m in v if m not in MODE_KEYS]
+    if missing or extra:
+        raise ConfigError(key, v, f"must have exactly the modes {', '.join(MODE_KEYS)}")
+    check = number(POSITIVE)
+    return {m: check(f"{key}.{m}", v[m]) for m in MODE_KEYS}
+
+
+def magnitude_window(key, v):
+    """[brightest, faintest] visual magnitudes, brightest < faintest."""
+    lo, hi = _array(key, v, (2,))
+    if not lo < hi:
+        raise ConfigError(key, v, "must be [brightest, faintest] with brightest < faintest")
+    return (lo, hi)
+
+
+@functools.cache
+def _catalog() -> dict:
+    import ephem.stars
+
+    return {name.lower(): name for name in ephem.stars.stars}
+
+
+def star_name(key, v):
+    """A star of PyEphem's catalog (any case), returned with its catalog spelling."""
+    if not isinstance(v, str):
+        raise ConfigError(key, v, f"must be a star name (a string), not {_type_name(v)}")
+    found = _catalog().get(v.strip().lower())
+    if found is None:
+        near = difflib.get_close_matches(v.strip().lower(), list(_catalog()), n=3, cutoff=0.5)
+        hint = ("; nearest: " + ", ".join(_catalog()[n] for n in near)) if near else ""
+        raise ConfigError(key, v, f"not in the PyEphem star catalog{hint}")
+    return found
+
+
+#: One checker per key, in the order of the default file.
+RULES: dict[str, Callable] = {
+    "mission.date_utc": utc_datetime,
+    "mission.seed": integer(at_least(0), below(2**32)),
+    "mission.frame_s": number(POSITIVE),
+    "mission.telemetry_every_frames": integer(at_least(1)),
+    "ejection.attitude": attitude,
+    "ejection.tipoff_rate_max_deg_s": number(NON_NEGATIVE),
+    "vehicle.inertia_kg_m2": inertia_tensor,
+    "gyro.drift_deg_h": vector(3),
+    "gyro.scale_factor_error_ppm": vector(3, magnitude_at_most(1e5)),
+    "gyro.misalignment_arcsec": misalignment_matrix,
+    "gyro.arw_deg_rt_h": number(NON_NEGATIVE),
+    "gyro.rrw_deg_h_rt_h": number(NON_NEGATIVE),
+    "gyro.range_deg_s": number(POSITIVE),
+    "sun_sensor.linear_range_arcsec": number(POSITIVE),
+    "sun_sensor.presence_half_angle_deg": number(in_open_closed(0, 90)),
+    "sun_sensor.noise_arcsec": number(NON_NEGATIVE),
+    "sun_sensor.coarse_noise_deg": number(NON_NEGATIVE),
+    "star_tracker.fov_long_half_deg": number(in_open(0, 90)),
+    "star_tracker.fov_narrow_half_deg": number(in_open(0, 90)),
+    "star_tracker.magnitude_window": magnitude_window,
+    "star_tracker.noise_arcsec": number(NON_NEGATIVE),
+    "jets.thrust_n": vector(3, POSITIVE),
+    "jets.moment_arm_m": vector(3, POSITIVE),
+    "jets.min_on_time_s": number(POSITIVE),
+    "jets.isp_s": number(POSITIVE),
+    "jets.propellant_kg": number(POSITIVE),
+    "pwpf.filter_gain": number(POSITIVE),
+    "pwpf.time_constant_s": number(POSITIVE),
+    "pwpf.on_threshold_v": number(POSITIVE),
+    "pwpf.off_threshold_v": number(NON_NEGATIVE),
+    "pwpf.full_on_v": number(POSITIVE),
+    "control.position_gain_v_per_arcsec": vector(3, POSITIVE),
+    "control.rate_gain_v_per_arcsec_s": vector(3, POSITIVE),
+    "control.position_limit_arcsec": vector(3, POSITIVE),
+    "control.output_limit_v": number(POSITIVE),
+    "control.integral_time_s": number(POSITIVE),
+    "control.integral_limit_arcsec": number(POSITIVE),
+    "electronics.vfc_pulse_weight_arcsec": number(POSITIVE),
+    "electronics.vfc_max_rate_pps": number(POSITIVE),
+    "electronics.counter_bits": integer(in_closed(8, 62)),
+    "electronics.drift_counter_bits": integer(in_closed(4, 62)),
+    "electronics.counter_overflow": one_of("wrap", "saturate"),
+    "electronics.drift_dac_bits": integer(in_closed(4, 32)),
+    "electronics.register_bits": integer(in_closed(4, 32)),
+    "electronics.register_lsb_arcsec": number(POSITIVE),
+    "electronics.rate_command_deg_s": number(POSITIVE),
+    "electronics.computer_step_frames": integer(at_least(1)),
+    "sequencer.settle_threshold_arcsec": number(POSITIVE),
+    "sequencer.settle_time_s": number(POSITIVE),
+    "sequencer.handover_arcsec": number(POSITIVE),
+    "sequencer.drift_count_s": number(POSITIVE),
+    "sequencer.tracker_blanking_s": number(POSITIVE),
+    "sequencer.sensor_loss_s": number(POSITIVE),
+    "sequencer.mode1_slew_rate_deg_s": number(POSITIVE),
+    "sequencer.mode1_slew_gain_per_s": number(POSITIVE),
+    "sequencer.timeout_s": mode_timeouts,
+    "target.star": star_name,
+    "target.ra_deg": number(in_closed_open(0, 360)),
+    "target.dec_deg": number(in_closed(-90, 90)),
+    "calibration.apply": boolean,
+    "dither.amplitude_urad": vector(3, NON_NEGATIVE),
+    "dither.period_s": vector(3, POSITIVE),
+    "dither.sample_s": number(POSITIVE),
+    "dither.record_s": number(POSITIVE),
+    "dither.lead_in_s": number(NON_NEGATIVE),
+    "dither.feedforward": boolean,
+    "dither.inertia_estimate_scale": number(NON_NEGATIVE),
+    "dither.estimator": one_of("optical", "command"),
+    "dither.detector": one_of("fft", "hann", "lsq"),
+    "dither.store_cross_coupling": boolean,
+}
+
+
+# ---------------------------------------------------------------------------
+# Rules that tie keys together (run after every key passed its own rule).
+# ---------------------------------------------------------------------------
+
+def _frame_fits_jet_minimum(v):
+    frame, t_min = v["mission.frame_s"], v["jets.min_on_time_s"]
+    if frame > t_min * (1 + 1e-12):
+        raise ConfigError("mission.frame_s", frame,
+                          f"frame too coarse for the jet minimum on-time: must be <= "
+                          f"jets.min_on_time_s ({t_min:g} s)")
+
+
+def _pwpf_hysteresis(v):
+    on, off = v["pwpf.on_threshold_v"], v["pwpf.off_threshold_v"]
+    if not on > off:
+        raise ConfigError("pwpf.off_threshold_v", off,
+                          f"must be < pwpf.on_threshold_v ({on:g} V)")
+
+
+def _sun_presence_covers_linear_range(v):
+    half, lin_deg = v["sun_sensor.presence_half_angle_deg"], v["sun_sensor.linear_range_arcsec"]
+    lin_deg /= 3600.0
+    if half < lin_deg:
+        raise ConfigError("sun_sensor.presence_half_angle_deg", half,
+                          f"must be >= the sun sensor linear range ({lin_deg:g} deg)")
+
+
+def _dither_sampling(v):
+    sample, frame = v["dither.sample_s"], v["mission.frame_s"]
+    if sample < frame * (1 - 1e-12):
+        raise ConfigError("dither.sample_s", sample,
+                          f"must be >= mission.frame_s ({frame:g} s): samples are taken "
+                          "once a frame at most")
+    pairs = zip(v["dither.amplitude_urad"], v["dither.period_s"], strict=True)
+    for axis, (amp, period) in enumerate(pairs):
+        if amp > 0 and not period > 2 * sample:
+            raise ConfigError("dither.period_s", v["dither.period_s"],
+                              f"element {axis} must be > 2 x dither.sample_s ({2 * sample:g} s)"
+                              " (Nyquist) on a dithered axis")
+
+
+def _one_target_form(v):
+    if v["target.star"] is not None:
+        return
+    for k in TARGET_RADEC_FORM:
+        if v[f"target.{k}"] is None:
+            raise ConfigError(f"target.{k}", rule="missing: give target.star, or both "
+                              "target.ra_deg and target.dec_deg")
+
+
+#: Cross-key rules, in the order they are checked.
+CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
+               _dither_sampling, _one_target_form)
 
 
 # ---------------------------------------------------------------------------
@@ -52,394 +510,160 @@ def _read_toml(path) -> dict:
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise ConfigError("", None, f"scenario file not found: {p}") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise ConfigError("", None, f"cannot read scenario file {p}: {e}") from None
+        raise ConfigError(None, str(p), f"scenario file not found: {p}") from None
+    except (OSError, ValueError) as e:  # a directory, no permission, not UTF-8, NUL in path
+        raise ConfigError(None, str(p), f"cannot read scenario file {p}: {e}") from None
+    return _parse_toml(text, str(p))
+
+
+def _parse_toml(text: str, source: str) -> dict:
     try:
         return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError("", None, f"{p}: not valid TOML: {e}") from None
+    except tomllib.TOMLDecodeError as e:  # its message gives the line and column
+        raise ConfigError(None, source, f"{source}: TOML syntax error: {e}") from None
+    except RecursionError:
+        raise ConfigError(None, source, f"{source}: TOML syntax error: nested too deeply"
+                          ) from None
+
+
+@functools.cache
+def _default_text() -> str:
+    return DEFAULT_SCENARIO_PATH.read_text(encoding="utf-8")
 
 
 def _default_dict() -> dict:
-    return _read_toml(DEFAULT_SCENARIO_PATH)
+    return _parse_toml(_default_text(), str(DEFAULT_SCENARIO_PATH))
 
 
-def _valid_keys(default: dict) -> list:
-    keys = []
-    for sec, table in default.items():
-        for k in table:
-            keys.append(f"{sec}.{k}")
-        for k in OPTIONAL_KEYS.get(sec, ()):
-            keys.append(f"{sec}.{k}")
-    return sorted(set(keys))
+@functools.cache
+def _schema() -> dict:
+    """Nested dict of every valid key (the default plus the optional target keys)."""
+    schema = _default_dict()
+    schema["target"] = {**schema["target"], **dict.fromkeys(TARGET_STAR_FORM + TARGET_RADEC_FORM)}
+    return schema
 
 
-def _unknown(key: str, default: dict) -> ConfigError:
-    near = difflib.get_close_matches(key, _valid_keys(default), n=3, cutoff=0.4)
-    hint = f"; nearest valid keys: {', '.join(near)}" if near else ""
-    return ConfigError(key, None, f"unknown key{hint}")
-
-
-def _check_known(data: dict, default: dict) -> None:
-    for sec, table in data.items():
-        if sec not in default:
-            raise _unknown(sec, default)
-        if not isinstance(table, dict):
-            raise ConfigError(sec, table, "must be a table of keys")
-        for k in table:
-            if k not in default[sec] and k not in OPTIONAL_KEYS.get(sec, ()):
-                raise _unknown(f"{sec}.{k}", default)
-
-
-def _merge(default: dict, user: dict) -> dict:
-    out = copy.deepcopy(default)
-    for sec, table in user.items():
-        if sec == "target":
-            forms = {"star"} & set(table), {"ra_deg", "dec_deg"} & set(table)
-            if forms[0] and forms[1]:
-                raise ConfigError("target", dict(table),
-                                  "set either target.star or target.ra_deg + target.dec_deg,"
-                                  " not both")
-            out["target"] = {}
-        for k, v in table.items():
-            if sec == "sequencer" and k == "timeout_s" and isinstance(v, dict):
-                v = {**out[sec][k], **v}
-            out[sec][k] = v
+def _all_keys(schema=None, prefix="") -> list:
+    schema = _schema() if schema is None else schema
+    out = []
+    for k, v in schema.items():
+        out.append(prefix + k)
+        if isinstance(v, dict):
+            out += _all_keys(v, f"{prefix}{k}.")
     return out
+
+
+def _unknown(path: tuple, schema: dict) -> ConfigError:
+    """Error for an unknown key, naming the nearest valid keys."""
+    key = ".".join(path)
+    valid = _all_keys()
+    same_depth = [k for k in valid if k.count(".") == key.count(".")]
+    near = difflib.get_close_matches(key, same_depth, n=3, cutoff=0.6)
+    # Also the right name in the wrong section (gyro.inertia_kg_m2 -> vehicle.inertia_kg_m2).
+    by_name = {}
+    for full in valid:
+        by_name.setdefault(full.rsplit(".", 1)[-1], []).append(full)
+    for name in difflib.get_close_matches(path[-1], list(by_name), n=2, cutoff=0.8):
+        near += [k for k in by_name[name] if k not in near and k in same_depth]
+    if near:
+        hint = "nearest valid keys: " + ", ".join(near[:4])
+    elif len(path) > 1:
+        hint = "valid keys here: " + ", ".join(sorted(schema))
+    else:
+        hint = "valid sections: " + ", ".join(schema)
+    return ConfigError(key, rule=f"unknown key; {hint}")
+
+
+def _merge(base: dict, incoming: dict, schema: dict, path=()) -> None:
+    """Merge ``incoming`` over ``base`` in place: tables key by key, other values replaced."""
+    if path == ("target",):
+        _replace_target_form(base, incoming)
+    for k, v in incoming.items():
+        here = (*path, k)
+        if k not in schema:
+            raise _unknown(here, schema)
+        if isinstance(schema[k], dict):
+            if not isinstance(v, dict):
+                raise ConfigError(".".join(here), v, f"must be a table, not {_type_name(v)}")
+            if not isinstance(base.get(k), dict):
+                base[k] = {}
+            _merge(base[k], v, schema[k], here)
+        else:
+            base[k] = v
+
+
+def _replace_target_form(base: dict, incoming: dict) -> None:
+    star = [k for k in TARGET_STAR_FORM if k in incoming]
+    radec = [k for k in TARGET_RADEC_FORM if k in incoming]
+    if star and radec:
+        raise ConfigError("target", incoming, "set either target.star or target.ra_deg + "
+                          "target.dec_deg, not both")
+    for k in TARGET_RADEC_FORM if star else TARGET_STAR_FORM if radec else ():
+        base.pop(k, None)
+
+
+def parse_override(item: str) -> dict:
+    """``"a.b=VALUE"`` -> ``{"a": {"b": value}}``; VALUE in TOML syntax, else a plain string."""
+    if not isinstance(item, str) or "=" not in item:
+        raise ConfigError(None, item, f"override {item!r} must be KEY=VALUE, "
+                          "e.g. gyro.arw_deg_rt_h=0.002")
+    key, text = item.split("=", 1)
+    parts = [p.strip() for p in key.split(".")]
+    if not all(_KEY_PART.fullmatch(p) for p in parts):
+        raise ConfigError(None, item, f"override {item!r}: KEY must be a dotted path "
+                          "such as gyro.drift_deg_h")
+    value = _parse_value(text)
+    for p in reversed(parts):
+        value = {p: value}
+    return value
 
 
 def _parse_value(text: str):
     try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+        parsed = tomllib.loads(f"v = {text}")
+    except (tomllib.TOMLDecodeError, RecursionError):
         return text.strip()
-
-
-def _apply_override(data: dict, item: str, default: dict) -> None:
-    if "=" not in item:
-        raise ConfigError(item, None, "an override must be KEY=VALUE")
-    key, text = item.split("=", 1)
-    key = key.strip()
-    parts = key.split(".")
-    value = _parse_value(text)
-    if len(parts) == 3 and parts[:2] == ["sequencer", "timeout_s"]:
-        if parts[2] not in MODE_KEYS:
-            raise ConfigError(key, value, f"mode must be one of {', '.join(MODE_KEYS)}")
-        data["sequencer"]["timeout_s"] = dict(data["sequencer"]["timeout_s"])
-        data["sequencer"]["timeout_s"][parts[2]] = value
-        return
-    if len(parts) != 2:
-        raise ConfigError(key, value, "a key is SECTION.NAME")
-    sec, name = parts
-    if sec not in default or (name not in default[sec]
-                              and name not in OPTIONAL_KEYS.get(sec, ())):
-        raise _unknown(key, default)
-    if sec == "target":
-        if name == "star":
-            data["target"].pop("ra_deg", None)
-            data["target"].pop("dec_deg", None)
-        else:
-            data["target"].pop("star", None)
-    data[sec][name] = value
-
-
-# ---------------------------------------------------------------------------
-# Validation
-# ---------------------------------------------------------------------------
-
-def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
-def _number(key, v, *, integer=False):
-    if integer:
-        if not isinstance(v, int) or isinstance(v, bool):
-            raise ConfigError(key, v, "must be an integer")
-        return v
-    if not _is_number(v):
-        raise ConfigError(key, v, "must be a number")
-    v = float(v)
-    if not math.isfinite(v):
-        raise ConfigError(key, v, "must be finite")
-    return v
-
-
-def _vector(key, v, n):
-    if not isinstance(v, list) or len(v) != n:
-        raise ConfigError(key, v, f"must be a list of {n} numbers")
-    return tuple(_number(key, x) for x in v)
-
-
-def _matrix(key, v):
-    if not isinstance(v, list) or len(v) != 3 or not all(isinstance(r, list) for r in v):
-        raise ConfigError(key, v, "must be a 3x3 list of lists of numbers")
-    return tuple(_vector(key, r, 3) for r in v)
-
-
-def _positive(key, v):
-    if v <= 0:
-        raise ConfigError(key, v, "must be > 0")
-    return v
-
-
-def _nonneg(key, v):
-    if v < 0:
-        raise ConfigError(key, v, "must be >= 0")
-    return v
-
-
-def _in_range(lo, hi):
-    def check(key, v):
-        if not lo <= v <= hi:
-            raise ConfigError(key, v, f"must be between {lo} and {hi}")
-        return v
-    return check
-
-
-def _all(rule):
-    def check(key, vs):
-        for x in vs:
-            rule(key, x)
-        return vs
-    return check
-
-
-def _date(key, v):
-    if isinstance(v, str):
-        try:
-            v = datetime.fromisoformat(v.strip())
-        except ValueError:
-            raise ConfigError(key, v, "must be an ISO-8601 date-time, e.g. "
-                              "2026-11-22T12:00:00Z") from None
-    elif isinstance(v, date) and not isinstance(v, datetime):
-        v = datetime.combine(v, time(0, 0))
-    elif not isinstance(v, datetime):
-        raise ConfigError(key, v, "must be a TOML date-time or an ISO-8601 string")
-    v = v.replace(tzinfo=UTC) if v.tzinfo is None else v.astimezone(UTC)
-    lo, hi = EPHEMERIS_YEARS
-    if not lo <= v.year <= hi:
-        raise ConfigError(key, v.isoformat(), f"outside the ephemeris range {lo}-{hi}")
-    return v
-
-
-def _inertia(key, v):
-    j = np.array(_matrix(key, v))
-    if not np.allclose(j, j.T, rtol=1e-9, atol=1e-12 * np.abs(j).max()):
-        raise ConfigError(key, v, "must be symmetric")
-    ev = np.linalg.eigvalsh(j)
-    if ev.min() <= 0:
-        raise ConfigError(key, v, "must be positive definite (principal moments > 0)")
-    a, b, c = ev
-    if a + b < c * (1 - 1e-12):
-        raise ConfigError(key, v, "principal moments break the triangle inequality"
-                          " (no rigid body has them)")
-    return tuple(tuple(r) for r in j.tolist())
-
-
-def _misalignment(key, v):
-    m = _matrix(key, v)
-    if any(m[i][i] != 0 for i in range(3)):
-        raise ConfigError(key, v, "diagonal must be 0: scale-factor error is set by "
-                          "gyro.scale_factor_error_ppm")
-    if any(abs(x) > 3600 for r in m for x in r):
-        raise ConfigError(key, v, "misalignments must be within +-3600 arcsec")
-    return m
-
-
-def _attitude(key, v):
-    if v == "random":
-        return "random"
-    if isinstance(v, list) and len(v) == 4:
-        q = np.array([_number(key, x) for x in v])
-        n = np.linalg.norm(q)
-        if n == 0:
-            raise ConfigError(key, v, "quaternion [w, x, y, z] must not be zero")
-        return tuple((q / n).tolist())
-    raise ConfigError(key, v, 'must be "random" or a quaternion [w, x, y, z] (inertial->body)')
-
-
-def _one_of(*choices):
-    def check(key, v):
-        if v not in choices:
-            raise ConfigError(key, v, f"must be one of {', '.join(map(repr, choices))}")
-        return v
-    return check
-
-
-def _boolean(key, v):
-    if not isinstance(v, bool):
-        raise ConfigError(key, v, "must be true or false")
-    return v
-
-
-def _string(key, v):
-    if not isinstance(v, str):
-        raise ConfigError(key, v, "must be a string")
-    return v
-
-
-def _timeouts(key, v):
-    if not isinstance(v, dict) or set(v) != set(MODE_KEYS):
-        raise ConfigError(key, v, f"must be a table with exactly the modes {', '.join(MODE_KEYS)}")
-    return MappingProxyType({m: _positive(f"{key}.{m}", _number(f"{key}.{m}", v[m]))
-                             for m in MODE_KEYS})
-
-
-def _window(key, v):
-    lo, hi = _vector(key, v, 2)
-    if not lo < hi:
-        raise ConfigError(key, v, "must be [brightest, faintest] with brightest < faintest")
-    return (lo, hi)
-
-
-def num(*rules, integer=False):
-    def check(key, v):
-        v = _number(key, v, integer=integer)
-        for r in rules:
-            r(key, v)
-        return v
-    return check
-
-
-def vec(n, *rules):
-    def check(key, v):
-        v = _vector(key, v, n)
-        for r in rules:
-            r(key, v)
-        return v
-    return check
-
-
-POS, NONNEG = num(_positive), num(_nonneg)
-
-
-def BITS(lo, hi):
-    return num(_in_range(lo, hi), integer=True)
-
-
-#: One rule per key: the whole schema's checks in one table.
-RULES = {
-    "mission.date_utc": _date,
-    "mission.seed": num(_in_range(0, 2**32 - 1), integer=True),
-    "mission.frame_s": POS,
-    "mission.telemetry_every_frames": num(_in_range(1, 10**9), integer=True),
-    "ejection.attitude": _attitude,
-    "ejection.tipoff_rate_max_deg_s": num(_in_range(0, 30)),
-    "vehicle.inertia_kg_m2": _inertia,
-    "gyro.drift_deg_h": vec(3, _all(_in_range(-3600, 3600))),
-    "gyro.scale_factor_error_ppm": vec(3, _all(_in_range(-1e5, 1e5))),
-    "gyro.misalignment_arcsec": _misalignment,
-    "gyro.arw_deg_rt_h": NONNEG,
-    "gyro.rrw_deg_h_rt_h": NONNEG,
-    "gyro.range_deg_s": POS,
-    "sun_sensor.linear_range_arcsec": POS,
-    "sun_sensor.presence_half_angle_deg": num(_positive, _in_range(0, 90)),
-    "sun_sensor.noise_arcsec": NONNEG,
-    "sun_sensor.coarse_noise_deg": num(_in_range(0, 30)),
-    "star_tracker.fov_long_half_deg": num(_positive, _in_range(0, 89.9)),
-    "star_tracker.fov_narrow_half_deg": num(_positive, _in_range(0, 89.9)),
-    "star_tracker.magnitude_window": _window,
-    "star_tracker.noise_arcsec": NONNEG,
-    "jets.thrust_n": vec(3, _all(_positive)),
-    "jets.moment_arm_m": vec(3, _all(_positive)),
-    "jets.min_on_time_s": POS,
-    "jets.isp_s": POS,
-    "jets.propellant_kg": POS,
-    "pwpf.filter_gain": POS,
-    "pwpf.time_constant_s": POS,
-    "pwpf.on_threshold_v": POS,
-    "pwpf.off_threshold_v": NONNEG,
-    "pwpf.full_on_v": POS,
-    "control.position_gain_v_per_arcsec": vec(3, _all(_positive)),
-    "control.rate_gain_v_per_arcsec_s": vec(3, _all(_positive)),
-    "control.position_limit_arcsec": vec(3, _all(_positive)),
-    "control.output_limit_v": POS,
-    "control.integral_time_s": POS,
-    "control.integral_limit_arcsec": POS,
-    "electronics.vfc_pulse_weight_arcsec": POS,
-    "electronics.vfc_max_rate_pps": POS,
-    "electronics.counter_bits": BITS(8, 62),
-    "electronics.drift_counter_bits": BITS(4, 62),
-    "electronics.counter_overflow": _one_of("wrap", "saturate"),
-    "electronics.drift_dac_bits": BITS(4, 32),
-    "electronics.register_bits": BITS(4, 32),
-    "electronics.register_lsb_arcsec": POS,
-    "electronics.rate_command_deg_s": num(_positive, _in_range(0, 10)),
-    "electronics.computer_step_frames": num(_in_range(1, 10**6), integer=True),
-    "sequencer.settle_threshold_arcsec": POS,
-    "sequencer.settle_time_s": POS,
-    "sequencer.handover_arcsec": POS,
-    "sequencer.drift_count_s": POS,
-    "sequencer.tracker_blanking_s": NONNEG,
-    "sequencer.sensor_loss_s": POS,
-    "sequencer.mode1_slew_rate_deg_s": num(_positive, _in_range(0, 10)),
-    "sequencer.mode1_slew_gain_per_s": POS,
-    "sequencer.timeout_s": _timeouts,
-    "target.star": _string,
-    "target.ra_deg": num(_in_range(0, 360)),
-    "target.dec_deg": num(_in_range(-90, 90)),
-    "calibration.apply": _boolean,
-}
-
-
-def _cross_rules(v: dict) -> None:
-    """Rules that tie keys together."""
-    frame, t_min = v["mission.frame_s"], v["jets.min_on_time_s"]
-    if frame > t_min * (1 + 1e-12):
-        raise ConfigError("mission.frame_s", frame,
-                          f"frame too coarse for the jet minimum on-time "
-                          f"(jets.min_on_time_s = {t_min}): must be <= it")
-    if v["target.ra_deg"] == 360.0:
-        raise ConfigError("target.ra_deg", 360.0, "must be in [0, 360)")
-    if not v["pwpf.on_threshold_v"] > v["pwpf.off_threshold_v"]:
-        raise ConfigError("pwpf.off_threshold_v", v["pwpf.off_threshold_v"],
-                          f"must be below pwpf.on_threshold_v ({v['pwpf.on_threshold_v']})")
-    lin = v["sun_sensor.linear_range_arcsec"] / 3600.0
-    if v["sun_sensor.presence_half_angle_deg"] < lin:
-        raise ConfigError("sun_sensor.presence_half_angle_deg",
-                          v["sun_sensor.presence_half_angle_deg"],
-                          f"must be at least the linear range ({lin:g} deg)")
-    if v["target.star"] is not None:
-        from allsky.sky import _canonical
-
-        try:
-            v["target.star"] = _canonical(v["target.star"])
-        except KeyError as e:
-            raise ConfigError("target.star", v["target.star"], e.args[0]) from None
-    elif v["target.ra_deg"] is None or v["target.dec_deg"] is None:
-        raise ConfigError("target", None, "give target.star, or both target.ra_deg and "
-                          "target.dec_deg")
-
-
-def _validate(data: dict) -> dict:
-    flat = {}
-    for key, rule in RULES.items():
-        sec, name = key.split(".")
-        if name in data.get(sec, {}):
-            flat[key] = rule(key, data[sec][name])
-        elif sec == "target":
-            flat[key] = None
-        else:
-            raise ConfigError(key, None, "missing")
-    _cross_rules(flat)
-    return flat
+    return parsed["v"] if list(parsed) == ["v"] else text.strip()
 
 
 # ---------------------------------------------------------------------------
 # The frozen result
 # ---------------------------------------------------------------------------
 
-class _Section:
-    """Read-only attribute view of one scenario section."""
+def _freeze(v):
+    if isinstance(v, Mapping):
+        return MappingProxyType({k: _freeze(x) for k, x in v.items()})
+    if isinstance(v, list | tuple):
+        return tuple(_freeze(x) for x in v)
+    return v
+
+
+def _thaw(v):
+    if isinstance(v, Mapping):
+        return {k: _thaw(x) for k, x in v.items()}
+    if isinstance(v, tuple):
+        return [_thaw(x) for x in v]
+    return v
+
+
+def _iso_utc(d: datetime) -> str:
+    frac = f".{d.microsecond:06d}" if d.microsecond else ""
+    return f"{d.year:04d}-{d:%m-%dT%H:%M:%S}{frac}Z"  # %Y drops the zeros of year 999
+
+
+class Section:
+    """One frozen scenario section: its keys as read-only attributes."""
 
     __slots__ = ("_name", "_values")
+    __hash__ = None
 
-    def __init__(self, name, values):
+    def __init__(self, name: str, values: Mapping):
         object.__setattr__(self, "_name", name)
-        object.__setattr__(self, "_values", dict(values))
+        object.__setattr__(self, "_values", {k: _freeze(v) for k, v in values.items()})
 
     def __getattr__(self, key):
+        if key.startswith("_"):
+            raise AttributeError(key)
         try:
             return self._values[key]
         except KeyError:
@@ -448,99 +672,234 @@ class _Section:
     def __setattr__(self, key, value):
         raise AttributeError("a Scenario is frozen")
 
+    def __delattr__(self, key):
+        raise AttributeError("a Scenario is frozen")
+
+    def __dir__(self):
+        return sorted(self._values)
+
     def __eq__(self, other):
-        return isinstance(other, _Section) and self._values == other._values
+        if not isinstance(other, Section):
+            return NotImplemented
+        return self._name == other._name and self._values == other._values
+
+    def __reduce__(self):
+        return Section, (self._name, _thaw(self._values))
 
     def __repr__(self):
-        return f"<[{self._name}] {self._values}>"
+        return f"Section({self._name!r}, {_thaw(self._values)!r})"
 
 
 class Scenario:
-    """A validated, frozen scenario: ``cfg.section.key``."""
+    """A validated, frozen scenario: ``cfg.section.key`` (build it with :func:`load_scenario`).
 
-    __slots__ = ("_flat", "_sections")
+    Vectors are tuples of floats, matrices tuples of tuples, ``mission.date_utc``
+    a UTC datetime, ``sequencer.timeout_s`` a read-only mapping mode -> seconds.
+    """
 
-    def __init__(self, flat: dict):
-        secs = {}
-        for key, v in flat.items():
-            sec, name = key.split(".")
-            secs.setdefault(sec, {})[name] = v
-        object.__setattr__(self, "_flat", dict(flat))
-        object.__setattr__(self, "_sections", {k: _Section(k, v) for k, v in secs.items()})
+    __slots__ = ("_sections",)
+    __hash__ = None
 
-    def __getattr__(self, sec):
+    def __init__(self, sections: Mapping[str, Mapping]):
+        object.__setattr__(self, "_sections",
+                           {name: Section(name, values) for name, values in sections.items()})
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
         try:
-            return self._sections[sec]
+            return self._sections[name]
         except KeyError:
-            raise AttributeError(f"scenario has no section [{sec}]") from None
+            raise AttributeError(f"scenario has no section [{name}]") from None
 
     def __setattr__(self, key, value):
         raise AttributeError("a Scenario is frozen")
 
-    def __eq__(self, other):
-        return isinstance(other, Scenario) and self.as_dict() == other.as_dict()
+    def __delattr__(self, key):
+        raise AttributeError("a Scenario is frozen")
 
-    def as_dict(self) -> dict:
-        """Plain nested dict (date as ISO string), loadable by :func:`scenario_from_dict`."""
+    def __dir__(self):
+        return [*self._sections, "as_dict", "to_toml"]
+
+    def __eq__(self, other):
+        if not isinstance(other, Scenario):
+            return NotImplemented
+        return self._sections == other._sections
+
+    def __reduce__(self):
+        return Scenario, ({n: _thaw(s._values) for n, s in self._sections.items()},)
+
+    def __repr__(self):
+        t = self.target
+        what = t.star or f"RA {t.ra_deg:g} deg, Dec {t.dec_deg:g} deg"
+        return f"<Scenario {_iso_utc(self.mission.date_utc)} seed {self.mission.seed}: {what}>"
+
+    def _export(self, date_as_text: bool) -> dict:
         out = {}
-        for key, v in self._flat.items():
-            sec, name = key.split(".")
-            if v is None and sec == "target":
-                continue
-            if isinstance(v, datetime):
-                v = v.strftime("%Y-%m-%dT%H:%M:%S") + (
-                    f".{v.microsecond:06d}" if v.microsecond else "") + "Z"
-            elif isinstance(v, MappingProxyType):
-                v = dict(v)
-            elif isinstance(v, tuple):
-                v = [list(r) if isinstance(r, tuple) else r for r in v]
-            out.setdefault(sec, {})[name] = v
+        for name, sec in self._sections.items():
+            table = out[name] = {}
+            for k, v in sec._values.items():
+                if v is None:  # the target form not in use
+                    continue
+                if isinstance(v, datetime) and date_as_text:
+                    v = _iso_utc(v)
+                table[k] = _thaw(v)
         return out
 
+    def as_dict(self) -> dict:
+        """Plain nested dict of lists, floats and strings (the date as ``YYYY-MM-DDTHH:MM:SSZ``).
+
+        :func:`scenario_from_dict` turns it back into an equal Scenario.
+        """
+        return self._export(date_as_text=True)
+
     def to_toml(self) -> str:
-        """The resolved scenario as TOML text."""
-        lines = []
-        for sec, table in self.as_dict().items():
-            lines.append(f"[{sec}]")
-            for k, v in table.items():
-                lines.append(f"{k} = {_toml_value(v, k == 'date_utc')}")
-            lines.append("")
-        return "\n".join(lines)
+        """The fully resolved scenario as TOML text that loads back to an equal Scenario."""
+        header = "# allsky scenario, fully resolved (every key, validated)\n\n"
+        return header + toml_dumps(self._export(date_as_text=False))
 
 
-def _toml_value(v, is_date=False) -> str:
-    if is_date:
-        return v
+# ---------------------------------------------------------------------------
+# A small TOML writer (enough for scenarios: tables of scalars, arrays, inline tables)
+# ---------------------------------------------------------------------------
+
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
+            "\r": "\\r"}
+
+
+def _toml_key(k: str) -> str:
+    return k if _KEY_PART.fullmatch(k) else _toml_string(k)
+
+
+def _toml_string(s: str) -> str:
+    out = []
+    for ch in s:
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def _toml_value(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)  # shortest text that reads back to the same float
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, list):
+        return _toml_string(v)
+    if isinstance(v, datetime):
+        if v.tzinfo is not None and v.utcoffset().total_seconds() == 0:
+            return _iso_utc(v)
+        return v.isoformat()
+    if isinstance(v, date | time):
+        return v.isoformat()
+    if isinstance(v, list | tuple):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f'"{k}" = {_toml_value(x)}' for k, x in v.items()) + " }"
-    raise TypeError(type(v))
+    if isinstance(v, Mapping):
+        if not v:
+            return "{}"
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def toml_dumps(doc: Mapping) -> str:
+    """TOML text for a dict of tables (and top-level scalars); ``tomllib.loads`` reads it back."""
+    lines = [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in doc.items()
+             if not isinstance(v, Mapping)]
+    for name, table in doc.items():
+        if isinstance(table, Mapping):
+            if lines:
+                lines.append("")
+            lines.append(f"[{_toml_key(name)}]")
+            lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items()]
+    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------
 # Entry points
 # ---------------------------------------------------------------------------
 
-def scenario_from_dict(data: dict, overrides=()) -> Scenario:
-    """Validate a nested dict (merged over the default) into a :class:`Scenario`."""
-    default = _default_dict()
-    if not isinstance(data, dict):
-        raise ConfigError("", data, "a scenario is a table of sections")
-    _check_known(data, default)
-    merged = _merge(default, data)
+def _validate(data: dict) -> dict:
+    """Check every key of the merged dict; return ``{section: {key: value}}``."""
+    flat = {}
+    for key, rule in RULES.items():
+        sec, name = key.split(".")
+        if name in data.get(sec, {}):
+            flat[key] = rule(key, data[sec][name])
+        elif sec == "target":
+            flat[key] = None
+        else:
+            raise ConfigError(key, rule="missing")
+    for rule in CROSS_RULES:
+        rule(flat)
+    sections = {}
+    for key, v in flat.items():
+        sec, name = key.split(".")
+        sections.setdefault(sec, {})[name] = v
+    # A key just added to the default but not yet to RULES is kept as read (frozen), so
+    # the simulator can use it; test_config checks that RULES covers the whole schema.
+    for sec, table in data.items():
+        for name, v in table.items():
+            sections.setdefault(sec, {}).setdefault(name, v)
+    return sections
+
+
+def scenario_from_dict(data: Mapping, overrides=()) -> Scenario:
+    """Validate a nested dict (as from a TOML file or :meth:`Scenario.as_dict`).
+
+    Parameters
+    ----------
+    data : dict
+        Sections of keys; merged over the packaged default.
+    overrides : iterable of str
+        ``KEY=VALUE`` strings applied after ``data``, in order.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown key or any value that breaks its rule.
+    """
+    if isinstance(overrides, str):
+        overrides = (overrides,)
+    if not isinstance(data, Mapping):
+        raise ConfigError(None, data, "a scenario is a table of sections")
+    merged = _default_dict()
+    schema = _schema()
+    _merge(merged, copy.deepcopy(dict(data)), schema)
     for item in overrides:
-        _apply_override(merged, item, default)
+        _merge(merged, parse_override(item), schema)
     return Scenario(_validate(merged))
 
 
 def load_scenario(path=None, overrides=()) -> Scenario:
-    """Load, merge over the default, apply ``KEY=VALUE`` overrides, validate."""
+    """Load a scenario file, merge it over the default, apply overrides, validate.
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        Scenario TOML file; None for the packaged default alone.
+    overrides : iterable of str
+        ``KEY=VALUE`` strings (dotted KEY, VALUE in TOML syntax), applied in order.
+
+    Returns
+    -------
+    Scenario
+        The validated, frozen scenario.
+
+    Raises
+    ------
+    ConfigError
+        For an unreadable or missing file, a TOML syntax error (with its line),
+        an unknown key or any value that breaks its rule.
+    """
     data = {} if path is None else _read_toml(path)
     return scenario_from_dict(data, overrides)

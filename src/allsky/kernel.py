@@ -27,6 +27,7 @@ from allsky.computer_sequencer import sequencer_step
 from allsky.control_amp import ControlParams, control_amp
 from allsky.cpu import N_WORK, target_step
 from allsky.dac import dac
+from allsky.dither import DitherParams, dither_command
 from allsky.gyro import RRW_STEP_S, GyroParams, gyro_output
 from allsky.jets import JetParams, jets
 from allsky.jit import njit
@@ -48,6 +49,7 @@ PROGRAM_NONE = 0
 PROGRAM_MODE1 = 1  #: the Mode 1 sun-acquisition controller drives the loops
 PROGRAM_TARGET_ROLL = 2  #: Mode 6-1: CPU services the roll axis
 PROGRAM_TARGET = 3  #: Mode 6-2: CPU services all three axes
+PROGRAM_DITHER = 4  #: comparison mode: dither added to the attitude command of the hold
 
 # What ends a leg.
 WATCH_SETTLE = 0  #: all signals of ``settle_mask`` below the threshold for ``hold_s``
@@ -63,6 +65,8 @@ SIG_ERROR_ROLL = 4
 SIG_ERROR_PITCH = 5
 SIG_ERROR_YAW = 6
 N_SIGNALS = 7
+#: Sun pitch, Sun yaw and tracker yaw: the optical errors of the hold.
+SETTLE_OPTICAL = (1 << SIG_SUN_PITCH) | (1 << SIG_SUN_YAW) | (1 << SIG_TRACKER_YAW)
 
 # Leg exit codes.
 EXIT_DONE = 1
@@ -73,6 +77,8 @@ EXIT_STAR_LOST = -4
 
 # Telemetry columns (see allsky.telemetry for names and units).
 N_TLM = 40
+# Dither record columns: t, counters 14/16/18, optical roll/pitch/yaw.
+N_REC = 7
 
 
 class ElectronicsParams(NamedTuple):
@@ -115,6 +121,8 @@ class Params(NamedTuple):
     jets: JetParams
     mode1: SunAcquisitionParams
     sequencer: SequencerParams
+    dither: DitherParams
+    dither_sample_frames: int  #: [frames] per sample of the dither record
 
 
 class State(NamedTuple):
@@ -140,6 +148,8 @@ class State(NamedTuple):
     cpu: np.ndarray  #: (N_WORK,) CPU 22 working store
     word23: np.ndarray  #: (6,) computed word register 23
     word24: np.ndarray  #: (2,) programmed word register 24 [arcsec]
+    excursion_ref_q: np.ndarray  #: (4,) attitude the mission wants; [0,0,0,0] = not tracked
+    max_excursion_rad: np.ndarray  #: (1,) largest rotation away from it so far
 
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
@@ -160,6 +170,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         pwpf_on_frames=np.zeros(3, dtype=np.int64),
         propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
+        excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1),
     )
 
 
@@ -197,11 +208,16 @@ def _sun_inertial(p, t_s, out):
 
 
 @njit
-def run_leg(p, s, leg, tlm, tlm_rows):
+def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """Run frames until the leg's condition, timeout or an abort.
 
     ``tlm`` is a preallocated (rows, N_TLM) telemetry buffer and
-    ``tlm_rows`` (1,) its fill count. Returns ``(exit_code, leg_time_s)``.
+    ``tlm_rows`` (1,) its fill count. ``rec`` (rows, N_REC) receives the
+    dither record of a PROGRAM_DITHER leg: every ``dither_sample_frames``
+    frames, time, counters 14/16/18 [arcsec] and the attitude the optics
+    see [arcsec] per axis (roll from the tracker, pitch and yaw from the Sun),
+    as rotations made.
+    Returns ``(exit_code, leg_time_s)``.
     """
     np.random.seed(leg.seed)
     dt = p.frame_s
@@ -223,6 +239,8 @@ def run_leg(p, s, leg, tlm, tlm_rows):
     torque = np.zeros(3)
     sig = np.zeros(N_SIGNALS)
     work = np.empty((6, 10))
+    dith = np.zeros(3)
+    ff = np.zeros(3)
     pw = p.vfc.pulse_weight_arcsec
     rrw_every = max(1, round(RRW_STEP_S / dt))
     timer = 0.0
@@ -277,11 +295,17 @@ def run_leg(p, s, leg, tlm, tlm_rows):
                 + sw[11] * dac(s.registers[2], el.register_bits, el.register_lsb_arcsec)
             for a in range(3):
                 rate[a] = line[a]
+        if leg.program == PROGRAM_DITHER:
+            dither_command(p.dither, t_leg, dith, ff)
+            for a in range(3):
+                pos[a] += dith[a]
         for a in range(3):
             integrate = leg.program != PROGRAM_MODE1 and not (a == 0 and sw[18]) \
                 and not (a == 2 and sw[19])
             volts[a] = control_amp(p.control, a, pos[a], rate[a], s.amp_integral_arcsec,
                                    integrate, dt)
+            if leg.program == PROGRAM_DITHER:  # feed-forward through the actuator path
+                volts[a] += ff[a]
         # --- PWPF modulators 34-36 -> jets 39-41 ------------------------------
         for a in range(3):
             pwpf_step(p.pwpf, a, volts[a], s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames)
@@ -291,11 +315,30 @@ def run_leg(p, s, leg, tlm, tlm_rows):
         s.time_s[0] += dt
         s.frame[0] += 1
         t_leg += dt
+        if s.excursion_ref_q[0] != 0.0 or s.excursion_ref_q[1] != 0.0 \
+                or s.excursion_ref_q[2] != 0.0 or s.excursion_ref_q[3] != 0.0:
+            e = _rotation_angle(s.excursion_ref_q, s.x)
+            if e > s.max_excursion_rad[0]:
+                s.max_excursion_rad[0] = e
         # --- telemetry -------------------------------------------------------
         if p.telemetry_every > 0 and s.frame[0] % p.telemetry_every == 0 \
                 and tlm_rows[0] < tlm.shape[0]:
             _record(tlm[tlm_rows[0]], s, leg, fine, trk, volts)
             tlm_rows[0] += 1
+        if leg.program == PROGRAM_DITHER and s.frame[0] % p.dither_sample_frames == 0 \
+                and rec_rows[0] < rec.shape[0]:
+            r = rec[rec_rows[0]]
+            r[0] = t_leg
+            for a in range(3):
+                r[1 + a] = s.counters[a] * pw
+            # Rotations made, from the optics: the Sun gives pitch and yaw; the
+            # tracker's yaw output mixes roll with yaw, because the star sits off
+            # the boresight in the tracker pitch direction: for small angles
+            # yaw_out = -roll + yaw tan(pitch_out), so roll = -yaw_out + yaw tan(pitch_out).
+            r[5] = -fine[0]
+            r[6] = -fine[1]
+            r[4] = -trk[0] + r[6] * np.tan(trk[1] / 206264.80624709636)
+            rec_rows[0] += 1
         # --- master sequencer 20's watch -------------------------------------
         if not tank_ok:
             return EXIT_PROPELLANT, t_leg
@@ -329,6 +372,16 @@ def run_leg(p, s, leg, tlm, tlm_rows):
             if timer >= leg.hold_s - 0.5 * dt:
                 return EXIT_DONE, t_leg
     return EXIT_TIMEOUT, t_leg
+
+
+@njit
+def _rotation_angle(qa, qb):
+    """Angle [rad] of the rotation taking attitude ``qa`` to ``qb`` (atan2 form)."""
+    w = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3]
+    x = qa[0] * qb[1] - qa[1] * qb[0] - qa[2] * qb[3] + qa[3] * qb[2]
+    y = qa[0] * qb[2] + qa[1] * qb[3] - qa[2] * qb[0] - qa[3] * qb[1]
+    z = qa[0] * qb[3] - qa[1] * qb[2] + qa[2] * qb[1] - qa[3] * qb[0]
+    return 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), abs(w))
 
 
 @njit

@@ -17,6 +17,7 @@ import numpy as np
 
 from allsky import (
     control_amp,
+    dither,
     gyro,
     jets,
     kernel,
@@ -33,6 +34,7 @@ from allsky import (
     updown_counter,
     vfc,
 )
+from allsky.dither_mode import mode_dither
 from allsky import master_sequencer as ms
 from allsky import word_registers as wr
 from allsky.telemetry import COLUMNS
@@ -43,6 +45,12 @@ EXIT_TEXT = {
     kernel.EXIT_STAR_LOST: "star lost",
 }
 STATE_FORMAT = 1
+#: The patent's mission, and the comparison mission (dither in place of Modes 4 and 5).
+LEGACY_PLAN = ms.MODES
+DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
+RULES = {**ms.RULES, "dither": mode_dither}
+MODE_CODE = {**ms.MODE_CODE, "dither": 7.0}
+DITHER_SETTLE_ALLOWANCE_S = 300.0
 # [s] expected time from the end of the 6-1 roll to its settling (for the Sun prediction)
 SETTLE_ALLOWANCE_S = 30.0
 
@@ -115,7 +123,22 @@ def build_params(cfg) -> kernel.Params:
         sequencer=kernel.SequencerParams(
             float(cfg.sequencer.settle_threshold_arcsec), float(cfg.sequencer.handover_arcsec),
             float(cfg.sequencer.sensor_loss_s)),
+        dither=dither_params(cfg),
+        dither_sample_frames=max(1, int(round(cfg.dither.sample_s / dt))),
     )
+
+
+def dither_params(cfg) -> dither.DitherParams:
+    """Dither generator and feed-forward from the scenario's [dither] section."""
+    d = cfg.dither
+    amp = np.array(d.amplitude_urad, dtype=float) * 1e-6 * units.RAD2ARCSEC
+    omega = 2.0 * np.pi / np.array(d.period_s, dtype=float)
+    j_est = np.array(cfg.vehicle.inertia_kg_m2, dtype=float) * float(d.inertia_estimate_scale)
+    torque = 2.0 * np.asarray(cfg.jets.thrust_n, dtype=float) * np.asarray(cfg.jets.moment_arm_m)
+    # Describing gain of modulator + jets in the linear region: mean torque =
+    # full torque x V / full_on_v, so V per N m = full_on_v / full torque.
+    v_per_nm = float(cfg.pwpf.full_on_v) / torque if d.feedforward else np.zeros(3)
+    return dither.DitherParams(amp, omega, j_est, v_per_nm)
 
 
 def ejection_state(cfg) -> kernel.State:
@@ -147,8 +170,14 @@ def reference_star_inertial(cfg) -> np.ndarray:
 class Mission:
     """One flight of the all-sky pointing system, mode by mode."""
 
-    def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None):
+    def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None,
+                 plan=LEGACY_PLAN):
         self.cfg = cfg
+        self.plan = tuple((history or {}).get("plan", plan))
+        if any(name not in RULES for name in self.plan):
+            raise ValueError(f"unknown mode in plan {self.plan}")
+        self.dither_estimates = None
+        self.dither_record = None
         self.params = build_params(cfg)
         if not telemetry:
             self.params = self.params._replace(telemetry_every=0)
@@ -177,27 +206,32 @@ class Mission:
         switch_bank.operate(self.state.switches, close=close, open_=open_)
 
     def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
-            on_timeout=None):
-        """Run the frame loop until ``what`` happens; raise :class:`ModeAbort` if it does not."""
+            on_timeout=None, record_rows=0):
+        """Run the frame loop until ``what`` happens; raise :class:`ModeAbort` if it does not.
+
+        Returns the dither record (``record_rows`` rows at most) of the leg.
+        """
         remaining = self._mode_deadline - self.state.time_s[0]
         if hold_s is None:
             hold_s = self.settle_s
         seed = int(np.random.SeedSequence([int(self.cfg.mission.seed), 1,
                                            self.leg_count]).generate_state(1)[0])
         self.leg_count += 1
-        leg = kernel.Leg(seed, ms.MODE_CODE[self._mode], program, watch, mask, signal,
+        leg = kernel.Leg(seed, MODE_CODE[self._mode], program, watch, mask, signal,
                          float(blank_s), float(hold_s), float(max(remaining, 0.0)))
         every = self.params.telemetry_every
         rows = math.ceil(leg.timeout_s / self.params.frame_s / every) + 1 if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
-        code, _ = kernel.run_leg(self.params, self.state, leg, buf, filled)
+        rec = np.empty((record_rows, kernel.N_REC))
+        rec_filled = np.zeros(1, dtype=np.int64)
+        code, _ = kernel.run_leg(self.params, self.state, leg, buf, filled, rec, rec_filled)
         if every:
             self._tlm.append(buf[: filled[0]])
         if code == kernel.EXIT_DONE:
-            return
+            return rec[: rec_filled[0]]
         if code == kernel.EXIT_TIMEOUT:
-            limit = self.cfg.sequencer.timeout_s[self._mode]
+            limit = self.mode_timeout_s(self._mode)
             raise ms.ModeAbort(f"Mode {self._mode}: {on_timeout or what + ' not achieved'}"
                                f" within the mode timeout of {limit:g} s")
         raise ms.ModeAbort(f"Mode {self._mode}: {EXIT_TEXT[code]} while waiting for: {what}")
@@ -211,14 +245,14 @@ class Mission:
         """Run the next mode; returns its timeline record."""
         if self.finished:
             raise RuntimeError(f"mission already {self.status}")
-        name = ms.MODES[self.next_mode]
+        name = self.plan[self.next_mode]
         if name == "6-1" and self.programmed_roll_deg is None:
             self._program_target()
         self._mode = name
         start = float(self.state.time_s[0])
-        self._mode_deadline = start + float(self.cfg.sequencer.timeout_s[name])
+        self._mode_deadline = start + self.mode_timeout_s(name)
         try:
-            exit_text = ms.RULES[name](self)
+            exit_text = RULES[name](self)
         except ms.ModeAbort as e:
             exit_text = f"aborted: {e}"
             self.status = "aborted"
@@ -226,9 +260,16 @@ class Mission:
         rec = ModeRecord(name, start, float(self.state.time_s[0]), exit_text)
         self.timeline.append(rec)
         self.next_mode += 1
-        if self.status == "running" and self.next_mode == len(ms.MODES):
+        if self.status == "running" and self.next_mode == len(self.plan):
             self.status = "complete"
         return rec
+
+    def mode_timeout_s(self, name) -> float:
+        """Time allowed to a mode [s]: the scenario's, or for the dither the record plus 300 s."""
+        if name == "dither":
+            d = self.cfg.dither
+            return float(d.lead_in_s + d.record_s + DITHER_SETTLE_ALLOWANCE_S)
+        return float(self.cfg.sequencer.timeout_s[name])
 
     def run(self):
         """Run the remaining modes; returns the summary dictionary."""
@@ -290,7 +331,7 @@ class Mission:
             "abort_reason": self.abort_reason,
             "modes": [{"mode": r.mode, "start_s": r.start_s, "end_s": r.end_s, "exit": r.exit}
                       for r in self.timeline],
-            "calibration": self.calibration() if "5" in done else None,
+            "calibration": self.calibration() if ("5" in done or "dither" in done) else None,
             "truth": gyro.perfect_calibration(self.params.gyro),
             "calibration_applied": self.apply_calibration,
             "target": target,
@@ -307,7 +348,7 @@ class Mission:
     def save(self, path) -> Path:
         """Save the mission at the current mode boundary (``.npz``: state arrays + history)."""
         path = Path(path)
-        history = {"format": STATE_FORMAT, "next_mode": self.next_mode,
+        history = {"format": STATE_FORMAT, "next_mode": self.next_mode, "plan": list(self.plan),
                    "timeline": [list(r) for r in self.timeline], "leg_count": self.leg_count,
                    "counted_arcsec": self.counted_arcsec, "status": self.status,
                    "abort_reason": self.abort_reason,

@@ -13,7 +13,8 @@ A valve once opened stays open for at least the jets' minimum on-time.
 
 Static characteristic for a constant input ``e > 0`` (continuous time):
 
-* dead zone: no firing while ``K e < U_on``;
+* dead zone: no firing while ``K e <= U_on`` (at equality the filter only
+  approaches U_on, so ``T_off`` is infinite);
 * on-time  ``T_on  = tau ln((U_on - K(e - U_m)) / (U_off - K(e - U_m)))``;
 * off-time ``T_off = tau ln((K e - U_off) / (K e - U_on))``;
 * saturation (valve always open) when ``K (e - U_m) >= U_off``.
@@ -73,7 +74,7 @@ def static_on_off_times_s(p_gain, tau_s, u_on, u_off, u_m, e):
 
     Returns ``(0, inf)`` inside the dead zone and ``(inf, 0)`` in saturation.
     """
-    if p_gain * e < u_on:
+    if p_gain * e <= u_on:
         return 0.0, math.inf
     if p_gain * (e - u_m) >= u_off:
         return math.inf, 0.0

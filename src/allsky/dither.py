@@ -1,0 +1,121 @@
+"""The dither scale-factor method (the comparison mode): generator, feed-forward, detector.
+
+A small sinusoidal attitude dither ``d(t) = A sin(w t)`` (A a vector: amplitude
+and axis, one frequency per axis) is added to the attitude command; a
+feed-forward torque ``J_est a(t)``, ``a(t) = -A w^2 sin(w t)``, helps the loop
+follow it. The gyro's response at the dither frequency, read from the
+up/down counters as the hardware sees it, is compared with the commanded
+amplitude (estimate 1) and with the amplitude the optical sensors see at the
+same frequency (estimate 2, robust to imperfect tracking).
+
+Scale factors follow the patent's convention (true angle / counted angle),
+so they can be stored in register 23 and used by Mode 6 unchanged:
+``SF = A_true / A_gyro``; a cross-coupling factor is the in-phase gyro
+amplitude on another axis per unit true amplitude of the dithered axis.
+
+Detection: with the record an integer number of dither periods and the
+period a power-of-two multiple of the sample period, the dither falls on an
+FFT bin (:func:`fft_amplitude`); otherwise a least-squares sinusoid fit with
+a polynomial trend (:func:`lsq_amplitude`) or a Hann window removes the
+leakage. Noise limit (derived in docs/comparison.md):
+``sigma_SF = N sqrt(2/T) / (A w)`` for angle random walk density N and a
+record of length T.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky.jit import njit
+
+
+class DitherParams(NamedTuple):
+    """Dither generator and feed-forward, per body axis [roll, pitch, yaw]."""
+
+    amplitude_arcsec: np.ndarray  #: [arcsec] dither amplitude per axis (0 = not dithered)
+    omega_rad_s: np.ndarray  #: [rad/s] dither angular frequency per axis
+    ff_inertia_kg_m2: np.ndarray  #: [kg m^2] 3x3 inertia estimate for the feed-forward
+    ff_volts_per_n_m: np.ndarray  #: [V/(N m)] feed-forward torque -> modulator input, per axis
+
+
+@njit
+def dither_command(p, t_s, angle_arcsec, ff_volts):
+    """Dither angle [arcsec] per axis and the feed-forward modulator input [V] at ``t_s``."""
+    acc = np.empty(3)
+    for i in range(3):
+        s = np.sin(p.omega_rad_s[i] * t_s)
+        angle_arcsec[i] = p.amplitude_arcsec[i] * s
+        # a(t) = -A w^2 sin(w t), in rad/s^2
+        acc[i] = -p.amplitude_arcsec[i] * p.omega_rad_s[i] ** 2 * s / 206264.80624709636
+    for i in range(3):
+        torque = p.ff_inertia_kg_m2[i, 0] * acc[0] + p.ff_inertia_kg_m2[i, 1] * acc[1] \
+            + p.ff_inertia_kg_m2[i, 2] * acc[2]
+        ff_volts[i] = torque * p.ff_volts_per_n_m[i]
+
+
+def feedforward_torque_n_m(inertia_kg_m2, amplitude_rad, omega_rad_s, t_s):
+    """Feed-forward torque [N m] = J_est a(t), for checking the compiled generator."""
+    a = -np.asarray(amplitude_rad) * np.asarray(omega_rad_s) ** 2 * np.sin(
+        np.asarray(omega_rad_s) * t_s)
+    return np.asarray(inertia_kg_m2) @ a
+
+
+# ---------------------------------------------------------------------------
+# Detector
+# ---------------------------------------------------------------------------
+
+def fft_amplitude(x, sample_s, freq_hz, window="rect"):
+    """Complex amplitude ``c`` (``|c| sin(w t + arg c)``, t from the first sample) of ``x`` at ``freq_hz``.
+
+    Works on the sample-to-sample differences, as the counter's pulses per
+    sample: a counter's drift ramp becomes a constant (no content at the
+    dither frequency) and its random walk becomes white noise (nothing to
+    leak), then the single DFT bin at ``freq_hz`` is divided by the
+    differencing response ``1 - exp(-i w dt)``. With ``window="rect"`` the
+    ``len(x) - 1`` differences must span whole dither periods (the dither on
+    an FFT bin); ``"hann"`` tolerates an off-bin frequency at the cost of a
+    wider main lobe (corrected for the window's gain).
+    """
+    x = np.asarray(x, dtype=float)
+    dx = np.diff(x)
+    n = dx.size
+    t = np.arange(1, n + 1) * sample_s
+    k = freq_hz * n * sample_s
+    if window == "rect":
+        if abs(k - round(k)) > 1e-6:
+            raise ValueError(f"{freq_hz} Hz is not on an FFT bin of a {n}-sample record;"
+                             " use window='hann' or lsq_amplitude")
+        w = np.ones(n)
+    else:
+        w = np.hanning(n)
+    dx = dx - np.sum(w * dx) / np.sum(w)
+    omega = 2.0 * np.pi * freq_hz
+    # For c e^{i w t} (Im part = the sinusoid) the DFT coefficient is c / (2i) ... so
+    # c = 2i * sum(w dx e^{-i w t}) / sum(w) / (1 - e^{-i w dt}).
+    c_diff = 2j * np.sum(w * dx * np.exp(-1j * omega * t)) / np.sum(w)
+    return c_diff / (1.0 - np.exp(-1j * omega * sample_s))
+
+
+def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):
+    """Complex amplitude of ``x`` at ``freq_hz`` by least squares: sin, cos and a polynomial trend.
+
+    Exact for any record length (no leakage from the dither itself); the
+    trend absorbs the drift ramp of a counter.
+    """
+    x = np.asarray(x, dtype=float)
+    t = np.arange(x.size) * sample_s
+    wt = 2.0 * np.pi * freq_hz * t
+    tn = t / max(t[-1], 1e-12)
+    cols = [np.sin(wt), np.cos(wt)] + [tn ** k for k in range(trend_order + 1)]
+    coef, *_ = np.linalg.lstsq(np.column_stack(cols), x, rcond=None)
+    return complex(coef[0], coef[1])  # a sin + b cos = |.| sin(wt + atan2(b, a))
+
+
+def projected(c, ref):
+    """Component of complex amplitude ``c`` in phase with ``ref`` (signed, same units as c)."""
+    return float(np.real(c * np.conj(ref)) / abs(ref))
+
+
+def scale_factor_sigma(arw_arcsec_rt_s, record_s, amplitude_arcsec, omega_rad_s):
+    """Predicted 1-sigma scale-factor error [-]: N sqrt(2/T) / (A w)."""
+    return arw_arcsec_rt_s * np.sqrt(2.0 / record_s) / (amplitude_arcsec * omega_rad_s)

@@ -1,0 +1,101 @@
+"""The comparison mode: gyro calibration by attitude dither, flown in place of Modes 4 and 5.
+
+Run in the Sun-and-star hold that ends Mode 3 (S1-S3, S12, S14, S15
+closed): the dither generator adds ``A sin(w t)`` to the position input of
+each dithered axis's control amplifier and the feed-forward ``J_est a(t)``
+to its modulator input; the record (counters 14/16/18 and the optical
+attitude, every ``sample_s``) is analysed at each dither frequency.
+
+Results go to register 23 exactly as Modes 4 and 5 would put them, so Mode 6
+flies unchanged with the dither's calibration:
+
+* scale factor (patent convention, true / counted) = optical amplitude /
+  gyro amplitude (estimator "optical") or commanded amplitude / gyro
+  amplitude ("command");
+* cross-coupling (a step beyond the dither document, which claims scale
+  factor only) = the in-phase part of the other axis's gyro response, less
+  that axis's own optical motion, per unit optical amplitude of the
+  dithered axis. It needs roll and yaw dithered at distinct frequencies.
+  Its noise is that of the scale factor in absolute terms (about 1e-3 rad
+  for the default dither), far above the misalignments it should find, so
+  it is stored in register 23 only with ``dither.store_cross_coupling``;
+  otherwise the cross-coupling of register 23 stays neutral (zero).
+"""
+
+import numpy as np
+
+from allsky import dither, kernel
+from allsky import word_registers as wr
+
+AXES = ("roll", "pitch", "yaw")
+
+
+def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
+            detector="fft"):
+    """Estimates from a dither record (rows: t, counters x3 [arcsec], optical x3 [arcsec]).
+
+    Returns ``{axis: {...}}`` for each dithered axis: complex amplitudes of
+    the gyro and optical channels, both scale-factor estimates, and the
+    cross-axis responses.
+    """
+    t = rec[:, 0]
+    # n + 1 samples span the record: n sample intervals of whole dither periods.
+    keep = (t >= lead_in_s - 0.5 * sample_s) & (t <= lead_in_s + record_s + 0.5 * sample_s)
+    r = rec[keep]
+    out = {}
+    for a in range(3):
+        amp = amplitude_arcsec[a]
+        if amp == 0.0:
+            continue
+        f = omega_rad_s[a] / (2 * np.pi)
+
+        def amp_of(x, f=f):
+            if detector == "lsq":
+                return dither.lsq_amplitude(x, sample_s, f)
+            return dither.fft_amplitude(x, sample_s, f, window="hann" if detector == "hann"
+                                        else "rect")
+
+        # The dither phase at the record start: sin(w (t0 + k dt)).
+        phase = np.exp(1j * omega_rad_s[a] * r[0, 0])
+        g = [amp_of(r[:, 1 + b]) / phase for b in range(3)]
+        o = [amp_of(r[:, 4 + b]) / phase for b in range(3)]
+        cross = {AXES[b]: dither.projected(g[b] - o[b], o[a]) / abs(o[a])
+                 for b in range(3) if b != a}
+        out[AXES[a]] = {
+            "gyro": g[a], "optical": o[a], "commanded_arcsec": amp,
+            "scale_factor_optical": dither.projected(o[a], g[a]) / abs(g[a]),
+            "scale_factor_command": amp / abs(g[a]),
+            "tracking_ratio": abs(o[a]) / amp,
+            "cross": cross,
+        }
+    return out
+
+
+def mode_dither(m):
+    """Fly the dither record in the optical hold and store the results in register 23."""
+    d = m.cfg.dither
+    p = m.params
+    rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 2
+    record = m.leg("dither record complete", kernel.PROGRAM_DITHER, kernel.WATCH_ELAPSED,
+                   hold_s=d.lead_in_s + d.record_s, record_rows=rec_rows)
+    m.leg("optical errors settled after the dither", kernel.PROGRAM_NONE, kernel.WATCH_SETTLE,
+          mask=kernel.SETTLE_OPTICAL)
+    est = analyse(record, d.sample_s, d.lead_in_s, d.record_s, p.dither.amplitude_arcsec,
+                  p.dither.omega_rad_s, d.detector)
+    m.dither_estimates = est
+    m.dither_record = record
+    w = m.state.word23
+    key = "scale_factor_optical" if d.estimator == "optical" else "scale_factor_command"
+    if "roll" in est:
+        w[wr.SF_ROLL] = est["roll"][key]
+    if "yaw" in est:
+        w[wr.SF_YAW] = est["yaw"][key]
+    if d.store_cross_coupling:
+        if "roll" in est:
+            w[wr.ROLL_INTO_PITCH] = est["roll"]["cross"]["pitch"]
+            w[wr.ROLL_INTO_YAW] = est["roll"]["cross"]["yaw"]
+        if "yaw" in est:
+            w[wr.YAW_INTO_PITCH] = est["yaw"]["cross"]["pitch"]
+            w[wr.YAW_INTO_ROLL] = est["yaw"]["cross"]["roll"]
+    return (f"dither record of {d.record_s:g} s analysed ({d.estimator} estimator,"
+            f" {d.detector} detector); results in register 23")

@@ -1,0 +1,102 @@
+"""The dither method's blocks: generator, feed-forward and detector.
+
+Truth: closed forms. A sinusoid of known amplitude and phase on an FFT bin
+is recovered exactly; off the bin, the rectangular DFT leaks and the Hann
+window and the least-squares fit do not; with white rate noise of density N
+the scale-factor spread over many seeds is N sqrt(2/T)/(A w)
+(docs/comparison.md).
+"""
+
+import numpy as np
+import pytest
+
+from allsky import dither
+from allsky.dither_mode import analyse
+
+DT = 0.1
+PERIOD = 51.2  # = 0.1 s x 2**9, the dither document's preferred period
+F = 1.0 / PERIOD
+
+
+def sine(n, amp, phase, f=F, trend=(0.0, 0.0)):
+    t = np.arange(n + 1) * DT  # n intervals of whole periods
+    return amp * np.sin(2 * np.pi * f * t + phase) + trend[0] + trend[1] * t
+
+
+@pytest.mark.parametrize("method", ["rect", "hann", "lsq"])
+def test_on_bin_sinusoid_recovered_exactly(method):
+    x = sine(8192, 20.6, 0.7, trend=(5.0, 0.02))  # a counter's drift ramp on top
+    c = dither.lsq_amplitude(x, DT, F) if method == "lsq" else \
+        dither.fft_amplitude(x, DT, F, window=method)
+    assert abs(c) == pytest.approx(20.6, rel=1e-6 if method != "hann" else 1e-3)
+    assert np.angle(c) == pytest.approx(0.7, abs=1e-6 if method != "hann" else 1e-3)
+
+
+def test_off_bin_leaks_with_rectangular_window_and_not_with_the_fixes():
+    f = 1.0 / 47.3  # not a whole number of periods in the record
+    x = sine(8192, 20.6, 0.3, f=f, trend=(0.0, 0.01))
+    with pytest.raises(ValueError, match="not on an FFT bin"):
+        dither.fft_amplitude(x, DT, f)
+    assert abs(dither.lsq_amplitude(x, DT, f)) == pytest.approx(20.6, rel=1e-9)
+    assert abs(dither.fft_amplitude(x, DT, f, window="hann")) == pytest.approx(20.6, rel=2e-3)
+
+
+def test_feedforward_torque_is_inertia_times_dither_acceleration():
+    j = np.array([[100.0, 1.5, -1.0], [1.5, 650.0, 2.0], [-1.0, 2.0, 680.0]])
+    amp_arcsec = np.array([20.6, 0.0, 20.6])
+    omega = 2 * np.pi / np.array([51.2, 51.2, 25.6])
+    gain = np.array([4.0, 5.0, 6.0])  # V per N m
+    p = dither.DitherParams(amp_arcsec, omega, j, gain)
+    angle, volts = np.zeros(3), np.zeros(3)
+    for t in (0.0, 3.3, 12.8, 40.0):
+        dither.dither_command(p, t, angle, volts)
+        a = -amp_arcsec / 206264.80624709636 * omega ** 2 * np.sin(omega * t)
+        assert np.allclose(angle, amp_arcsec * np.sin(omega * t))
+        assert np.allclose(volts / gain, j @ a, rtol=1e-12, atol=1e-18)
+        assert np.allclose(dither.feedforward_torque_n_m(j, amp_arcsec / 206264.80624709636,
+                                                         omega, t), j @ a)
+
+
+def synthetic_record(rng, sf_true, n_arw, amp, omega, t_rec, cross=0.0, opt_noise=0.0):
+    """A dither record as the hardware sees it: counters integrate the gyro rate."""
+    n = int(round(t_rec / DT)) + 1
+    t = np.arange(n) * DT
+    true_roll = amp * np.sin(omega * t)
+    rate_noise = rng.normal(0.0, n_arw / np.sqrt(DT), n)
+    counter_roll = (1.0 / sf_true) * true_roll + np.cumsum(rate_noise) * DT
+    counter_pitch = cross * true_roll + np.cumsum(rng.normal(0.0, n_arw / np.sqrt(DT), n)) * DT
+    rec = np.column_stack([t, counter_roll, counter_pitch, np.zeros(n),
+                           true_roll + rng.normal(0, opt_noise, n) if opt_noise else true_roll,
+                           np.zeros(n), np.zeros(n)])
+    return rec
+
+
+def test_estimate_is_unbiased_and_its_spread_matches_the_formula():
+    rng = np.random.default_rng(7)
+    n_arw, amp, omega, t_rec = 0.06, 20.6, 2 * np.pi / PERIOD, 819.2
+    sf_true, cross = 1.0 / (1.0 + 1500e-6), 180.0 / 206264.8
+    est, xs = [], []
+    for _ in range(400):
+        rec = synthetic_record(rng, sf_true, n_arw, amp, omega, t_rec, cross=cross)
+        e = analyse(rec, DT, 0.0, t_rec, np.array([amp, 0, 0]), np.array([omega, 1, 1]))
+        est.append(e["roll"]["scale_factor_optical"])
+        xs.append(e["roll"]["cross"]["pitch"])
+    est, xs = np.array(est), np.array(xs)
+    sigma = dither.scale_factor_sigma(n_arw, t_rec, amp, omega)
+    assert sigma == pytest.approx(1.17e-3, rel=0.01)
+    # Unbiased: the mean is within 3 standard errors of the truth.
+    assert abs(est.mean() - sf_true) < 3 * sigma / np.sqrt(est.size)
+    # Spread within 15 % of N sqrt(2/T)/(A w) (400 samples: ~3.5 % sampling error).
+    assert est.std() == pytest.approx(sigma, rel=0.15)
+    # Cross-axis term recovered with the same absolute noise.
+    assert abs(xs.mean() - cross) < 3 * sigma / np.sqrt(xs.size)
+    assert xs.std() == pytest.approx(sigma, rel=0.15)
+
+
+def test_command_estimator_is_biased_by_tracking():
+    rng = np.random.default_rng(1)
+    rec = synthetic_record(rng, 1.0, 0.0, 20.6 * 1.03, 2 * np.pi / PERIOD, 819.2)
+    e = analyse(rec, DT, 0.0, 819.2, np.array([20.6, 0, 0]), np.array([2 * np.pi / PERIOD, 1, 1]))
+    assert e["roll"]["scale_factor_optical"] == pytest.approx(1.0, abs=1e-9)
+    assert e["roll"]["scale_factor_command"] == pytest.approx(1 / 1.03, rel=1e-6)
+    assert e["roll"]["tracking_ratio"] == pytest.approx(1.03, rel=1e-6)

@@ -98,3 +98,84 @@ def test_duty_cycle_monotone_in_input(a, b):
     d = [static_on_off_times_s(K, TAU, U_ON, U_OFF, U_M, e) for e in (lo, hi)]
     duty = [t_on / (t_on + t_off) for t_on, t_off in d]
     assert duty[0] <= duty[1] + 1e-12
+
+
+
+# Thresholds drawn over a wide design space: a linear region exists when
+# K U_m > U_on - U_off, guaranteed here by K U_m >= 1.5 U_on.
+designs = st.fixed_dictionaries({
+    "k": st.floats(0.5, 5.0),
+    "tau": st.floats(0.05, 0.5),
+    "u_on": st.floats(1e-4, 1e-2),
+    "off_ratio": st.floats(0.05, 0.9),  # U_off / U_on
+    "m_ratio": st.floats(1.5, 20.0),  # K U_m / U_on
+})
+
+
+def design_values(d):
+    u_off = d["off_ratio"] * d["u_on"]
+    u_m = d["m_ratio"] * d["u_on"] / d["k"]
+    return d["k"], d["tau"], d["u_on"], u_off, u_m
+
+
+def input_at(k, u_on, u_off, u_m, frac):
+    """Input ``frac`` of the way from the dead-zone edge (0) to saturation (1)."""
+    lo, hi = u_on / k, u_m + u_off / k
+    return lo + frac * (hi - lo)
+
+
+def duty_of(t_on, t_off):
+    if t_on == 0.0:
+        return 0.0  # dead zone
+    if math.isinf(t_on):
+        return 1.0  # saturation
+    return t_on / (t_on + t_off)
+
+
+def test_dead_zone_edge_itself_does_not_fire():
+    # At K e = U_on exactly the filter only approaches U_on: T_off is infinite.
+    # (Before the fix this divided by zero.)
+    assert static_on_off_times_s(K, TAU, U_ON, U_OFF, U_M, U_ON / K) == (0.0, math.inf)
+
+
+@settings(max_examples=150, deadline=None)
+@given(d=designs, a=st.floats(-0.2, 1.2), b=st.floats(-0.2, 1.2))
+def test_duty_cycle_monotone_in_input_for_any_thresholds(d, a, b):
+    k, tau, u_on, u_off, u_m = design_values(d)
+    lo, hi = sorted((input_at(k, u_on, u_off, u_m, a), input_at(k, u_on, u_off, u_m, b)))
+    duty = [duty_of(*static_on_off_times_s(k, tau, u_on, u_off, u_m, e)) for e in (lo, hi)]
+    assert 0.0 <= duty[0] <= duty[1] + 1e-12 <= 1.0 + 1e-12
+
+
+def run_from_switch_off(p, e, dt, t_end):
+    """Valve trace for input ``e``, the filter starting at U_off just after a switch-off."""
+    f = np.array([p.off_threshold_v, 0.0, 0.0])
+    out = np.zeros(3, dtype=np.int64)
+    on = np.zeros(3, dtype=np.int64)
+    n = int(t_end / dt)
+    y = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        y[i] = pwpf_step(p, 0, e, f, out, on)
+    return y
+
+
+@settings(max_examples=12, deadline=None)
+@given(d=designs, frac=st.floats(0.15, 0.85))
+def test_simulated_pulses_match_the_formulas_for_any_thresholds(d, frac):
+    k, tau, u_on, u_off, u_m = design_values(d)
+    e = input_at(k, u_on, u_off, u_m, frac)
+    t_on, t_off = static_on_off_times_s(k, tau, u_on, u_off, u_m, e)
+    dt = (t_on + t_off) / 1000.0
+    p = make_params(k, tau, u_on, u_off, u_m, dt, dt)
+    y = run_from_switch_off(p, e, dt, 6.0 * (t_on + t_off))
+    on, off = pulses(y, dt)
+    assert on.size >= 3 and off.size >= 3
+    # The discrete modulator (filter exact for a held input) switches at frame
+    # boundaries, so the filter overshoots a threshold by up to one frame of its
+    # slope, which the next phase spends at its own slope. Slopes tau f' at
+    # f = U_on: K e - U_on before, K(e - U_m) - U_on after; at f = U_off:
+    # K(e - U_m) - U_off before, K e - U_off after.
+    r_on = (k * e - u_on) / (u_on - k * (e - u_m))
+    r_off = (u_off - k * (e - u_m)) / (k * e - u_off)
+    assert np.allclose(on, t_on, rtol=0, atol=(2.0 + r_on) * dt)
+    assert np.allclose(off, t_off, rtol=0, atol=(2.0 + r_off) * dt)

@@ -40,8 +40,13 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
     """
     t = rec[:, 0]
     # n + 1 samples span the record: n sample intervals of whole dither periods.
-    keep = (t >= lead_in_s - 0.5 * sample_s) & (t <= lead_in_s + record_s + 0.5 * sample_s)
-    r = rec[keep]
+    # Selected by count, not by comparing float times.
+    n = int(round(record_s / sample_s))
+    first = int(np.argmax(t >= lead_in_s - 0.5 * sample_s))
+    r = rec[first:first + n + 1]
+    if r.shape[0] != n + 1:
+        raise ValueError(f"dither record has {r.shape[0]} samples after the lead-in, "
+                         f"{n + 1} needed")
     out = {}
     for a in range(3):
         amp = amplitude_arcsec[a]
@@ -75,9 +80,9 @@ def mode_dither(m):
     """Fly the dither record in the optical hold and store the results in register 23."""
     d = m.cfg.dither
     p = m.params
-    rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 2
+    rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 4
     record = m.leg("dither record complete", kernel.PROGRAM_DITHER, kernel.WATCH_ELAPSED,
-                   hold_s=d.lead_in_s + d.record_s, record_rows=rec_rows)
+                   hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s, record_rows=rec_rows)
     m.leg("optical errors settled after the dither", kernel.PROGRAM_NONE, kernel.WATCH_SETTLE,
           mask=kernel.SETTLE_OPTICAL)
     est = analyse(record, d.sample_s, d.lead_in_s, d.record_s, p.dither.amplitude_arcsec,

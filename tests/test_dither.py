@@ -100,3 +100,18 @@ def test_command_estimator_is_biased_by_tracking():
     assert e["roll"]["scale_factor_optical"] == pytest.approx(1.0, abs=1e-9)
     assert e["roll"]["scale_factor_command"] == pytest.approx(1 / 1.03, rel=1e-6)
     assert e["roll"]["tracking_ratio"] == pytest.approx(1.03, rel=1e-6)
+
+
+def test_optical_noise_adds_its_own_term():
+    """Gyro ARW and white optical noise: sigma^2 = (N sqrt(2/T)/(A w))^2 + (s sqrt(2/n)/A)^2."""
+    rng = np.random.default_rng(11)
+    n_arw, amp, omega, t_rec, s_opt = 0.06, 20.6, 2 * np.pi / PERIOD, 819.2, 2.0
+    est = []
+    for _ in range(400):
+        rec = synthetic_record(rng, 1.0, n_arw, amp, omega, t_rec, opt_noise=s_opt)
+        e = analyse(rec, DT, 0.0, t_rec, np.array([amp, 0, 0]), np.array([omega, 1, 1]))
+        est.append(e["roll"]["scale_factor_optical"])
+    gyro_term = dither.scale_factor_sigma(n_arw, t_rec, amp, omega)
+    opt_term = s_opt * np.sqrt(2.0 / (t_rec / DT)) / amp
+    assert np.std(est) == pytest.approx(np.hypot(gyro_term, opt_term), rel=0.15)
+    assert abs(np.mean(est) - 1.0) < 3 * np.hypot(gyro_term, opt_term) / np.sqrt(len(est))

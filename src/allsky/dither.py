@@ -64,22 +64,29 @@ def feedforward_torque_n_m(inertia_kg_m2, amplitude_rad, omega_rad_s, t_s):
 # Detector
 # ---------------------------------------------------------------------------
 
-def fft_amplitude(x, sample_s, freq_hz, window="rect"):
+def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
     """Complex amplitude ``c`` (``|c| sin(w t + arg c)``, t from the first sample) of ``x`` at ``freq_hz``.
 
-    Works on the sample-to-sample differences, as the counter's pulses per
-    sample: a counter's drift ramp becomes a constant (no content at the
-    dither frequency) and its random walk becomes white noise (nothing to
-    leak), then the single DFT bin at ``freq_hz`` is divided by the
-    differencing response ``1 - exp(-i w dt)``. With ``window="rect"`` the
-    ``len(x) - 1`` differences must span whole dither periods (the dither on
-    an FFT bin); ``"hann"`` tolerates an off-bin frequency at the cost of a
-    wider main lobe (corrected for the window's gain).
+    ``x`` holds ``n + 1`` samples spanning the record. For an *integrating*
+    channel (a counter) the estimate works on the ``n`` sample-to-sample
+    differences, the pulses per sample: the drift ramp becomes a constant
+    and the random walk white noise, so neither leaks; the DFT bin is then
+    divided by the differencing response ``1 - exp(-i w dt)``. For a
+    *sampling* channel with white noise (the optics) differencing would
+    amplify the end samples' noise by ``1/(w dt)``, so the first ``n``
+    samples are used directly, less their mean. With ``window="rect"`` the
+    ``n`` samples must span whole dither periods (the dither on an FFT bin);
+    ``"hann"`` tolerates an off-bin frequency (corrected for the window's gain).
     """
     x = np.asarray(x, dtype=float)
-    dx = np.diff(x)
-    n = dx.size
-    t = np.arange(1, n + 1) * sample_s
+    omega = 2.0 * np.pi * freq_hz
+    if integrating:
+        y = np.diff(x)
+        t = np.arange(1, y.size + 1) * sample_s
+    else:
+        y = x[:-1]
+        t = np.arange(y.size) * sample_s
+    n = y.size
     k = freq_hz * n * sample_s
     if window == "rect":
         if abs(k - round(k)) > 1e-6:
@@ -88,12 +95,10 @@ def fft_amplitude(x, sample_s, freq_hz, window="rect"):
         w = np.ones(n)
     else:
         w = np.hanning(n)
-    dx = dx - np.sum(w * dx) / np.sum(w)
-    omega = 2.0 * np.pi * freq_hz
-    # For c e^{i w t} (Im part = the sinusoid) the DFT coefficient is c / (2i) ... so
-    # c = 2i * sum(w dx e^{-i w t}) / sum(w) / (1 - e^{-i w dt}).
-    c_diff = 2j * np.sum(w * dx * np.exp(-1j * omega * t)) / np.sum(w)
-    return c_diff / (1.0 - np.exp(-1j * omega * sample_s))
+    y = y - np.sum(w * y) / np.sum(w)
+    # For |c| sin(w t + arg c) = Im(c e^{i w t}) the single-bin DFT gives c / (2i).
+    c = 2j * np.sum(w * y * np.exp(-1j * omega * t)) / np.sum(w)
+    return c / (1.0 - np.exp(-1j * omega * sample_s)) if integrating else c
 
 
 def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):

@@ -54,16 +54,16 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
             continue
         f = omega_rad_s[a] / (2 * np.pi)
 
-        def amp_of(x, f=f):
+        def amp_of(x, integrating, f=f):
             if detector == "lsq":
                 return dither.lsq_amplitude(x, sample_s, f)
             return dither.fft_amplitude(x, sample_s, f, window="hann" if detector == "hann"
-                                        else "rect")
+                                        else "rect", integrating=integrating)
 
         # The dither phase at the record start: sin(w (t0 + k dt)).
         phase = np.exp(1j * omega_rad_s[a] * r[0, 0])
-        g = [amp_of(r[:, 1 + b]) / phase for b in range(3)]
-        o = [amp_of(r[:, 4 + b]) / phase for b in range(3)]
+        g = [amp_of(r[:, 1 + b], True) / phase for b in range(3)]
+        o = [amp_of(r[:, 4 + b], False) / phase for b in range(3)]
         cross = {AXES[b]: dither.projected(g[b] - o[b], o[a]) / abs(o[a])
                  for b in range(3) if b != a}
         out[AXES[a]] = {

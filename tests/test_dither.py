@@ -115,3 +115,21 @@ def test_optical_noise_adds_its_own_term():
     opt_term = s_opt * np.sqrt(2.0 / (t_rec / DT)) / amp
     assert np.std(est) == pytest.approx(np.hypot(gyro_term, opt_term), rel=0.15)
     assert abs(np.mean(est) - 1.0) < 3 * np.hypot(gyro_term, opt_term) / np.sqrt(len(est))
+
+
+def test_on_the_target_only_the_biased_command_estimate_exists():
+    """Holding on gyro-derived errors there is no optical reference: only estimate 1,
+    which carries the loop's tracking error (several per cent, against ppm-level truth)."""
+    from allsky.config import load_scenario
+    from allsky.dither_mode import target_hold_dither
+    from allsky.mission import Mission
+
+    for sf in ("[3000,0,3000]", "[-3000,0,-3000]"):
+        m = Mission(load_scenario(overrides=[f"gyro.scale_factor_error_ppm={sf}",
+                                             "dither.record_s=409.6"]), telemetry=False)
+        s = m.run()
+        assert s["status"] == "complete"
+        est = target_hold_dither(m)
+        assert np.isnan(est["roll"]["scale_factor_optical"])
+        err = est["roll"]["scale_factor_command"] - s["truth"]["scale_factor"]["roll"]
+        assert 0.01 < abs(err) < 0.05

@@ -6,6 +6,9 @@ each dithered axis's control amplifier and the feed-forward ``J_est a(t)``
 to its modulator input; the record (counters 14/16/18 and the optical
 attitude, every ``sample_s``) is analysed at each dither frequency.
 
+:func:`target_hold_dither` flies the same dither while holding on the
+target after Mode 6-2, to show what the method can see there.
+
 Results go to register 23 exactly as Modes 4 and 5 would put them, so Mode 6
 flies unchanged with the dither's calibration:
 
@@ -64,11 +67,13 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
         phase = np.exp(1j * omega_rad_s[a] * r[0, 0])
         g = [amp_of(r[:, 1 + b], True) / phase for b in range(3)]
         o = [amp_of(r[:, 4 + b], False) / phase for b in range(3)]
-        cross = {AXES[b]: dither.projected(g[b] - o[b], o[a]) / abs(o[a])
+        seen = abs(o[a]) > 0.0  # no optical reference (e.g. on the target): nan
+        cross = {AXES[b]: dither.projected(g[b] - o[b], o[a]) / abs(o[a]) if seen else np.nan
                  for b in range(3) if b != a}
         out[AXES[a]] = {
             "gyro": g[a], "optical": o[a], "commanded_arcsec": amp,
-            "scale_factor_optical": dither.projected(o[a], g[a]) / abs(g[a]),
+            "scale_factor_optical": (dither.projected(o[a], g[a]) / abs(g[a]) if seen
+                                     else np.nan),
             "scale_factor_command": amp / abs(g[a]),
             "tracking_ratio": abs(o[a]) / amp,
             "cross": cross,
@@ -104,3 +109,24 @@ def mode_dither(m):
             w[wr.YAW_INTO_ROLL] = est["yaw"]["cross"]["roll"]
     return (f"dither record of {d.record_s:g} s analysed ({d.estimator} estimator,"
             f" {d.detector} detector); results in register 23")
+
+
+def target_hold_dither(m):
+    """Dither while holding on the target after Mode 6-2 (the computer's errors hold the vehicle).
+
+    There is no optical reference on the target (the Sun sensor is off the
+    Sun, S14/S15 open), so only estimate 1 (gyro against command) exists, and
+    it carries the loop's tracking error: with the default loop the gyro
+    follows the command 2-3 % over amplitude, so the estimate is off by
+    that much whatever the truth. Returns the estimates; register 23 is
+    left unchanged.
+    """
+    d = m.cfg.dither
+    rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 4
+    m._mode = "6-2"
+    m._mode_deadline = m.state.time_s[0] + d.lead_in_s + d.record_s + 10.0
+    record = m.leg("dither record on target", kernel.PROGRAM_TARGET_DITHER,
+                   kernel.WATCH_ELAPSED, hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s,
+                   record_rows=rec_rows)
+    return analyse(record, d.sample_s, d.lead_in_s, d.record_s, m.params.dither.amplitude_arcsec,
+                   m.params.dither.omega_rad_s, d.detector)

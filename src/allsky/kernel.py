@@ -50,6 +50,7 @@ PROGRAM_MODE1 = 1  #: the Mode 1 sun-acquisition controller drives the loops
 PROGRAM_TARGET_ROLL = 2  #: Mode 6-1: CPU services the roll axis
 PROGRAM_TARGET = 3  #: Mode 6-2: CPU services all three axes
 PROGRAM_DITHER = 4  #: comparison mode: dither added to the attitude command of the hold
+PROGRAM_TARGET_DITHER = 5  #: dither added while the computer holds the target (Mode 6-2 program)
 
 # What ends a leg.
 WATCH_SETTLE = 0  #: all signals of ``settle_mask`` below the threshold for ``hold_s``
@@ -277,9 +278,11 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
                 count(s.drift_counters, a, n, el.drift_counter_bits, el.overflow_mode,
                       s.overflow, 3 + a)
         # --- computer 111 ---------------------------------------------------
-        if leg.program == PROGRAM_TARGET_ROLL or leg.program == PROGRAM_TARGET:
+        all_axes = leg.program == PROGRAM_TARGET or leg.program == PROGRAM_TARGET_DITHER
+        dithering = leg.program == PROGRAM_DITHER or leg.program == PROGRAM_TARGET_DITHER
+        if leg.program == PROGRAM_TARGET_ROLL or all_axes:
             a = sequencer_step(sw, s.frame[0], el.computer_step_frames)
-            if a == 0 or (a > 0 and leg.program == PROGRAM_TARGET):
+            if a == 0 or (a > 0 and all_axes):
                 err = target_step(a, s.counters[a] * pw, s.word23, s.word24, s.cpu)
                 store(s.registers, a, err, el.register_bits, el.register_lsb_arcsec)
         # --- DACs 28-30 and optical errors -> control amplifiers 31-33 -------
@@ -295,7 +298,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
                 + sw[11] * dac(s.registers[2], el.register_bits, el.register_lsb_arcsec)
             for a in range(3):
                 rate[a] = line[a]
-        if leg.program == PROGRAM_DITHER:
+        if dithering:
             dither_command(p.dither, t_leg, dith, ff)
             for a in range(3):
                 pos[a] += dith[a]
@@ -304,7 +307,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
                 and not (a == 2 and sw[19])
             volts[a] = control_amp(p.control, a, pos[a], rate[a], s.amp_integral_arcsec,
                                    integrate, dt)
-            if leg.program == PROGRAM_DITHER:  # feed-forward through the actuator path
+            if dithering:  # feed-forward through the actuator path
                 volts[a] += ff[a]
         # --- PWPF modulators 34-36 -> jets 39-41 ------------------------------
         for a in range(3):
@@ -325,7 +328,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
                 and tlm_rows[0] < tlm.shape[0]:
             _record(tlm[tlm_rows[0]], s, leg, fine, trk, volts)
             tlm_rows[0] += 1
-        if leg.program == PROGRAM_DITHER and s.frame[0] % p.dither_sample_frames == 0 \
+        if dithering and s.frame[0] % p.dither_sample_frames == 0 \
                 and rec_rows[0] < rec.shape[0]:
             r = rec[rec_rows[0]]
             r[0] = t_leg

@@ -59,7 +59,7 @@ def test_feedforward_torque_is_inertia_times_dither_acceleration():
 
 def synthetic_record(rng, sf_true, n_arw, amp, omega, t_rec, cross=0.0, opt_noise=0.0):
     """A dither record as the hardware sees it: counters integrate the gyro rate."""
-    n = int(round(t_rec / DT)) + 1
+    n = round(t_rec / DT) + 1
     t = np.arange(n) * DT
     true_roll = amp * np.sin(omega * t)
     rate_noise = rng.normal(0.0, n_arw / np.sqrt(DT), n)

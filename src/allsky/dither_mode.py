@@ -44,7 +44,7 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
     t = rec[:, 0]
     # n + 1 samples span the record: n sample intervals of whole dither periods.
     # Selected by count, not by comparing float times.
-    n = int(round(record_s / sample_s))
+    n = round(record_s / sample_s)
     first = int(np.argmax(t >= lead_in_s - 0.5 * sample_s))
     r = rec[first:first + n + 1]
     if r.shape[0] != n + 1:

@@ -321,8 +321,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
         if s.excursion_ref_q[0] != 0.0 or s.excursion_ref_q[1] != 0.0 \
                 or s.excursion_ref_q[2] != 0.0 or s.excursion_ref_q[3] != 0.0:
             e = _rotation_angle(s.excursion_ref_q, s.x)
-            if e > s.max_excursion_rad[0]:
-                s.max_excursion_rad[0] = e
+            s.max_excursion_rad[0] = max(s.max_excursion_rad[0], e)
         # --- telemetry -------------------------------------------------------
         if p.telemetry_every > 0 and s.frame[0] % p.telemetry_every == 0 \
                 and tlm_rows[0] < tlm.shape[0]:

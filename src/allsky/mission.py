@@ -34,9 +34,9 @@ from allsky import (
     updown_counter,
     vfc,
 )
-from allsky.dither_mode import mode_dither
 from allsky import master_sequencer as ms
 from allsky import word_registers as wr
+from allsky.dither_mode import mode_dither
 from allsky.telemetry import COLUMNS
 
 EXIT_TEXT = {
@@ -124,7 +124,7 @@ def build_params(cfg) -> kernel.Params:
             float(cfg.sequencer.settle_threshold_arcsec), float(cfg.sequencer.handover_arcsec),
             float(cfg.sequencer.sensor_loss_s)),
         dither=dither_params(cfg),
-        dither_sample_frames=max(1, int(round(cfg.dither.sample_s / dt))),
+        dither_sample_frames=max(1, round(cfg.dither.sample_s / dt)),
     )
 
 

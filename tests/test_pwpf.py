@@ -19,9 +19,10 @@ from allsky.pwpf import make_params, pwpf_step, static_on_off_times_s
 K, TAU, U_ON, U_OFF, U_M = 1.0, 0.1, 0.001, 0.0003, 0.008
 
 
-def run(e, dt=1e-4, t_end=3.0, min_on_time=None, p=None):
+def run(e, dt=1e-4, t_end=3.0, min_on_time=None, p=None, f0=0.0):
+    """Valve trace of modulator 0 for a constant input ``e``, filter starting at ``f0``."""
     p = p or make_params(K, TAU, U_ON, U_OFF, U_M, min_on_time or dt, dt)
-    f = np.zeros(3)
+    f = np.array([f0, 0.0, 0.0])
     out = np.zeros(3, dtype=np.int64)
     on = np.zeros(3, dtype=np.int64)
     n = int(t_end / dt)
@@ -149,14 +150,7 @@ def test_duty_cycle_monotone_in_input_for_any_thresholds(d, a, b):
 
 def run_from_switch_off(p, e, dt, t_end):
     """Valve trace for input ``e``, the filter starting at U_off just after a switch-off."""
-    f = np.array([p.off_threshold_v, 0.0, 0.0])
-    out = np.zeros(3, dtype=np.int64)
-    on = np.zeros(3, dtype=np.int64)
-    n = int(t_end / dt)
-    y = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        y[i] = pwpf_step(p, 0, e, f, out, on)
-    return y
+    return run(e, dt=dt, t_end=t_end, p=p, f0=p.off_threshold_v)
 
 
 @settings(max_examples=12, deadline=None)

@@ -33,10 +33,12 @@ PREFIX_PERIODS = (2, 4, 8, 16)
 
 
 def _fly(cfg, plan):
-    """Fly one mission; returns (mission, calibration time, excursion, propellant)."""
+    """Fly one mission; returns (mission, calibration time [s], excursion [arcsec],
+    calibration propellant [kg], duration of each calibration mode [s])."""
     m = Mission(cfg, telemetry=False, plan=plan)
     cal_modes = ("4", "5") if plan is LEGACY_PLAN else ("dither",)
     t_cal, prop = 0.0, 0.0
+    durations = {}
     while not m.finished:
         name = m.plan[m.next_mode]
         if name == cal_modes[0]:
@@ -45,15 +47,17 @@ def _fly(cfg, plan):
         rec = m.run_mode()
         if name in cal_modes:
             t_cal += rec.end_s - rec.start_s
+            durations[name] = rec.end_s - rec.start_s
             prop += p0 - m.state.propellant_kg[0]
         if name == cal_modes[-1]:
             m.state.excursion_ref_q[:] = 0.0
-    return m, t_cal, float(m.state.max_excursion_rad[0] * units.RAD2ARCSEC), prop
+    return m, t_cal, float(m.state.max_excursion_rad[0] * units.RAD2ARCSEC), prop, durations
 
 
-def _metrics(m, t_cal, excursion, prop):
+def _metrics(m, t_cal, excursion, prop, durations):
     s = m.summary()
     out = {"status": s["status"], "abort_reason": s["abort_reason"], "time_s": t_cal,
+           "mode_time_s": durations,
            "max_excursion_arcsec": excursion, "propellant_kg": prop,
            "mission_propellant_kg": s["propellant_kg"],
            "pointing_error_arcsec": s["target"]["pointing_error_arcsec"]}
@@ -170,7 +174,8 @@ def predicted(cfg, legacy_time_s=None) -> dict:
     j, t_d = HOLD_JITTER_ARCSEC, cfg.sequencer.drift_count_s
     sigma_d = math.sqrt(n_arw ** 2 / t_d + 2 * j ** 2 / t_d ** 2)
     for a in AXES:
-        t_c = (legacy_time_s or {}).get(a, 240.0 / cfg.electronics.rate_command_deg_s * 1.5)
+        # Default: a 360 deg turn at the rate command plus ~20 % for spin-up and settling.
+        t_c = (legacy_time_s or {}).get(a, 1.2 * 360.0 / cfg.electronics.rate_command_deg_s)
         out["legacy"][a] = 1e6 * math.sqrt((sigma_d * t_c) ** 2 + n_arw ** 2 * t_c
                                            + 2 * j ** 2) / 1296000.0
     return out
@@ -208,12 +213,12 @@ def compare(cfg, runs=1, workers=2, progress=False) -> dict:
 
 
 def _legacy_times(rows):
-    """Mean counting time of Modes 4 and 5 split per axis (roll ~ 40 %, yaw ~ 60 %)."""
-    ok = [r["legacy"]["time_s"] for r in rows if r["legacy"]["status"] == "complete"]
+    """Mean durations of Mode 4 (roll count) and Mode 5 (yaw count) [s]."""
+    ok = [r["legacy"]["mode_time_s"] for r in rows if r["legacy"]["status"] == "complete"]
     if not ok:
         return None
-    t = float(np.mean(ok))
-    return {"roll": 0.40 * t, "yaw": 0.60 * t}
+    return {"roll": float(np.mean([t["4"] for t in ok])),
+            "yaw": float(np.mean([t["5"] for t in ok]))}
 
 
 def _fmt(v, spec=".1f"):

@@ -277,8 +277,10 @@ def stars_in_magnitude_window(mag_min: float, mag_max: float,
     list of Star
         Brightest first; equal magnitudes in name order.
     """
-    in_window = [s for s in (star(n, date_utc) for n in star_names())
-                 if mag_min <= s.magnitude <= mag_max]
+    # Magnitudes do not depend on the date: filter on the cached J2000 entries,
+    # then compute positions for the date only for the stars kept.
+    kept = [n for n in star_names() if mag_min <= star(n).magnitude <= mag_max]
+    in_window = [star(n, date_utc) for n in kept]
     return sorted(in_window, key=lambda s: s.magnitude)
 
 

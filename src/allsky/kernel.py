@@ -42,7 +42,7 @@ from allsky.sun_acquisition import SunAcquisitionParams, sun_acquisition
 from allsky.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
 from allsky.updown_counter import count
 from allsky.vfc import VfcParams, vfc
-from allsky.word_registers import N_COMPUTED, N_PROGRAMMED
+from allsky.word_registers import N_PROGRAMMED
 
 # Computer programs a leg can run.
 PROGRAM_NONE = 0
@@ -179,8 +179,6 @@ def copy_state(s: State) -> State:
     """A deep copy (for saving a mission at a mode boundary)."""
     return State(*(a.copy() for a in s))
 
-
-assert N_COMPUTED == 6
 
 
 class Leg(NamedTuple):

@@ -50,6 +50,7 @@ LEGACY_PLAN = ms.MODES
 DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
 RULES = {**ms.RULES, "dither": mode_dither}
 MODE_CODE = {**ms.MODE_CODE, "dither": 7.0}
+MODE_TITLE = {**ms.MODE_TITLE, "dither": "dither calibration (comparison method)"}
 DITHER_SETTLE_ALLOWANCE_S = 300.0
 # [s] expected time from the end of the 6-1 roll to its settling (for the Sun prediction)
 SETTLE_ALLOWANCE_S = 30.0

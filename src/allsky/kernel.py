@@ -75,6 +75,15 @@ EXIT_TIMEOUT = -1
 EXIT_PROPELLANT = -2
 EXIT_SUN_LOST = -3
 EXIT_STAR_LOST = -4
+EXIT_PAUSE = 2  #: the leg reached its ``pause_at_s``; run it again with ``resume=1``
+
+# Leg progress kept in State.leg_clock, so that a paused leg resumes exactly.
+CLOCK_T_LEG = 0  #: [s] time in the leg
+CLOCK_SETTLE = 1  #: [s] time the settle condition has held
+CLOCK_SUN_GONE = 2  #: [s] time the Sun has been absent while in use
+CLOCK_STAR_GONE = 3  #: [s] time the star has been absent while in use
+CLOCK_FRAMES = 4  #: [frames] frames run in the leg
+N_CLOCK = 5
 
 # Telemetry columns (see allsky.telemetry for names and units).
 N_TLM = 40
@@ -151,6 +160,7 @@ class State(NamedTuple):
     word24: np.ndarray  #: (2,) programmed word register 24 [arcsec]
     excursion_ref_q: np.ndarray  #: (4,) attitude the mission wants; [0,0,0,0] = not tracked
     max_excursion_rad: np.ndarray  #: (1,) largest rotation away from it so far
+    leg_clock: np.ndarray  #: (N_CLOCK,) progress of the current leg (see CLOCK_*)
 
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
@@ -171,7 +181,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         pwpf_on_frames=np.zeros(3, dtype=np.int64),
         propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
-        excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1),
+        excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
     )
 
 
@@ -193,6 +203,8 @@ class Leg(NamedTuple):
     blank_s: float  #: [s] the watched signal is ignored this long after the leg starts
     hold_s: float  #: [s] settle time (WATCH_SETTLE) or duration (WATCH_ELAPSED)
     timeout_s: float  #: [s] the leg gives up after this long
+    pause_at_s: float = np.inf  #: [s] mission time at which to pause (EXIT_PAUSE)
+    resume: int = 0  #: 1 = continue a paused leg (clock and noise stream carry on)
 
 
 @njit
@@ -216,9 +228,14 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     frames, time, counters 14/16/18 [arcsec] and the attitude the optics
     see [arcsec] per axis (roll from the tracker, pitch and yaw from the Sun),
     as rotations made.
-    Returns ``(exit_code, leg_time_s)``.
+    A leg may pause at mission time ``leg.pause_at_s``: the loop returns
+    EXIT_PAUSE with its progress in ``s.leg_clock``, and the same leg run
+    again with ``resume=1`` carries on as if it had never stopped (the noise
+    generator is not reseeded). Returns ``(exit_code, leg_time_s)``.
     """
-    np.random.seed(leg.seed)
+    if not leg.resume:
+        np.random.seed(leg.seed)
+        s.leg_clock[:] = 0.0
     dt = p.frame_s
     el = p.electronics
     sq = p.sequencer
@@ -242,12 +259,13 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     ff = np.zeros(3)
     pw = p.vfc.pulse_weight_arcsec
     rrw_every = max(1, round(RRW_STEP_S / dt))
-    timer = 0.0
-    sun_gone = 0.0
-    star_gone = 0.0
-    t_leg = 0.0
+    timer = s.leg_clock[CLOCK_SETTLE]
+    sun_gone = s.leg_clock[CLOCK_SUN_GONE]
+    star_gone = s.leg_clock[CLOCK_STAR_GONE]
+    t_leg = s.leg_clock[CLOCK_T_LEG]
+    done = int(s.leg_clock[CLOCK_FRAMES])
     n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
-    for _ in range(n_max):
+    for frame_in_leg in range(done, n_max):
         # --- sensors -------------------------------------------------------
         _sun_inertial(p, s.time_s[0], sun_i)
         rotate_to_body(s.x, sun_i, sun_b)
@@ -371,6 +389,13 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
             timer = timer + dt if ok else 0.0
             if timer >= leg.hold_s - 0.5 * dt:
                 return EXIT_DONE, t_leg
+        if s.time_s[0] >= leg.pause_at_s - 0.5 * dt and frame_in_leg + 1 < n_max:
+            s.leg_clock[CLOCK_T_LEG] = t_leg
+            s.leg_clock[CLOCK_SETTLE] = timer
+            s.leg_clock[CLOCK_SUN_GONE] = sun_gone
+            s.leg_clock[CLOCK_STAR_GONE] = star_gone
+            s.leg_clock[CLOCK_FRAMES] = frame_in_leg + 1
+            return EXIT_PAUSE, t_leg
     return EXIT_TIMEOUT, t_leg
 
 

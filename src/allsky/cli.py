@@ -43,6 +43,40 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--json", metavar="PATH", help="write the mission summary as JSON")
     run.add_argument("--telemetry", metavar="PATH", help="write the telemetry as CSV")
 
+    step = sub.add_parser(
+        "step", help="fly the mission stop by stop, showing the hardware at each stop",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Fly the mission and stop at each mode boundary (and, with --every, "
+                    "inside modes). Each stop shows the switch bank, counters, drift "
+                    "counters and DACs, storage registers, sensor outputs, body rates, "
+                    "word registers 23/24 and propellant. Enter goes on; q stops (the "
+                    "report and telemetry so far are still written).",
+        epilog="examples:\n"
+               "  allsky step                          # the default mission, Enter at each stop\n"
+               "  allsky step --every 60 --until 3     # stop every 60 s, end after Mode 3\n"
+               "  allsky step --no-pause --save-dir states/ > tour.txt\n"
+               "  allsky step --from states/after_mode_3.npz")
+    scenario_args(step)
+    step.add_argument("--from", dest="from_state", metavar="STATE",
+                      help="resume a mission saved at a mode boundary (.npz from --save-dir)")
+    step.add_argument("--every", type=_positive_float, metavar="SECONDS",
+                      help="also stop every SECONDS of mission time inside modes")
+    step.add_argument("--until", metavar="MODE",
+                      help="show no stop before MODE (1 2 3 4 5 6-1 6-2, or dither; inside it "
+                           "only the --every stops) and end the session at its end")
+    step.add_argument("--plan", choices=("legacy", "dither"), default="legacy",
+                      help="legacy: the patent's Modes 1-6; dither: the comparison "
+                           "method in place of Modes 4 and 5")
+    step.add_argument("--no-pause", action="store_true",
+                      help="print the stops without waiting (implied when stdin is not "
+                           "a terminal)")
+    step.add_argument("--save-dir", metavar="DIR",
+                      help="save the mission state at every mode boundary "
+                           "(after_mode_<MODE>.npz)")
+    step.add_argument("--json", metavar="PATH",
+                      help="write the stops and the mission summary as JSON")
+    step.add_argument("--telemetry", metavar="PATH", help="write the telemetry so far")
+
     cmp_ = sub.add_parser("compare", help="fly the legacy calibration (Modes 4-5) and the "
                                           "dither method on identical vehicles; compare")
     scenario_args(cmp_)
@@ -63,6 +97,16 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _positive_float(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not v > 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"{v} must be a positive, finite number")
+    return v
+
+
 def _positive_int(text):
     try:
         v = int(text)
@@ -77,6 +121,8 @@ def _run(cfg, args) -> int:
     # Imported here so that `allsky config` never pays for compiling the simulator.
     if args.command == "compare":
         from allsky.compare import run_from_cli
+    elif args.command == "step":
+        from allsky.step import run_from_cli
     else:
         from allsky.report import run_from_cli
 

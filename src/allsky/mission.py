@@ -44,7 +44,7 @@ EXIT_TEXT = {
     kernel.EXIT_SUN_LOST: "Sun lost",
     kernel.EXIT_STAR_LOST: "star lost",
 }
-STATE_FORMAT = 1
+STATE_FORMAT = 2
 #: The patent's mission, and the comparison mission (dither in place of Modes 4 and 5).
 LEGACY_PLAN = ms.MODES
 DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
@@ -200,6 +200,10 @@ class Mission:
         self._tlm = []
         self._mode_deadline = None
         self._mode = None
+        #: Stepping hooks (:mod:`allsky.step`): call ``on_pause(self, leg_text)`` every
+        #: ``pause_every_s`` of mission time inside legs [s]; None = fly straight through.
+        self.pause_every_s = None
+        self.on_pause = None
 
     # -- used by the mode rules ------------------------------------------------
     def switch(self, close=(), open_=()):
@@ -226,7 +230,7 @@ class Mission:
         filled = np.zeros(1, dtype=np.int64)
         rec = np.empty((record_rows, kernel.N_REC))
         rec_filled = np.zeros(1, dtype=np.int64)
-        code, _ = kernel.run_leg(self.params, self.state, leg, buf, filled, rec, rec_filled)
+        code = self._run_leg(leg, what, buf, filled, rec, rec_filled)
         if every:
             self._tlm.append(buf[: filled[0]])
         if code == kernel.EXIT_DONE:
@@ -237,10 +241,30 @@ class Mission:
                                f" within the mode timeout of {limit:g} s")
         raise ms.ModeAbort(f"Mode {self._mode}: {EXIT_TEXT[code]} while waiting for: {what}")
 
+    def _run_leg(self, leg, what, buf, filled, rec, rec_filled):
+        """The frame loop over one leg, pausing for ``on_pause`` if stepping asks for it."""
+        every = self.pause_every_s
+        while True:
+            if every:
+                t = float(self.state.time_s[0])
+                # Next multiple of `every` in mission time, rounded to whole frames.
+                pause_at = (math.floor(t / every + 1e-9) + 1) * every
+                leg = leg._replace(pause_at_s=pause_at)
+            code, _ = kernel.run_leg(self.params, self.state, leg, buf, filled, rec, rec_filled)
+            if code != kernel.EXIT_PAUSE:
+                return code
+            self.on_pause(self, what)
+            leg = leg._replace(resume=1)
+
     # -- running ---------------------------------------------------------------
     @property
     def finished(self) -> bool:
         return self.status != "running"
+
+    @property
+    def current_mode(self):
+        """The mode being flown (or last flown), by name; None before the first."""
+        return self._mode
 
     def run_mode(self) -> ModeRecord:
         """Run the next mode; returns its timeline record."""

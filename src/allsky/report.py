@@ -11,7 +11,10 @@ RAD2ARCSEC = 206264.80624709636
 
 def format_report(summary: dict) -> str:
     """A plain-text report of a mission summary (:meth:`allsky.mission.Mission.summary`)."""
-    lines = [f"allsky mission: {summary['status']}"]
+    status = summary["status"]
+    if status == "running":
+        status = "not finished (stopped before the end)"
+    lines = [f"allsky mission: {status}"]
     if summary["abort_reason"]:
         lines.append(f"  abort reason: {summary['abort_reason']}")
     lines += ["", "Mode timeline", f"  {'mode':<5}{'start s':>9}{'end s':>9}{'dur s':>8}  exit"]

@@ -189,6 +189,19 @@ def _apply(conds, key, x, shown, where=""):
             raise ConfigError(key, shown, f"{where}{c.text}")
 
 
+def _allowed(what, conds, each=False):
+    """Words for the configuration reference: ``a number; must be > 0``."""
+    rules = "; ".join(("each " if each else "") + c.text.removeprefix("must be ")
+                      for c in conds)
+    return f"{what}, {rules}" if rules else what
+
+
+def allowed(key: str) -> str:
+    """What :data:`RULES` accepts for ``key``, in words (for the configuration reference)."""
+    rule = RULES[key]
+    return rule.allowed
+
+
 def number(*conds: Cond):
     """A finite float (an integer is accepted) obeying every ``Cond``."""
     def check(key, v):
@@ -197,6 +210,7 @@ def number(*conds: Cond):
             raise ConfigError(key, v, why)
         _apply(conds, key, x, x)  # shown as the float it became: -1 -> -1.0
         return x
+    check.allowed = _allowed("a number", conds)
     return check
 
 
@@ -207,6 +221,7 @@ def integer(*conds: Cond):
             raise ConfigError(key, v, f"must be an integer, not {_type_name(v)}")
         _apply(conds, key, v, v)
         return v
+    check.allowed = _allowed("an integer", conds)
     return check
 
 
@@ -239,6 +254,7 @@ def vector(n: int, *conds: Cond):
         for i, x in enumerate(xs):
             _apply(conds, key, x, v, where=f"element {i} ")
         return xs
+    check.allowed = _allowed(f"{n} numbers", conds, each=True)
     return check
 
 
@@ -249,6 +265,7 @@ def one_of(*choices: str):
             quoted = [f'"{c}"' for c in choices]
             raise ConfigError(key, v, f"must be {', '.join(quoted[:-1])} or {quoted[-1]}")
         return v
+    check.allowed = "one of " + ", ".join(f'"{c}"' for c in choices)
     return check
 
 
@@ -370,6 +387,18 @@ def star_name(key, v):
         raise ConfigError(key, v, f"not in the PyEphem star catalog{hint}")
     return found
 
+
+# Words for the configuration reference (see :func:`allowed`).
+utc_datetime.allowed = (f"a date-time (TOML or ISO-8601 string), UTC, within "
+                        f"{EPHEMERIS_START_UTC.date()}..{EPHEMERIS_END_UTC.date()}")
+inertia_tensor.allowed = ("a 3x3 array: symmetric, positive definite, principal moments "
+                          "obeying the triangle inequality")
+misalignment_matrix.allowed = "a 3x3 array, diagonal 0, each element within +-3600"
+attitude.allowed = '"random", or a quaternion [w, x, y, z] (inertial to body; normalised)'
+mode_timeouts.allowed = f"a table of the modes {', '.join(MODE_KEYS)}, each > 0"
+magnitude_window.allowed = "[brightest, faintest], brightest < faintest"
+star_name.allowed = "a star name of the PyEphem catalog (any case)"
+boolean.allowed = "true or false"
 
 #: One checker per key, in the order of the default file.
 RULES: dict[str, Callable] = {

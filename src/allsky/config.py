@@ -480,6 +480,7 @@ RULES: dict[str, Callable] = {
 # ---------------------------------------------------------------------------
 
 def _frame_fits_jet_minimum(v):
+    """`mission.frame_s` <= `jets.min_on_time_s` (a valve pulse lasts whole frames)."""
     frame, t_min = v["mission.frame_s"], v["jets.min_on_time_s"]
     if frame > t_min * (1 + 1e-12):
         raise ConfigError("mission.frame_s", frame,
@@ -488,6 +489,7 @@ def _frame_fits_jet_minimum(v):
 
 
 def _pwpf_hysteresis(v):
+    """`pwpf.off_threshold_v` < `pwpf.on_threshold_v` (the modulator's hysteresis)."""
     on, off = v["pwpf.on_threshold_v"], v["pwpf.off_threshold_v"]
     if not on > off:
         raise ConfigError("pwpf.off_threshold_v", off,
@@ -495,6 +497,7 @@ def _pwpf_hysteresis(v):
 
 
 def _sun_presence_covers_linear_range(v):
+    """`sun_sensor.presence_half_angle_deg` >= the fine linear range."""
     half, lin_deg = v["sun_sensor.presence_half_angle_deg"], v["sun_sensor.linear_range_arcsec"]
     lin_deg /= 3600.0
     if half < lin_deg:
@@ -503,6 +506,7 @@ def _sun_presence_covers_linear_range(v):
 
 
 def _dither_sampling(v):
+    """`dither.sample_s` >= `mission.frame_s`; a dithered axis's period > 2 samples."""
     sample, frame = v["dither.sample_s"], v["mission.frame_s"]
     if sample < frame * (1 - 1e-12):
         raise ConfigError("dither.sample_s", sample,
@@ -517,6 +521,7 @@ def _dither_sampling(v):
 
 
 def _one_target_form(v):
+    """`target.star`, or both `target.ra_deg` and `target.dec_deg`."""
     if v["target.star"] is not None:
         return
     for k in TARGET_RADEC_FORM:

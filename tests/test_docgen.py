@@ -1,0 +1,53 @@
+"""The generated reference pages match the code, and every key is documented."""
+
+from pathlib import Path
+
+import pytest
+
+from allsky import config, docgen
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+@pytest.mark.parametrize("name", sorted(docgen.PAGES))
+def test_committed_page_is_what_the_code_generates(name):
+    committed = (DOCS / name).read_text()
+    assert committed == docgen.PAGES[name](), (
+        f"docs/{name} is out of date: run `python -m allsky.docgen docs`")
+
+
+def test_every_key_has_a_meaning_a_rule_text_and_a_default_column():
+    meanings, _ = docgen.key_comments(docgen.default_toml_text())
+    meanings = {**docgen.UNSET_KEY_MEANINGS, **meanings}
+    page = docgen.config_reference()
+    for key in config.RULES:
+        assert meanings.get(key), f"{key}: no comment beside it in default.toml"
+        assert config.allowed(key)
+        assert f"| `{key.split('.', 1)[1]}` |" in page
+
+
+@pytest.mark.parametrize("key, unit", [
+    ("gyro.drift_deg_h", "deg/h"), ("gyro.arw_deg_rt_h", "deg/sqrt(h)"),
+    ("gyro.rrw_deg_h_rt_h", "deg/h/sqrt(h)"), ("vehicle.inertia_kg_m2", "kg m^2"),
+    ("control.rate_gain_v_per_arcsec_s", "V/(arcsec/s)"), ("jets.thrust_n", "N"),
+    ("electronics.counter_bits", "bit"), ("dither.amplitude_urad", "urad"),
+    ("sequencer.mode1_slew_gain_per_s", "1/s"), ("mission.seed", "-"),
+])
+def test_unit_from_the_key_suffix(key, unit):
+    assert docgen.unit_of(key) == unit
+
+
+def test_units_are_known_for_every_key_with_a_unit_suffix():
+    unitless = {"mission.seed", "ejection.attitude", "pwpf.filter_gain",
+                "electronics.counter_overflow", "calibration.apply", "dither.feedforward",
+                "dither.inertia_estimate_scale", "dither.estimator", "dither.detector",
+                "dither.store_cross_coupling", "target.star"}
+    for key in config.RULES:
+        if key not in unitless:
+            assert docgen.unit_of(key) != "-", key
+
+
+def test_cli_page_has_every_command():
+    page = docgen.cli_reference()
+    for command in ("run", "step", "compare", "config show", "config check"):
+        assert f"## allsky {command}\n" in page

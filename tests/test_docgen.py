@@ -1,5 +1,6 @@
 """The generated reference pages match the code, and every key is documented."""
 
+import re
 from pathlib import Path
 
 import pytest
@@ -51,3 +52,23 @@ def test_cli_page_has_every_command():
     page = docgen.cli_reference()
     for command in ("run", "step", "compare", "config show", "config check"):
         assert f"## allsky {command}\n" in page
+
+
+def test_block_diagram_draws_every_numeral_and_an_existing_module(tmp_path):
+    import importlib
+
+    from test_block_map import PATENT_NUMERALS
+
+    fig = docgen.block_diagram(tmp_path / "d.png")
+    assert (tmp_path / "d.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    texts = " ".join(t.get_text() for t in fig.axes[0].texts)
+    drawn = set(re.findall(r"\d+", texts))
+    assert PATENT_NUMERALS <= drawn, PATENT_NUMERALS - drawn
+    for *_, module in docgen.BLOCKS:
+        importlib.import_module(f"allsky.{module}")
+    for k in range(1, 20):
+        if k in (7, 8):
+            assert f"S{k}" in texts
+        else:
+            assert any(f"S{a}-S{b}" in texts and a <= k <= b for a in range(1, 20)
+                       for b in range(a, 20)) or f"S{k}" in texts, k

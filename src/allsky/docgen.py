@@ -5,8 +5,10 @@
   (:func:`allsky.config.allowed`) and its meaning (the comment beside the key
   in ``scenarios/default.toml``).
 * ``docs/cli.md``: the ``--help`` of every command.
+* ``docs/img/block_diagram.png``: the block diagram, each block with its
+  numerals and module.
 
-``python -m allsky.docgen [DOCS_DIR]`` rewrites both; a test checks that the
+``python -m allsky.docgen [DOCS_DIR]`` rewrites them; a test checks that the
 committed pages equal what this module generates.
 """
 
@@ -187,9 +189,140 @@ def write(docs_dir) -> list:
         path = docs_dir / name
         path.write_text(make())
         paths.append(path)
+    (docs_dir / "img").mkdir(exist_ok=True)
+    path = docs_dir / "img" / "block_diagram.png"
+    block_diagram(path)
+    paths.append(path)
     return paths
 
 
 if __name__ == "__main__":  # pragma: no cover
     for p in write(sys.argv[1] if len(sys.argv) > 1 else "docs"):
         print(p)
+
+
+# -- the block diagram picture -----------------------------------------------------------------
+#: (key, x, y, w, h, title, numerals, module) of each block, in diagram units.
+BLOCKS = (
+    ("drift_dac", 2.6, 8.2, 2.0, 1.1, "Drift DACs", "7, 9, 11", "dac"),
+    ("drift_ctr", 5.2, 8.2, 2.0, 1.1, "Drift counters", "13, 15, 17", "updown_counter"),
+    ("gyro", 0.0, 5.9, 2.0, 1.1, "Rate gyros", "1, 2, 3", "gyro"),
+    ("sum", 2.6, 5.9, 2.0, 1.1, "Summing amps", "4, 5, 6", "summing_amp"),
+    ("vfc", 5.2, 5.9, 2.0, 1.1, "V/F converters", "8, 10, 12", "vfc"),
+    ("ctr", 7.8, 5.9, 2.0, 1.1, "Up/down counters", "14, 16, 18", "updown_counter"),
+    ("cpu", 10.8, 5.9, 1.8, 1.1, "CPU", "22", "cpu"),
+    ("reg", 13.6, 5.9, 2.0, 1.1, "Storage registers", "25, 26, 27", "storage_register"),
+    ("dac", 16.2, 5.9, 1.8, 1.1, "DACs", "28, 29, 30", "dac"),
+    ("w23", 10.3, 8.2, 1.6, 1.1, "Computed\nword", "23", "word_registers"),
+    ("w24", 12.1, 8.2, 1.6, 1.1, "Programmed\nword", "24", "word_registers"),
+    ("seq21", 13.9, 8.2, 1.6, 1.1, "Computer seq.", "21", "computer_sequencer"),
+    ("seq19", 15.7, 8.2, 1.6, 1.1, "Calibration seq.", "19", "master_sequencer"),
+    ("seq20", 17.5, 8.2, 1.6, 1.1, "Master seq.", "20", "master_sequencer"),
+    ("rate_cmd", 2.6, 3.4, 2.0, 1.1, "Rate commands", "120, 128", "rate_command"),
+    ("sun", 5.2, 3.4, 2.0, 1.1, "Sun sensor", "104", "sun_sensor"),
+    ("trk", 7.8, 3.4, 2.0, 1.1, "Star tracker", "105", "star_tracker"),
+    ("amp", 11.0, 3.4, 2.0, 1.1, "Control amps", "31, 32, 33", "control_amp"),
+    ("pwpf", 13.6, 3.4, 2.0, 1.1, "PWPF modulators", "34, 35, 36", "pwpf"),
+    ("jets", 16.2, 3.4, 1.8, 1.1, "Jets", "39, 40, 41", "jets"),
+    ("plant", 0.0, 0.9, 18.0, 1.0, "Vehicle: rigid body (attitude, body rates)", "", "plant"),
+)
+#: (from, to, label, route) arrows; route "h" = side to side, "v" = top/bottom, or
+#: explicit points.
+ARROWS = (
+    ("gyro", "sum", "", "h"), ("sum", "vfc", "", "h"), ("vfc", "ctr", "", "h"),
+    ("ctr", "cpu", "S7", "h"), ("cpu", "reg", "S8", "h"), ("reg", "dac", "", "h"),
+    ("vfc", "drift_ctr", "S4-S6", "v"), ("drift_ctr", "drift_dac", "", "h"),
+    ("drift_dac", "sum", "S1-S3", "v"), ("rate_cmd", "sum", "S16, S17", "v"),
+    ("w23", "cpu", "", "v"),
+    ("amp", "pwpf", "", "h"), ("pwpf", "jets", "", "h"),
+)
+
+
+def _box_edge(b, side):
+    _, x, y, w, h = b[:5]
+    return {"left": (x, y + h / 2), "right": (x + w, y + h / 2), "top": (x + w / 2, y + h),
+            "bottom": (x + w / 2, y)}[side]
+
+
+def block_diagram(path=None):
+    """Draw the patent's block diagram, each block with its numerals and module.
+
+    Returns the matplotlib Figure (written to ``path`` as PNG when given).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import FancyArrowPatch, FancyBboxPatch
+
+    boxes = {b[0]: b for b in BLOCKS}
+    fig, ax = plt.subplots(figsize=(15, 7.2))
+    ax.set_xlim(-0.3, 19.4)
+    ax.set_ylim(0.4, 10.2)
+    ax.axis("off")
+    ax.set_title("All-sky pointing system (US 4,012,018): blocks, numerals and modules "
+                 "(allsky.<module>)", fontsize=12)
+    # Computer 111: the digital blocks inside one frame.
+    ax.add_patch(FancyBboxPatch((10.0, 5.6), 9.35, 4.1, boxstyle="round,pad=0.05",
+                                fc="#f3f6fb", ec="#5577aa", ls="--", lw=1.2))
+    ax.text(19.3, 9.55, "Computer 111", ha="right", va="top", fontsize=9, color="#335588")
+    for key, x, y, w, h, title, numerals, module in BLOCKS:
+        face = "#fff7e6" if key in ("gyro", "sun", "trk", "plant") else "white"
+        ax.add_patch(FancyBboxPatch((x, y), w, h, boxstyle="round,pad=0.03", fc=face,
+                                    ec="black", lw=1.0))
+        lines = [title] + ([numerals] if numerals else [])
+        ax.text(x + w / 2, y + h * 0.62, "\n".join(lines), ha="center", va="center",
+                fontsize=8.5 if "\n" not in title else 7.8, fontweight="bold",
+                linespacing=1.15)
+        ax.text(x + w / 2, y + 0.13, module, ha="center", va="bottom", fontsize=7,
+                family="monospace", color="#444444")
+
+    def arrow(p, q, label="", color="black"):
+        ax.add_patch(FancyArrowPatch(p, q, arrowstyle="-|>", mutation_scale=11, lw=1.1,
+                                     color=color, shrinkA=0, shrinkB=0))
+        if label:
+            ax.text((p[0] + q[0]) / 2 + 0.05, (p[1] + q[1]) / 2 + 0.08, label, fontsize=7.5,
+                    color="#aa2222", ha="left", va="bottom")
+
+    for a, b, label, route in ARROWS:
+        A, B = boxes[a], boxes[b]
+        if route == "h":
+            right = A[1] < B[1]
+            arrow(_box_edge(A, "right" if right else "left"),
+                  _box_edge(B, "left" if right else "right"), label)
+        else:
+            up = A[2] < B[2]
+            arrow(_box_edge(A, "top" if up else "bottom"),
+                  _box_edge(B, "bottom" if up else "top"), label)
+    # Lines drawn by hand: the DACs and optics into the control amplifiers, the
+    # rate lines 130/131, the jets into the plant and the plant into the sensors.
+    def route(points, label="", color="black", at=0):
+        xs, ys = zip(*points)
+        ax.plot(xs[:-1], ys[:-1], color=color, lw=1.1)
+        arrow(points[-2], points[-1], color=color)
+        if label:
+            ax.text(points[at][0] + 0.08, points[at][1] + 0.06, label, fontsize=7.5,
+                    color="#aa2222", ha="left", va="bottom")
+
+    amp = boxes["amp"]
+    top = amp[2] + amp[4]
+    dac_x = _box_edge(boxes["dac"], "bottom")[0]
+    route([(dac_x, 5.9), (dac_x, 5.05), (12.7, 5.05), (12.7, top)], "S9-S11", at=1)
+    sun_x = _box_edge(boxes["sun"], "top")[0]
+    route([(sun_x, 4.5), (sun_x, 4.85), (12.0, 4.85), (12.0, top)], "S14, S15", at=1)
+    route([(4.3, 5.9), (4.3, 5.3), (11.3, 5.3), (11.3, top)], "lines 130, 131 via S18, S19",
+          color="#555555", at=1)
+    arrow(_box_edge(boxes["trk"], "right"), _box_edge(amp, "left"), "S12, S13")
+    arrow(_box_edge(boxes["w24"], "bottom"), (11.9, 7.0))
+    jets_bottom = _box_edge(boxes["jets"], "bottom")
+    arrow(jets_bottom, (jets_bottom[0], 1.9), "torque")
+    for key in ("gyro", "sun", "trk"):
+        bottom = _box_edge(boxes[key], "bottom")
+        arrow((bottom[0], 1.9), bottom, color="#8a6d00")
+    ax.text(0.05, 0.5, "Orange: sensors and the vehicle. Red labels: switches of the bank "
+            "(allsky.switch_bank). The per-frame loop that runs the blocks in this order: "
+            "allsky.kernel.run_leg.", fontsize=8, color="#333333")
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig

@@ -171,6 +171,6 @@ RULES = {"1": mode_1, "2": mode_2, "3": mode_3, "4": mode_4, "5": mode_5,
 MODE_CODE = {"1": 1.0, "2": 2.0, "3": 3.0, "4": 4.0, "5": 5.0, "6-1": 6.1, "6-2": 6.2}
 #: What each mode does, for displays.
 MODE_TITLE = {"1": "Sun orientation", "2": "Canopus acquisition", "3": "drift calibration",
-              "4": "roll calibration (360 deg roll)", "5": "yaw calibration (360 deg yaw)",
+              "4": "roll calibration, 360 deg roll", "5": "yaw calibration, 360 deg yaw",
               "6-1": "target acquisition, roll", "6-2": "target acquisition, yaw"}
 assert set(RULES) == set(MODES) == set(MODE_TITLE)

@@ -26,6 +26,12 @@ inertial-frame components into body-frame components; it is normalised on
 load. ``vehicle.inertia_kg_m2`` is stored exactly symmetric (the upper
 triangle, after checking symmetry to a relative 1e-9).
 
+``[dispersions]`` (empty in the default) names keys drawn at random per
+mission seed for Monte Carlo campaigns (syntax and seeding:
+:mod:`allsky.dispersions`, ``docs/montecarlo.md``); its entries are merged by
+key, and ``load_scenario(..., disperse=FILE)`` merges a file's
+``[dispersions]`` table over the scenario's.
+
 Every value is checked once, here: its type (an integer is accepted where a
 float is expected; a boolean or a string is never a number), finiteness, its
 own rule (:data:`RULES`, one entry per key) and the rules tying keys together
@@ -33,7 +39,6 @@ own rule (:data:`RULES`, one entry per key) and the rules tying keys together
 key, the value and the rule; no other exception escapes for any file content.
 """
 
-import copy
 import difflib
 import functools
 import math
@@ -565,8 +570,23 @@ def _default_text() -> str:
     return DEFAULT_SCENARIO_PATH.read_text(encoding="utf-8")
 
 
-def _default_dict() -> dict:
+@functools.cache
+def _default_parsed() -> dict:
     return _parse_toml(_default_text(), str(DEFAULT_SCENARIO_PATH))
+
+
+def _default_dict() -> dict:
+    """A fresh copy of the parsed default (parsed once: a campaign builds one per run)."""
+    return _copy_tables(_default_parsed())
+
+
+def _copy_tables(v):
+    """Copy of TOML data: tables and arrays copied, scalars (immutable) shared."""
+    if isinstance(v, Mapping):
+        return {k: _copy_tables(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_copy_tables(x) for x in v]
+    return v
 
 
 @functools.cache
@@ -614,6 +634,11 @@ def _merge(base: dict, incoming: dict, schema: dict, path=()) -> None:
         _replace_target_form(base, incoming)
     for k, v in incoming.items():
         here = (*path, k)
+        if not path and k == "dispersions":  # entries by key: see allsky.dispersions
+            from allsky import dispersions
+
+            base[k] = dispersions.merge(base.get(k) or {}, v)
+            continue
         if k not in schema:
             raise _unknown(here, schema)
         if isinstance(schema[k], dict):
@@ -879,6 +904,9 @@ def _validate(data: dict) -> dict:
     for key, v in flat.items():
         sec, name = key.split(".")
         sections.setdefault(sec, {})[name] = v
+    from allsky import dispersions
+
+    sections["dispersions"] = dispersions.validate(data.get("dispersions") or {}, flat)
     # A key just added to the default but not yet to RULES is kept as read (frozen), so
     # the simulator can use it; test_config checks that RULES covers the whole schema.
     for sec, table in data.items():
@@ -908,13 +936,13 @@ def scenario_from_dict(data: Mapping, overrides=()) -> Scenario:
         raise ConfigError(None, data, "a scenario is a table of sections")
     merged = _default_dict()
     schema = _schema()
-    _merge(merged, copy.deepcopy(dict(data)), schema)
+    _merge(merged, _copy_tables(data), schema)
     for item in overrides:
         _merge(merged, parse_override(item), schema)
     return Scenario(_validate(merged))
 
 
-def load_scenario(path=None, overrides=()) -> Scenario:
+def load_scenario(path=None, overrides=(), disperse=None) -> Scenario:
     """Load a scenario file, merge it over the default, apply overrides, validate.
 
     Parameters
@@ -923,6 +951,9 @@ def load_scenario(path=None, overrides=()) -> Scenario:
         Scenario TOML file; None for the packaged default alone.
     overrides : iterable of str
         ``KEY=VALUE`` strings (dotted KEY, VALUE in TOML syntax), applied in order.
+    disperse : str or path-like, optional
+        TOML file holding a ``[dispersions]`` table (and nothing else), merged
+        over the scenario's dispersions before the overrides.
 
     Returns
     -------
@@ -936,4 +967,14 @@ def load_scenario(path=None, overrides=()) -> Scenario:
         an unknown key or any value that breaks its rule.
     """
     data = {} if path is None else _read_toml(path)
+    if disperse is not None:
+        extra = _read_toml(disperse)
+        others = [k for k in extra if k != "dispersions"]
+        if others:
+            raise ConfigError(None, str(disperse), f"{disperse}: a dispersion file holds only a "
+                              f"[dispersions] table, not {', '.join(map(repr, others))}")
+        from allsky import dispersions
+
+        table = dispersions.merge({}, data.get("dispersions", {}))
+        data = {**data, "dispersions": dispersions.merge(table, extra.get("dispersions", {}))}
     return scenario_from_dict(data, overrides)

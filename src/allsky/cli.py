@@ -2,7 +2,9 @@
 
 Commands::
 
-    allsky run [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--telemetry PATH]
+    allsky run [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--telemetry PATH] [--plots DIR]
+    allsky plot TELEMETRY [--out DIR] [--summary SUMMARY.json]
+    allsky analyze [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--plot PNG]
     allsky config show [SCENARIO] [--set KEY=VALUE ...]
     allsky config check FILE [--set KEY=VALUE ...]
 
@@ -16,6 +18,7 @@ import sys
 
 from allsky import __version__
 from allsky.config import ConfigError, load_scenario
+from allsky.telemetry import TelemetryError
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -41,7 +44,11 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="fly Modes 1 to 6-2 and print the report")
     scenario_args(run)
     run.add_argument("--json", metavar="PATH", help="write the mission summary as JSON")
-    run.add_argument("--telemetry", metavar="PATH", help="write the telemetry as CSV")
+    run.add_argument("--telemetry", metavar="PATH",
+                     help="write the telemetry, CSV or Parquet by the suffix (.csv, .parquet); "
+                          "columns in docs/telemetry.md")
+    run.add_argument("--plots", metavar="DIR",
+                     help="write the mission figures (PNG) into DIR, as allsky plot does")
 
     step = sub.add_parser(
         "step", help="fly the mission stop by stop, showing the hardware at each stop",
@@ -88,6 +95,40 @@ def _parser() -> argparse.ArgumentParser:
     cmp_.add_argument("--plot", metavar="PNG",
                       help="write scale-factor error against calibration time (PNG)")
 
+    plot = sub.add_parser(
+        "plot", help="draw the figures of a flown mission from its telemetry file",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Write PNG figures from a telemetry file (allsky run --telemetry): "
+                    "attitude errors with the modes shaded, the switch timing diagram "
+                    "S1-S19, the counters, the jet valves and propellant, and, with "
+                    "--summary, the stored calibration against the truth.",
+        epilog="examples:\n"
+               "  allsky run --telemetry tlm.parquet --json summary.json\n"
+               "  allsky plot tlm.parquet --summary summary.json --out figures/\n"
+               "  allsky plot tlm.csv                  # figures into the current directory")
+    plot.add_argument("telemetry", metavar="TELEMETRY",
+                      help="telemetry file written by allsky run --telemetry (.csv or .parquet)")
+    plot.add_argument("--out", metavar="DIR", default=".",
+                      help="directory for the PNG files (created if needed; default: .)")
+    plot.add_argument("--summary", metavar="SUMMARY.json",
+                      help="mission summary (allsky run --json) for the calibration figure")
+
+    analyze = sub.add_parser(
+        "analyze", help="loop margins per axis and the PWPF modulator's static characteristic",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Linear gain and phase margins of each axis's position and rate loops, "
+                    "and the PWPF modulators' duty cycle against a constant input: the "
+                    "analytic curve beside the simulated modulator.",
+        epilog="examples:\n"
+               "  allsky analyze\n"
+               "  allsky analyze --set pwpf.time_constant_s=0.05 --plot loops.png\n"
+               "  allsky analyze my_scenario.toml --json analysis.json")
+    scenario_args(analyze)
+    analyze.add_argument("--json", metavar="PATH", help="write the margins and the PWPF "
+                                                       "characteristic as JSON")
+    analyze.add_argument("--plot", metavar="PNG",
+                         help="write Bode plots with the margins and the static curve (PNG)")
+
     cfg = sub.add_parser("config", help="show or check a scenario")
     csub = cfg.add_subparsers(dest="config_command", required=True, metavar="ACTION")
     show = csub.add_parser("show", help="print the fully resolved configuration as TOML")
@@ -123,6 +164,10 @@ def _run(cfg, args) -> int:
         from allsky.compare import run_from_cli
     elif args.command == "step":
         from allsky.step import run_from_cli
+    elif args.command == "plot":
+        from allsky.plots import run_from_cli
+    elif args.command == "analyze":
+        from allsky.analysis import run_from_cli
     else:
         from allsky.report import run_from_cli
 
@@ -136,7 +181,8 @@ def main(argv=None) -> int:
     except SystemExit as e:  # --help, --version, or a usage error (argparse printed it)
         return 0 if e.code is None else e.code if isinstance(e.code, int) else 2
     try:
-        cfg = load_scenario(args.scenario, args.overrides)
+        # `allsky plot` reads a telemetry file and needs no scenario.
+        cfg = None if args.command == "plot" else load_scenario(args.scenario, args.overrides)
         if args.command == "config":
             if args.config_command == "show":
                 print(cfg.to_toml(), end="")
@@ -145,6 +191,9 @@ def main(argv=None) -> int:
             return 0
         return _run(cfg, args)
     except ConfigError as e:
+        print(f"allsky: error: {e}", file=sys.stderr)
+        return 2
+    except TelemetryError as e:  # a telemetry file of the wrong suffix or columns
         print(f"allsky: error: {e}", file=sys.stderr)
         return 2
     except OSError as e:  # an output path that cannot be written

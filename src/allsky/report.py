@@ -52,16 +52,23 @@ def format_report(summary: dict) -> str:
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky run``: fly the mission, print the report, write --json / --telemetry."""
+    """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots."""
     from allsky.mission import Mission
 
-    want_tlm = bool(getattr(args, "telemetry", None))
-    m = Mission(cfg, telemetry=want_tlm)
+    tlm_path = getattr(args, "telemetry", None)
+    plots_dir = getattr(args, "plots", None)
+    if tlm_path:
+        telemetry.file_format(tlm_path)  # refuse a bad suffix before flying
+    m = Mission(cfg, telemetry=bool(tlm_path or plots_dir))
     m.run()
     summary = m.summary()
     print(format_report(summary))
     if getattr(args, "json", None):
         Path(args.json).write_text(json.dumps(summary, indent=2) + "\n")
-    if want_tlm:
-        telemetry.write_csv(args.telemetry, m.telemetry())
+    if tlm_path:
+        telemetry.write(tlm_path, m.telemetry())
+    if plots_dir:
+        from allsky import plots
+
+        print(plots.format_written(plots.write_plots(m.telemetry(), plots_dir, summary)))
     return 0 if summary["status"] == "complete" else 1

@@ -1,0 +1,212 @@
+"""Mission figures: the panels each figure has, what they show, and the PNG files.
+
+Truth: the default mission's telemetry and summary (flown once per session,
+conftest.py); the figure content is checked against that data (mode spans
+against the summary's timeline, calibration errors against summary
+differences), not only the files' existence.
+"""
+
+import json
+import struct
+
+import numpy as np
+import pytest
+
+from allsky import mission, plots, telemetry
+from allsky.cli import main
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def flown(saved_states):
+    m = saved_states["mission"]
+    return m.telemetry(), m.summary()
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory, flown):
+    """Telemetry (CSV and Parquet) and summary files of the default mission."""
+    d = tmp_path_factory.mktemp("flown")
+    table, summary = flown
+    (d / "summary.json").write_text(json.dumps(summary))
+    telemetry.write(d / "tlm.parquet", table)
+    telemetry.write(d / "tlm.csv", table)
+    return d
+
+
+def png_size(path):
+    """(width, height) [px] from a PNG's IHDR chunk; asserts the PNG signature."""
+    data = path.read_bytes()
+    assert data[:8] == PNG_MAGIC and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+def titles(fig):
+    return [ax.get_title(loc="left") or ax.get_title() for ax in fig.axes]
+
+
+def texts(ax):
+    return [t.get_text() for t in ax.texts]
+
+
+def test_mode_codes_agree_with_the_mission():
+    assert plots.MODE_CODE == mission.MODE_CODE
+
+
+def test_mode_spans_follow_the_timeline(flown):
+    table, summary = flown
+    spans = plots.mode_spans(table)
+    assert [s[0] for s in spans] == [r["mode"] for r in summary["modes"]]
+    dt = table[1, 0] - table[0, 0]
+    for (name, t0, t1), r in zip(spans, summary["modes"]):
+        assert t0 == pytest.approx(r["start_s"], abs=1.01 * dt), name
+        assert t1 == pytest.approx(r["end_s"], abs=1.01 * dt), name
+
+
+def test_attitude_errors_has_three_axes_with_units_and_mode_names(flown):
+    fig = plots.attitude_errors(flown[0])
+    assert titles(fig) == ["Roll error", "Pitch error", "Yaw error"]
+    for ax, axis in zip(fig.axes, plots.AXES):
+        assert ax.get_ylabel() == f"{axis} error [arcsec]"
+        assert ax.get_yscale() == "symlog"
+    assert fig.axes[-1].get_xlabel() == "mission time [s]"
+    assert texts(fig.axes[0]) == ["1", "2", "3", "4", "5", "6-1", "6-2"]
+    labels = [t.get_text() for t in fig.axes[1].get_legend().get_texts()]
+    assert labels == ["sun sensor pitch 104", "star tracker pitch 105", "CPU 22 pitch error"]
+    # CPU errors are drawn only in Modes 6-1/6-2.
+    t, cpu_roll = fig.axes[0].lines[1].get_data()
+    assert np.all(np.isnan(cpu_roll[t < flown[1]["modes"][5]["start_s"] - 0.5]))
+    assert np.isfinite(cpu_roll[-1])
+
+
+def test_switch_timing_has_a_trace_per_switch(flown):
+    table, _ = flown
+    fig = plots.switch_timing(table)
+    assert len(fig.axes) == 1
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_yticklabels()]
+    assert len(labels) == 18  # S1-S19, S7 and S8 on one trace
+    assert [lab.split()[0] for lab in labels] == [
+        *(f"S{k}" for k in range(1, 7)), "S7/S8", *(f"S{k}" for k in range(9, 20))]
+    assert "roll drift DAC 7 → sum amp 4" in labels[0]
+    assert ax.get_xlabel() == "mission time [s]"
+    assert "S1–S19" in fig.get_suptitle()
+    # The S4 trace (row 4 from the top) is high exactly where the bitmask has S4 closed.
+    _, y = ax.lines[3].get_data()
+    base = len(labels) - 4
+    assert np.array_equal(y > base + 0.1, telemetry.switch_closed(table, 4))
+
+
+def test_counters_figure(flown):
+    fig = plots.counters(flown[0])
+    assert titles(fig) == ["Up/down counters 14, 16, 18", "Drift counters 13, 15, 17"]
+    assert all(ax.get_ylabel() == "count [pulses]" for ax in fig.axes)
+    drift = fig.axes[1]
+    assert [line.get_label() for line in drift.lines] == [
+        "drift counter13 (roll)", "drift counter15 (pitch)", "drift counter17 (yaw)"]
+    assert drift.lines[0].get_ydata()[-1] == flown[0][-1, telemetry.INDEX["drift_counter13"]]
+
+
+def test_jets_figure(flown):
+    table, summary = flown
+    fig = plots.jets(table)
+    t = titles(fig)
+    assert len(t) == 4
+    assert t[0].startswith("Roll: modulator 34 → jets 39")
+    assert t[2].startswith("Yaw: modulator 36 → jets 41")
+    assert fig.axes[3].get_ylabel() == "propellant [kg]"
+    used = table[0, telemetry.INDEX["propellant"]] - table[-1, telemetry.INDEX["propellant"]]
+    assert f"used {used:.3f} kg" in t[3]
+    assert used == pytest.approx(summary["propellant_kg"], abs=0.01)
+
+
+def test_calibration_figure_shows_stored_truth_and_errors(flown):
+    summary = flown[1]
+    fig = plots.calibration(summary)
+    assert [ax.get_title() for ax in fig.axes] == [
+        "Drift (drift DACs 7, 9, 11)", "Scale factor − 1 (register 23)",
+        "Cross-coupling (register 23)"]
+    assert [ax.get_ylabel() for ax in fig.axes] == [
+        "drift [deg/h]", "scale factor − 1 [ppm]", "cross-coupling [arcsec]"]
+    cal, truth = summary["calibration"], summary["truth"]
+    err_ppm = 1e6 * (cal["scale_factor"]["roll"] - truth["scale_factor"]["roll"])
+    assert f"error\n{err_ppm:+.1f} ppm" in texts(fig.axes[1])
+    err_drift = cal["drift_deg_h"]["yaw"] - truth["drift_deg_h"]["yaw"]
+    assert f"error\n{err_drift:+.4f} deg/h" in texts(fig.axes[0])
+    # Bars: truth then stored, per term.
+    heights = [p.get_height() for p in fig.axes[2].patches]
+    names = list(truth["cross_coupling"])
+    assert heights[:4] == pytest.approx([truth["cross_coupling"][n] * plots.RAD2ARCSEC
+                                         for n in names])
+    assert heights[4:] == pytest.approx([cal["cross_coupling"][n] * plots.RAD2ARCSEC
+                                         for n in names])
+
+
+def test_calibration_figure_needs_a_calibration(flown):
+    with pytest.raises(ValueError, match="no calibration"):
+        plots.calibration({**flown[1], "calibration": None})
+
+
+def test_write_plots_refuses_an_empty_table(tmp_path):
+    with pytest.raises(ValueError, match="no rows"):
+        plots.write_plots(np.empty((0, len(telemetry.COLUMNS))), tmp_path)
+
+
+# -- the command line ---------------------------------------------------------------------
+
+def test_plot_command_writes_and_lists_readable_pngs(tmp_path, capsys, files):
+    out_dir = tmp_path / "new" / "figs"
+    assert main(["plot", str(files / "tlm.parquet"), "--summary", str(files / "summary.json"),
+                 "--out", str(out_dir)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    names = ["attitude_errors.png", "switches.png", "counters.png", "jets.png",
+             "calibration.png"]
+    assert out == [f"plot: {out_dir / f}" for f in names]
+    assert sorted(p.name for p in out_dir.iterdir()) == sorted(names)
+    for f in names:
+        w, h = png_size(out_dir / f)
+        assert w >= 1000 and h >= 700, f  # report size at 120 dpi
+
+
+def test_plot_command_without_summary_skips_calibration(tmp_path, capsys, files):
+    assert main(["plot", str(files / "tlm.csv"), "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "plot: skipped calibration.png: no mission summary (give --summary" in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "attitude_errors.png", "counters.png", "jets.png", "switches.png"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["plot", "tlm.txt"], "suffix '.txt'; use .csv or .parquet"),
+    (["plot", "no_such_file.parquet"], "no_such_file.parquet"),
+])
+def test_plot_command_usage_errors_exit_2(tmp_path, capsys, args, message):
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("allsky: error: ") and message in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_plot_command_refuses_a_file_missing_a_column(tmp_path, capsys, files):
+    lines = (files / "tlm.csv").read_text().splitlines()
+    cut = [",".join(line.split(",")[:-1]) for line in lines[:10]]
+    (tmp_path / "cut.csv").write_text("\n".join(cut) + "\n")
+    assert main(["plot", str(tmp_path / "cut.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "missing column 'intermediate_pitch [arcsec]'" in err
+
+
+def test_plot_command_refuses_a_summary_that_is_not_one(tmp_path, capsys, files):
+    (tmp_path / "s.json").write_text('{"status": "complete"}')
+    assert main(["plot", str(files / "tlm.parquet"), "--summary", str(tmp_path / "s.json"),
+                 "--out", str(tmp_path)]) == 2
+    assert "not an allsky mission summary" in capsys.readouterr().err
+
+
+def test_run_with_plots_writes_the_five_figures(tmp_path, capsys):
+    assert main(["run", "--plots", str(tmp_path / "figs")]) == 0
+    out = capsys.readouterr().out
+    assert "final pointing error" in out
+    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
+        "attitude_errors.png", "calibration.png", "counters.png", "jets.png", "switches.png"]

@@ -7,6 +7,8 @@ Commands::
     allsky analyze [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--plot PNG]
     allsky config show [SCENARIO] [--set KEY=VALUE ...]
     allsky config check FILE [--set KEY=VALUE ...]
+    allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers K | --scheduler ADDRESS]
+                      [--out DIR] [--resume] [--set KEY=VALUE ...] [--json PATH] [--quiet]
 
 Exit codes: 0 success; 1 a mission that ended aborted; 2 a usage or
 configuration error, reported as one line ``allsky: error: ...`` on stderr
@@ -43,6 +45,9 @@ def _parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="fly Modes 1 to 6-2 and print the report")
     scenario_args(run)
+    run.add_argument("--disperse", metavar="SPEC",
+                     help="TOML file with a [dispersions] table, merged over the scenario's; "
+                          "the values drawn for mission.seed are applied and printed")
     run.add_argument("--json", metavar="PATH", help="write the mission summary as JSON")
     run.add_argument("--telemetry", metavar="PATH",
                      help="write the telemetry, CSV or Parquet by the suffix (.csv, .parquet); "
@@ -129,6 +134,41 @@ def _parser() -> argparse.ArgumentParser:
     analyze.add_argument("--plot", metavar="PNG",
                          help="write Bode plots with the margins and the static curve (PNG)")
 
+    mc = sub.add_parser(
+        "montecarlo", help="fly a campaign over seeds and dispersions; statistics and histograms",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Fly N missions. Run i uses mission.seed = base + i (base: the scenario's\n"
+                    "seed) and the scenario's [dispersions] drawn for that seed, so any run is\n"
+                    "reproduced alone by 'allsky run --set mission.seed=S'. Runs go to local\n"
+                    "worker processes or to a Dask cluster; with --out each finished run is\n"
+                    "saved at once, and --resume continues an interrupted campaign.\n"
+                    "Dispersion syntax and seeding: docs/montecarlo.md.",
+        epilog="examples:\n"
+               "  allsky montecarlo --runs 1000 --out mc/                 # all cores\n"
+               "  allsky montecarlo --runs 1000 --out mc/ --resume        # after a Ctrl-C\n"
+               "  allsky montecarlo my.toml --disperse gyro_errors.toml --runs 200 --workers 1\n"
+               "  allsky montecarlo --runs 5000 --scheduler tcp://10.0.0.5:8786 --out mc/\n"
+               "  allsky montecarlo --runs 100 --set target.star=Vega --json - --quiet")
+    scenario_args(mc)
+    mc.add_argument("--runs", type=_positive_int, metavar="N",
+                    help="number of runs (needed for a new campaign; with --resume, a larger "
+                         "N extends it)")
+    mc.add_argument("--disperse", metavar="SPEC",
+                    help="TOML file with a [dispersions] table, merged over the scenario's")
+    where = mc.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, metavar="K",
+                       help="local worker processes (default: one per core; 1: in this process)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="fly on an existing Dask distributed cluster (tcp://HOST:PORT)")
+    mc.add_argument("--out", metavar="DIR",
+                    help="campaign directory: campaign.json, runs.csv (one row per run, saved "
+                         "as it finishes), summary.txt/.json, histograms.png")
+    mc.add_argument("--resume", action="store_true",
+                    help="continue the campaign in --out DIR (the same scenario and dispersions)")
+    mc.add_argument("--json", metavar="PATH",
+                    help="write the summary as JSON ('-': to stdout, instead of the table)")
+    mc.add_argument("--quiet", action="store_true", help="no progress bar")
+
     cfg = sub.add_parser("config", help="show or check a scenario")
     csub = cfg.add_subparsers(dest="config_command", required=True, metavar="ACTION")
     show = csub.add_parser("show", help="print the fully resolved configuration as TOML")
@@ -164,6 +204,8 @@ def _run(cfg, args) -> int:
         from allsky.compare import run_from_cli
     elif args.command == "step":
         from allsky.step import run_from_cli
+    elif args.command == "montecarlo":
+        from allsky.montecarlo import run_from_cli
     elif args.command == "plot":
         from allsky.plots import run_from_cli
     elif args.command == "analyze":
@@ -182,7 +224,8 @@ def main(argv=None) -> int:
         return 0 if e.code is None else e.code if isinstance(e.code, int) else 2
     try:
         # `allsky plot` reads a telemetry file and needs no scenario.
-        cfg = None if args.command == "plot" else load_scenario(args.scenario, args.overrides)
+        cfg = None if args.command == "plot" else load_scenario(
+            args.scenario, args.overrides, getattr(args, "disperse", None))
         if args.command == "config":
             if args.config_command == "show":
                 print(cfg.to_toml(), end="")

@@ -53,8 +53,12 @@ def format_report(summary: dict) -> str:
 
 def run_from_cli(cfg, args) -> int:
     """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots."""
+    from allsky.dispersions import disperse, format_drawn
     from allsky.mission import Mission
 
+    cfg, drawn = disperse(cfg)  # the scenario's [dispersions], drawn for its mission.seed
+    if drawn:
+        print(format_drawn(cfg.mission.seed, drawn) + "\n")
     tlm_path = getattr(args, "telemetry", None)
     plots_dir = getattr(args, "plots", None)
     if tlm_path:
@@ -62,6 +66,8 @@ def run_from_cli(cfg, args) -> int:
     m = Mission(cfg, telemetry=bool(tlm_path or plots_dir))
     m.run()
     summary = m.summary()
+    if drawn:
+        summary["dispersions"] = drawn
     print(format_report(summary))
     if getattr(args, "json", None):
         Path(args.json).write_text(json.dumps(summary, indent=2) + "\n")

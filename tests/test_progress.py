@@ -31,3 +31,23 @@ def test_resumed_mission_counts_from_its_next_mode(saved_states):
     out = io.StringIO()
     progress.fly(m, stream=out)
     assert "5/7 modes" in out.getvalue() and "Mode 5 " not in out.getvalue()
+
+
+def test_run_json_dash_prints_the_summary_alone_on_stdout(capsys, saved_states):
+    import json
+
+    from allsky import cli
+
+    assert cli.main(["run", "--json", "-"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == json.loads(json.dumps(saved_states["mission"].summary()))
+    assert captured.err == ""  # no progress line either
+
+
+def test_run_quiet_keeps_the_report(capsys):
+    from allsky import cli
+
+    assert cli.main(["run", "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith("allsky mission: complete")
+    assert captured.err == ""

@@ -204,3 +204,14 @@ def test_every_and_until_print_inside_stops_only_from_that_mode(capsys):
     assert inside and all(mode == "2" for _, mode in inside)
     assert all(float(t) % 50.0 < 0.011 or float(t) % 50.0 > 49.989 for t, _ in inside)
     assert [s[2] for s in stops_in(text)] == ["2"]
+
+
+def test_step_telemetry_as_parquet_holds_the_flight_so_far(tmp_path, capsys):
+    from allsky import telemetry
+
+    path = tmp_path / "t.parquet"
+    assert cli.main(["step", "--no-pause", "--until", "2", "--telemetry", str(path)]) == 0
+    table, _ = telemetry.read(path)
+    t_end = float(stops_in(capsys.readouterr().out)[-1][1])
+    assert table[-1, 0] == pytest.approx(t_end, abs=0.1)
+    assert set(table[:, 1]) == {1.0, 2.0}  # mode codes of Modes 1 and 2 only

@@ -25,9 +25,15 @@ from allsky.telemetry import TelemetryError
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="allsky",
+        prog="allsky", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Emulator of the 1970s all-sky pointing attitude control system "
-                    "(US patent 4,012,018).")
+                    "(US patent 4,012,018).",
+        epilog="exit codes: 0 success; 1 a mission ended aborted; 2 usage or configuration "
+               "error\n\n"
+               "examples:\n"
+               "  allsky run                     # fly the default mission, print the report\n"
+               "  allsky step                    # the same, stopping at each mode boundary\n"
+               "  allsky COMMAND --help          # each command's options and examples")
     p.add_argument("--version", action="version", version=f"allsky {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -43,12 +49,27 @@ def _parser() -> argparse.ArgumentParser:
                         help="override a key: dotted path, TOML value "
                              "(e.g. gyro.drift_deg_h=[1,0,0], target.star=Vega); repeatable")
 
-    run = sub.add_parser("run", help="fly Modes 1 to 6-2 and print the report")
+    run = sub.add_parser(
+        "run", help="fly Modes 1 to 6-2 and print the report",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Fly the whole mission (Modes 1 to 6-2) and print the mode timeline, "
+                    "the calibration against the scenario's truth, the target angles, the "
+                    "final pointing error and the propellant used.",
+        epilog="examples:\n"
+               "  allsky run\n"
+               "  allsky run my_scenario.toml --json out.json --telemetry tlm.csv\n"
+               "  allsky run --set target.star=Vega --set mission.seed=7\n"
+               "  allsky run --set calibration.apply=false   # Mode 6 without the calibration\n"
+               "  allsky run --json - | jq .target          # machine output on stdout")
     scenario_args(run)
     run.add_argument("--disperse", metavar="SPEC",
                      help="TOML file with a [dispersions] table, merged over the scenario's; "
                           "the values drawn for mission.seed are applied and printed")
-    run.add_argument("--json", metavar="PATH", help="write the mission summary as JSON")
+    run.add_argument("--json", metavar="PATH",
+                     help="write the mission summary as JSON (PATH '-': the JSON alone on "
+                          "stdout, no report)")
+    run.add_argument("--quiet", action="store_true",
+                     help="no progress line (it is also off when stderr is not a terminal)")
     run.add_argument("--telemetry", metavar="PATH",
                      help="write the telemetry, CSV or Parquet by the suffix (.csv, .parquet); "
                           "columns in docs/telemetry.md")
@@ -87,10 +108,21 @@ def _parser() -> argparse.ArgumentParser:
                            "(after_mode_<MODE>.npz)")
     step.add_argument("--json", metavar="PATH",
                       help="write the stops and the mission summary as JSON")
-    step.add_argument("--telemetry", metavar="PATH", help="write the telemetry so far")
+    step.add_argument("--telemetry", metavar="PATH",
+                      help="write the telemetry so far (.csv or .parquet)")
 
-    cmp_ = sub.add_parser("compare", help="fly the legacy calibration (Modes 4-5) and the "
-                                          "dither method on identical vehicles; compare")
+    cmp_ = sub.add_parser(
+        "compare", help="fly the legacy calibration (Modes 4-5) and the dither method on "
+                        "identical vehicles; compare",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Fly the patent's 360-degree calibration turns and the dither method "
+                    "on vehicles with the same gyro errors and noise; compare accuracy "
+                    "(measured and predicted spread), time, largest excursion, propellant "
+                    "and final pointing.",
+        epilog="examples:\n"
+               "  allsky compare\n"
+               "  allsky compare --runs 200 --json cmp.json --plot cmp.png\n"
+               "  allsky compare --set dither.detector=\"lsq\" --runs 50")
     scenario_args(cmp_)
     cmp_.add_argument("--runs", type=_positive_int, default=1, metavar="N",
                       help="repeat over N seeds (from mission.seed on) and give statistics")
@@ -171,9 +203,18 @@ def _parser() -> argparse.ArgumentParser:
 
     cfg = sub.add_parser("config", help="show or check a scenario")
     csub = cfg.add_subparsers(dest="config_command", required=True, metavar="ACTION")
-    show = csub.add_parser("show", help="print the fully resolved configuration as TOML")
+    show = csub.add_parser(
+        "show", help="print the fully resolved configuration as TOML",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n"
+               "  allsky config show > my_scenario.toml   # a complete file to edit\n"
+               "  allsky config show --set mission.seed=3")
     scenario_args(show)
-    check = csub.add_parser("check", help="validate a scenario file")
+    check = csub.add_parser(
+        "check", help="validate a scenario file",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n"
+               "  allsky config check my_scenario.toml     # 'ok: ...' or one error line, exit 2")
     scenario_args(check, required=True)
     return p
 

@@ -196,10 +196,6 @@ def write(docs_dir) -> list:
     return paths
 
 
-if __name__ == "__main__":  # pragma: no cover
-    for p in write(sys.argv[1] if len(sys.argv) > 1 else "docs"):
-        print(p)
-
 
 # -- the block diagram picture -----------------------------------------------------------------
 #: (key, x, y, w, h, title, numerals, module) of each block, in diagram units.
@@ -326,3 +322,8 @@ def block_diagram(path=None):
     if path is not None:
         fig.savefig(path, dpi=110)
     return fig
+
+
+if __name__ == "__main__":  # pragma: no cover
+    for p in write(sys.argv[1] if len(sys.argv) > 1 else "docs"):
+        print(p)

@@ -55,26 +55,31 @@ def run_from_cli(cfg, args) -> int:
     """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots."""
     from allsky.dispersions import disperse, format_drawn
     from allsky.mission import Mission
+    from allsky.progress import fly
 
+    json_path = getattr(args, "json", None)
+    to_stdout = json_path == "-"  # machine output: the JSON alone on stdout
+    say = (lambda *a, **k: None) if to_stdout else print
     cfg, drawn = disperse(cfg)  # the scenario's [dispersions], drawn for its mission.seed
     if drawn:
-        print(format_drawn(cfg.mission.seed, drawn) + "\n")
+        say(format_drawn(cfg.mission.seed, drawn) + "\n")
     tlm_path = getattr(args, "telemetry", None)
     plots_dir = getattr(args, "plots", None)
     if tlm_path:
         telemetry.file_format(tlm_path)  # refuse a bad suffix before flying
     m = Mission(cfg, telemetry=bool(tlm_path or plots_dir))
-    m.run()
-    summary = m.summary()
+    summary = fly(m, quiet=getattr(args, "quiet", False) or to_stdout)
     if drawn:
         summary["dispersions"] = drawn
-    print(format_report(summary))
-    if getattr(args, "json", None):
-        Path(args.json).write_text(json.dumps(summary, indent=2) + "\n")
+    say(format_report(summary))
+    if to_stdout:
+        print(json.dumps(summary, indent=2))
+    elif json_path:
+        Path(json_path).write_text(json.dumps(summary, indent=2) + "\n")
     if tlm_path:
         telemetry.write(tlm_path, m.telemetry())
     if plots_dir:
         from allsky import plots
 
-        print(plots.format_written(plots.write_plots(m.telemetry(), plots_dir, summary)))
+        say(plots.format_written(plots.write_plots(m.telemetry(), plots_dir, summary)))
     return 0 if summary["status"] == "complete" else 1

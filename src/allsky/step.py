@@ -250,6 +250,8 @@ def run_from_cli(cfg, args) -> int:
     from allsky.mission import DITHER_PLAN, LEGACY_PLAN, Mission
 
     want_tlm = bool(args.telemetry)
+    if want_tlm:
+        telemetry.file_format(args.telemetry)  # refuse a bad suffix before flying
     if args.from_state:
         if args.scenario or args.overrides or args.plan != "legacy":
             raise ConfigError("--from resumes a saved mission with its own scenario and "
@@ -289,6 +291,6 @@ def run_from_cli(cfg, args) -> int:
         Path(args.json).write_text(json.dumps({"stops": stops, "summary": summary}, indent=2)
                                    + "\n")
     if want_tlm:
-        telemetry.write_csv(args.telemetry, m.telemetry())
+        telemetry.write(args.telemetry, m.telemetry())
     return 1 if summary["status"] == "aborted" else 0
 

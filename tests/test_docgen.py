@@ -72,3 +72,14 @@ def test_block_diagram_draws_every_numeral_and_an_existing_module(tmp_path):
         else:
             assert any(f"S{a}-S{b}" in texts and a <= k <= b for a in range(1, 20)
                        for b in range(a, 20)) or f"S{k}" in texts, k
+
+
+def test_every_command_help_shows_examples():
+    page = docgen.cli_reference()
+    sections = page.split("\n## ")[1:]
+    assert len(sections) >= 9
+    for section in sections:
+        name = section.splitlines()[0]
+        if name == "allsky config":  # a group: its actions carry the examples
+            continue
+        assert "examples:\n  allsky" in section, name

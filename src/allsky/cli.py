@@ -16,6 +16,7 @@ configuration error, reported as one line ``allsky: error: ...`` on stderr
 """
 
 import argparse
+import os
 import sys
 
 from allsky import __version__
@@ -280,6 +281,9 @@ def main(argv=None) -> int:
     except TelemetryError as e:  # a telemetry file of the wrong suffix or columns
         print(f"allsky: error: {e}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the reader went away (allsky ... | head): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as e:  # an output path that cannot be written
         print(f"allsky: error: {e}", file=sys.stderr)
         return 2

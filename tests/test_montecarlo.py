@@ -382,6 +382,8 @@ def test_resume_needs_a_campaign(tmp_path, capsys):
     assert "no campaign to resume" in capsys.readouterr().err
     assert main(["montecarlo"]) == 2
     assert "--runs N is needed" in capsys.readouterr().err
+    assert main(["montecarlo", "--runs", "2", "--set", f"mission.seed={2**32 - 1}"]) == 2
+    assert "pass the largest mission.seed (4294967295)" in capsys.readouterr().err
 
 
 # -- outputs ---------------------------------------------------------------------------------

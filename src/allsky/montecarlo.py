@@ -228,7 +228,7 @@ def _chunks(jobs, size):
 
 def _local_stream(data, jobs, workers):
     """Rows on ``workers`` local processes (in this process when 1)."""
-    if workers == 1:
+    if workers == 1 or not jobs:
         cfg = scenario_from_dict(data)
 
         class _Serial:
@@ -457,6 +457,10 @@ def run_campaign(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
         be reached.
     """
     out = None if out is None else Path(out)
+    base = int(cfg.mission.seed)
+    if runs is not None and base + runs - 1 >= 2**32:
+        raise CampaignError(f"seeds {base}..{base + runs - 1} pass the largest mission.seed "
+                            f"({2**32 - 1})")
     if resume and out is None:
         raise CampaignError("--resume needs --out DIR (the campaign to continue)")
     if out is not None:
@@ -465,12 +469,8 @@ def run_campaign(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
         raise CampaignError("--runs N is needed to start a campaign")
     else:
         rows = []
-    base = int(cfg.mission.seed)
     done = {r["run"] for r in rows}
     jobs = [(i, base + i) for i in range(runs) if i not in done]
-    if base + runs - 1 >= 2**32:
-        raise CampaignError(f"seeds {base}..{base + runs - 1} pass the largest mission.seed "
-                            f"({2**32 - 1})")
     data = cfg.as_dict()
     results = _Results(out / RESULTS, columns(cfg)) if out is not None else None
     flown, interrupted = [], False
@@ -589,10 +589,20 @@ def plot_histograms(rows, path) -> Path:
         everything = [x for v in values.values() for x in v]
         if not everything:
             continue
-        bins = np.histogram_bin_edges(everything, bins=n_bins)  # shared by the overlays
+        # Bins shared by the overlays, over the central 99 % so that a rare outlier does not
+        # squash the rest; the runs beyond are counted on the panel.
+        lo, hi = np.percentile(everything, [0.5, 99.5]) if len(everything) >= 200 else (
+            min(everything), max(everything))
+        bins = np.histogram_bin_edges(everything, bins=n_bins, range=(lo, hi) if hi > lo
+                                      else None)
         for label, v in values.items():
             ax.hist(v, bins=bins, alpha=0.55 if len(series) > 1 else 0.9,
                     label=label or None, histtype="stepfilled")
+        beyond = sum(x < bins[0] or x > bins[-1] for x in everything)
+        if beyond:
+            ax.text(0.98, 0.02 if len(series) > 1 else 0.95, f"{beyond} beyond the axis",
+                    transform=ax.transAxes, ha="right", va="bottom" if len(series) > 1
+                    else "top", fontsize=8)
         ax.set_xlabel(title)
         ax.set_ylabel("missions")
         ax.grid(True, alpha=0.3)

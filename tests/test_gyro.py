@@ -16,11 +16,10 @@ Truth:
 
 import math
 
-import numba
 import numpy as np
 import pytest
 
-from allsky import units
+from allsky import gauss, units
 from allsky.gyro import RRW_STEP_S, GyroParams, gyro_output, make_params, perfect_calibration
 
 # Default scenario values (src/allsky/scenarios/default.toml).
@@ -33,10 +32,12 @@ RANGE_DEG_S = 10.0
 DT_S = 0.01  # [s] mission frame
 
 
-@numba.njit
+RNG = gauss.new_generator()  #: the noise generator these tests' blocks draw from
+
+
 def seed(s):
-    """Seed the generator the compiled blocks draw from (numba's own, seeded like numpy's)."""
-    np.random.seed(s)
+    """Seed the generator the blocks draw from."""
+    gauss.seed(RNG, s)
 
 
 def params(drift=DRIFT_DEG_H, sf=SF_PPM, mis=MISALIGN_ARCSEC, arw=0.0, rrw=0.0,
@@ -47,7 +48,7 @@ def params(drift=DRIFT_DEG_H, sf=SF_PPM, mis=MISALIGN_ARCSEC, arw=0.0, rrw=0.0,
 def read(p, dtheta_rad, dt_s=DT_S, bias=None, step_bias=False):
     out = np.zeros(3)
     gyro_output(p, np.asarray(dtheta_rad, dtype=float), dt_s,
-                np.zeros(3) if bias is None else bias, out, step_bias)
+                np.zeros(3) if bias is None else bias, out, step_bias, RNG)
     return out
 
 
@@ -141,7 +142,7 @@ def integrated_angles(p, n_trials, n_frames, dt_s):
     for t in range(n_trials):
         acc = np.zeros(3)
         for _ in range(n_frames):
-            gyro_output(p, zero, dt_s, bias, out, False)
+            gyro_output(p, zero, dt_s, bias, out, False, RNG)
             acc += out
         angles[t] = acc * dt_s
     return angles
@@ -166,13 +167,14 @@ def test_arw_does_not_depend_on_the_frame():
     assert np.std(angles) == pytest.approx(p.arw_arcsec_rt_s * 1.0, rel=0.05)
 
 
-def test_noise_is_numpys_legacy_normal_sequence():
+def test_noise_is_the_generators_normal_sequence():
     # One frame at rest with only ARW on: out[i] = N / sqrt(dt) * z_i with z the
-    # standard normals of numpy's legacy generator for that seed.
+    # standard normals of the noise generator for that seed.
     p = params(drift=[0, 0, 0], sf=[0, 0, 0], mis=np.zeros((3, 3)), arw=ARW_DEG_RT_H)
     seed(3)
     out = read(p, [0.0, 0.0, 0.0])
-    z = np.random.RandomState(3).standard_normal(3)
+    rng = gauss.new_generator(3)
+    z = np.array([gauss.standard_normal(rng) for _ in range(3)])
     assert np.allclose(out, p.arw_arcsec_rt_s / math.sqrt(DT_S) * z, rtol=1e-14, atol=0)
 
 
@@ -188,7 +190,7 @@ def test_rate_random_walk_grows_as_k_sqrt_t():
         bias = np.zeros(3)
         for k in range(n_steps):
             # The bias steps once per RRW_STEP_S of mission time.
-            gyro_output(p, zero, DT_S, bias, out, True)
+            gyro_output(p, zero, DT_S, bias, out, True, RNG)
             if k + 1 == n_steps // 4 + 1:
                 quarter[t] = out
         assert np.array_equal(out, bias)  # no ARW or drift: the output is the walk

@@ -21,7 +21,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import quaternion, units
+from allsky import gauss, quaternion, units
 from allsky.sun_acquisition import SunAcquisitionParams, sun_acquisition
 from allsky.sun_sensor import SunSensorParams, sun_sensor
 
@@ -125,7 +125,8 @@ def test_slew_agrees_in_sign_with_the_fine_errors_at_hand_over(pitch_deg, yaw_de
     s = np.array([1.0, math.tan(math.radians(yaw_deg)), -math.tan(math.radians(pitch_deg))])
     s /= np.linalg.norm(s)
     fine = np.zeros(3)
-    sun_sensor(SunSensorParams(LINEAR_ARCSEC, math.cos(math.radians(30.0)), 0.0, 0.0), s, fine)
+    sun_sensor(SunSensorParams(LINEAR_ARCSEC, math.cos(math.radians(30.0)), 0.0, 0.0), s, fine,
+               gauss.new_generator())
     assert fine[2] == 1.0
     _, rate = run(fine, s)
     cmd = commanded(rate)

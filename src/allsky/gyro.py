@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky import units
+from allsky.gauss import standard_normal
 from allsky.jit import njit
 
 #: [s] interval between steps of the rate random walk
@@ -54,7 +55,7 @@ def make_params(drift_deg_h, scale_factor_error_ppm, misalignment_arcsec, arw_de
 
 
 @njit
-def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_bias):
+def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_bias, rng):
     """Measured rates [arcsec/s] for a frame's body-angle increment [rad].
 
     ``bias_rw_arcsec_s`` (3) is the rate-random-walk state. It is advanced
@@ -68,11 +69,11 @@ def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_b
     sig_rrw = p.rrw_arcsec_s_rt_s * np.sqrt(RRW_STEP_S)
     for i in range(3):
         if step_bias and sig_rrw > 0.0:
-            bias_rw_arcsec_s[i] += sig_rrw * np.random.standard_normal()
+            bias_rw_arcsec_s[i] += sig_rrw * standard_normal(rng)
         r = (s[i, 0] * dtheta_rad[0] + s[i, 1] * dtheta_rad[1] + s[i, 2] * dtheta_rad[2]) * k
         r += p.drift_arcsec_s[i] + bias_rw_arcsec_s[i]
         if sig_arw > 0.0:
-            r += sig_arw * np.random.standard_normal()
+            r += sig_arw * standard_normal(rng)
         if r > p.range_arcsec_s:
             r = p.range_arcsec_s
         elif r < -p.range_arcsec_s:

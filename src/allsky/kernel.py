@@ -28,6 +28,7 @@ from allsky.control_amp import ControlParams, control_amp
 from allsky.cpu import N_WORK, target_step
 from allsky.dac import dac
 from allsky.dither import DitherParams, dither_command
+from allsky.gauss import seed as gauss_seed
 from allsky.gyro import RRW_STEP_S, GyroParams, gyro_output
 from allsky.jets import JetParams, jets
 from allsky.jit import njit
@@ -161,6 +162,7 @@ class State(NamedTuple):
     excursion_ref_q: np.ndarray  #: (4,) attitude the mission wants; [0,0,0,0] = not tracked
     max_excursion_rad: np.ndarray  #: (1,) largest rotation away from it so far
     leg_clock: np.ndarray  #: (N_CLOCK,) progress of the current leg (see CLOCK_*)
+    rng: np.ndarray  #: (1,) uint64 state of the noise generator (allsky.gauss)
 
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
@@ -182,6 +184,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
         excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
+        rng=np.ones(1, dtype=np.uint64),
     )
 
 
@@ -234,7 +237,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     generator is not reseeded). Returns ``(exit_code, leg_time_s)``.
     """
     if not leg.resume:
-        np.random.seed(leg.seed)
+        gauss_seed(s.rng, leg.seed)
         s.leg_clock[:] = 0.0
     dt = p.frame_s
     el = p.electronics
@@ -269,10 +272,10 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
         # --- sensors -------------------------------------------------------
         _sun_inertial(p, s.time_s[0], sun_i)
         rotate_to_body(s.x, sun_i, sun_b)
-        sun_sensor(p.sun, sun_b, fine)
-        star_tracker(p.tracker, s.x, trk)
+        sun_sensor(p.sun, sun_b, fine, s.rng)
+        star_tracker(p.tracker, s.x, trk, s.rng)
         gyro_output(p.gyro, s.dtheta_rad, dt, s.gyro_rw_arcsec_s, gyro,
-                    s.frame[0] % rrw_every == 0)
+                    s.frame[0] % rrw_every == 0, s.rng)
         # --- summing amplifiers 4, 5, 6 ------------------------------------
         for a in range(3):
             drift = dac(s.drift_counters[a], el.drift_dac_bits, el.drift_lsb_arcsec_s)
@@ -303,7 +306,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
                 store(s.registers, a, err, el.register_bits, el.register_lsb_arcsec)
         # --- DACs 28-30 and optical errors -> control amplifiers 31-33 -------
         if leg.program == PROGRAM_MODE1:
-            coarse_sun(p.sun, sun_b, coarse)
+            coarse_sun(p.sun, sun_b, coarse, s.rng)
             sun_acquisition(p.mode1, p.sun.linear_range_arcsec, fine, coarse, comp, pos, rate)
         else:
             pos[0] = sw[12] * trk[0] \

@@ -44,7 +44,7 @@ EXIT_TEXT = {
     kernel.EXIT_SUN_LOST: "Sun lost",
     kernel.EXIT_STAR_LOST: "star lost",
 }
-STATE_FORMAT = 2
+STATE_FORMAT = 3
 #: The patent's mission, and the comparison mission (dither in place of Modes 4 and 5).
 LEGACY_PLAN = ms.MODES
 DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")

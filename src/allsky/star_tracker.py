@@ -18,6 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky.gauss import standard_normal
 from allsky.jit import njit
 
 RAD2ARCSEC = 206264.80624709636
@@ -33,7 +34,7 @@ class StarTrackerParams(NamedTuple):
 
 
 @njit
-def star_tracker(p, q, out):
+def star_tracker(p, q, out, rng):
     """Tracker outputs for attitude ``q``: ``out = [yaw_arcsec, pitch_arcsec, present]``."""
     best = 1e9
     yaw_best = 0.0
@@ -64,6 +65,6 @@ def star_tracker(p, q, out):
         out[1] = 0.0
         out[2] = 0.0
         return
-    out[0] = yaw_best * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
-    out[1] = pitch_best * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
+    out[0] = yaw_best * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
+    out[1] = pitch_best * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
     out[2] = 1.0

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from allsky import quaternion, switch_bank, units
+from allsky import gauss, quaternion, switch_bank, units
 from allsky import word_registers as wr
 from allsky.dac import dac
 from allsky.star_tracker import star_tracker
@@ -41,8 +41,8 @@ def _py(f):
 def _sensor_view(m):
     """Noise-free sun sensor and star tracker outputs for the current attitude.
 
-    The blocks are called with their noise set to zero and numpy's global
-    generator restored afterwards, so looking does not disturb the flight.
+    The blocks are called with their noise set to zero and a scratch
+    generator, so looking does not disturb the flight's noise stream.
     """
     p, s = m.params, m.state
     t = float(s.time_s[0])
@@ -50,12 +50,8 @@ def _sensor_view(m):
     sun_i = sun_i / np.linalg.norm(sun_i)
     sun_b = quaternion.dcm_body_from_inertial(s.x[0:4]) @ sun_i
     fine, trk = np.zeros(3), np.zeros(3)
-    saved = np.random.get_state()
-    try:
-        _py(sun_sensor)(p.sun._replace(noise_arcsec=0.0), sun_b, fine)
-        _py(star_tracker)(p.tracker._replace(noise_arcsec=0.0), s.x, trk)
-    finally:
-        np.random.set_state(saved)
+    _py(sun_sensor)(p.sun._replace(noise_arcsec=0.0), sun_b, fine, gauss.new_generator())
+    _py(star_tracker)(p.tracker._replace(noise_arcsec=0.0), s.x, trk, gauss.new_generator())
     return fine, trk
 
 

@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky.gauss import standard_normal
 from allsky.jit import njit
 
 RAD2ARCSEC = 206264.80624709636
@@ -30,7 +31,7 @@ class SunSensorParams(NamedTuple):
 
 
 @njit
-def sun_sensor(p, sun_body, out):
+def sun_sensor(p, sun_body, out, rng):
     """Fine sun sensor. ``out`` receives ``[pitch_arcsec, yaw_arcsec, present]``."""
     sx, sy, sz = sun_body[0], sun_body[1], sun_body[2]
     present = sx >= p.presence_cos
@@ -40,19 +41,19 @@ def sun_sensor(p, sun_body, out):
         out[2] = 0.0
         return
     lim = p.linear_range_arcsec
-    pitch = np.arctan2(-sz, sx) * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
-    yaw = np.arctan2(sy, sx) * RAD2ARCSEC + p.noise_arcsec * np.random.standard_normal()
+    pitch = np.arctan2(-sz, sx) * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
+    yaw = np.arctan2(sy, sx) * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
     out[0] = min(max(pitch, -lim), lim)
     out[1] = min(max(yaw, -lim), lim)
     out[2] = 1.0
 
 
 @njit
-def coarse_sun(p, sun_body, out):
+def coarse_sun(p, sun_body, out, rng):
     """Coarse sun eyes: a noisy unit Sun vector in body axes over the whole sphere."""
     n = 0.0
     for i in range(3):
-        out[i] = sun_body[i] + p.coarse_noise_rad * np.random.standard_normal()
+        out[i] = sun_body[i] + p.coarse_noise_rad * standard_normal(rng)
         n += out[i] * out[i]
     n = np.sqrt(n)
     for i in range(3):

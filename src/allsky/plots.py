@@ -394,7 +394,7 @@ def save(fig: Figure, path) -> Path:
     return path
 
 
-def write_plots(table: np.ndarray, out_dir, summary=None) -> PlotSet:
+def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> PlotSet:
     """Write the mission figures as PNG files into ``out_dir`` (created if needed).
 
     Parameters
@@ -406,6 +406,8 @@ def write_plots(table: np.ndarray, out_dir, summary=None) -> PlotSet:
     summary : dict, optional
         The mission summary; without it (or without a stored calibration) the
         calibration figure is skipped.
+    progress : bool
+        Show a progress line on stderr while drawing (when it is a terminal).
 
     Returns
     -------
@@ -415,15 +417,21 @@ def write_plots(table: np.ndarray, out_dir, summary=None) -> PlotSet:
         raise ValueError("the telemetry has no rows: nothing to plot")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    from tqdm import tqdm
+
     files, skipped = [], {}
-    for file_name, draw in TELEMETRY_FIGURES.values():
-        files.append(save(draw(table), out / file_name))
+    jobs = [(name, lambda draw=draw: draw(table)) for name, draw in TELEMETRY_FIGURES.values()]
     if summary is None:
         skipped[CALIBRATION_FILE] = "no mission summary (give --summary SUMMARY.json)"
     elif summary.get("calibration") is None:
         skipped[CALIBRATION_FILE] = "the mission stored no calibration"
     else:
-        files.append(save(calibration(summary), out / CALIBRATION_FILE))
+        jobs.append((CALIBRATION_FILE, lambda: calibration(summary)))
+    with tqdm(jobs, desc="figures", unit="figure", leave=False,
+              disable=None if progress else True) as bar:
+        for file_name, draw in bar:
+            bar.set_postfix_str(file_name)
+            files.append(save(draw(), out / file_name))
     return PlotSet(files, skipped)
 
 
@@ -448,5 +456,5 @@ def run_from_cli(cfg, args) -> int:
         if not isinstance(summary, dict) or not {"calibration", "truth"} <= set(summary):
             raise ConfigError(None, rule=f"summary {args.summary!r} is not an allsky mission "
                                          "summary (allsky run --json)")
-    print(format_written(write_plots(table, args.out, summary)))
+    print(format_written(write_plots(table, args.out, summary, progress=True)))
     return 0

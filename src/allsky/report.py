@@ -81,5 +81,7 @@ def run_from_cli(cfg, args) -> int:
     if plots_dir:
         from allsky import plots
 
-        say(plots.format_written(plots.write_plots(m.telemetry(), plots_dir, summary)))
+        say(plots.format_written(plots.write_plots(
+            m.telemetry(), plots_dir, summary,
+            progress=not (getattr(args, "quiet", False) or to_stdout))))
     return 0 if summary["status"] == "complete" else 1

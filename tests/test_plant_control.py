@@ -131,11 +131,11 @@ def core_zoh_error_rad(reference, dt_s):
     """Largest attitude difference of rk4_step (law evaluated once a step, torque held)."""
     t_s, ref = reference
     p = make_params(INERTIA_KG_M2)
-    x, dtheta, work = initial_state(), np.zeros(3), np.empty((6, 10))
+    x, dtheta = initial_state(), np.zeros(3)
     every = round((t_s[1] - t_s[0]) / dt_s)
     err = 0.0
     for k in range(every * (t_s.size - 1)):
-        rk4_step(p, x, pd_law(x), dt_s, dtheta, work)
+        rk4_step(p, x, pd_law(x), dt_s, dtheta)
         if (k + 1) % every == 0:
             err = max(err, angle_between_rad(x[:4], ref[:4, (k + 1) // every]))
     return err

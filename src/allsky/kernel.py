@@ -257,7 +257,6 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     volts = np.empty(3)
     torque = np.zeros(3)
     sig = np.zeros(N_SIGNALS)
-    work = np.empty((6, 10))
     dith = np.zeros(3)
     ff = np.zeros(3)
     pw = p.vfc.pulse_weight_arcsec
@@ -333,7 +332,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
             pwpf_step(p.pwpf, a, volts[a], s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames)
         tank_ok = jets(p.jets, s.pwpf_out, dt, s.propellant_kg, torque)
         # --- plant ----------------------------------------------------------
-        rk4_step(p.plant, s.x, torque, dt, s.dtheta_rad, work)
+        rk4_step(p.plant, s.x, torque, dt, s.dtheta_rad)
         s.time_s[0] += dt
         s.frame[0] += 1
         t_leg += dt

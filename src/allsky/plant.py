@@ -39,70 +39,87 @@ def make_params(inertia_kg_m2) -> RigidBodyParams:
 
 
 @njit
+def _rates(j, ji, qw, qx, qy, qz, wx, wy, wz, tx, ty, tz):
+    """Quaternion and body-rate derivatives ``(dqw, dqx, dqy, dqz, dwx, dwy, dwz)``."""
+    dqw = 0.5 * (-qx * wx - qy * wy - qz * wz)
+    dqx = 0.5 * (qw * wx + qy * wz - qz * wy)
+    dqy = 0.5 * (qw * wy - qx * wz + qz * wx)
+    dqz = 0.5 * (qw * wz + qx * wy - qy * wx)
+    hx = j[0, 0] * wx + j[0, 1] * wy + j[0, 2] * wz
+    hy = j[1, 0] * wx + j[1, 1] * wy + j[1, 2] * wz
+    hz = j[2, 0] * wx + j[2, 1] * wy + j[2, 2] * wz
+    mx = tx - (wy * hz - wz * hy)
+    my = ty - (wz * hx - wx * hz)
+    mz = tz - (wx * hy - wy * hx)
+    return (dqw, dqx, dqy, dqz,
+            ji[0, 0] * mx + ji[0, 1] * my + ji[0, 2] * mz,
+            ji[1, 0] * mx + ji[1, 1] * my + ji[1, 2] * mz,
+            ji[2, 0] * mx + ji[2, 1] * my + ji[2, 2] * mz)
+
+
+@njit
 def derivatives(p, y, torque_n_m, dy):
     """Time derivative of the integrated vector ``y`` (10 elements) into ``dy``.
 
     ``y[7:10]`` are the frame's body-angle increments; their derivative is the
     body rate itself.
     """
-    j = p.inertia_kg_m2
-    ji = p.inertia_inv_1_kg_m2
-    qw, qx, qy, qz = y[0], y[1], y[2], y[3]
-    wx, wy, wz = y[4], y[5], y[6]
-    dy[0] = 0.5 * (-qx * wx - qy * wy - qz * wz)
-    dy[1] = 0.5 * (qw * wx + qy * wz - qz * wy)
-    dy[2] = 0.5 * (qw * wy - qx * wz + qz * wx)
-    dy[3] = 0.5 * (qw * wz + qx * wy - qy * wx)
-    hx = j[0, 0] * wx + j[0, 1] * wy + j[0, 2] * wz
-    hy = j[1, 0] * wx + j[1, 1] * wy + j[1, 2] * wz
-    hz = j[2, 0] * wx + j[2, 1] * wy + j[2, 2] * wz
-    mx = torque_n_m[0] - (wy * hz - wz * hy)
-    my = torque_n_m[1] - (wz * hx - wx * hz)
-    mz = torque_n_m[2] - (wx * hy - wy * hx)
-    dy[4] = ji[0, 0] * mx + ji[0, 1] * my + ji[0, 2] * mz
-    dy[5] = ji[1, 0] * mx + ji[1, 1] * my + ji[1, 2] * mz
-    dy[6] = ji[2, 0] * mx + ji[2, 1] * my + ji[2, 2] * mz
-    dy[7] = wx
-    dy[8] = wy
-    dy[9] = wz
+    d = _rates(p.inertia_kg_m2, p.inertia_inv_1_kg_m2, y[0], y[1], y[2], y[3], y[4], y[5],
+               y[6], torque_n_m[0], torque_n_m[1], torque_n_m[2])
+    for i in range(N_STATE):
+        dy[i] = d[i]
+    dy[7] = y[4]
+    dy[8] = y[5]
+    dy[9] = y[6]
 
 
 @njit
-def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad, work):
+def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad):
     """Advance the plant state ``x`` (7) by ``dt_s`` in place.
 
-    ``dtheta_rad`` (3) receives the body-angle increment over the step.
-    ``work`` is a preallocated (6, 10) scratch array: no allocation here.
+    ``dtheta_rad`` (3) receives the body-angle increment over the step. The
+    stages live in local variables (registers), not arrays: no allocation,
+    and the compiler need not assume that a store to one stage changes another.
     The quaternion is renormalised after the step (the RK4 truncation error
     otherwise drifts its norm by ~1e-16 per step).
     """
-    y = work[0]
-    k1, k2, k3, k4, tmp = work[1], work[2], work[3], work[4], work[5]
-    for i in range(N_STATE):
-        y[i] = x[i]
-    y[7] = 0.0
-    y[8] = 0.0
-    y[9] = 0.0
-    derivatives(p, y, torque_n_m, k1)
-    for i in range(N_INTEGRATED):
-        tmp[i] = y[i] + 0.5 * dt_s * k1[i]
-    derivatives(p, tmp, torque_n_m, k2)
-    for i in range(N_INTEGRATED):
-        tmp[i] = y[i] + 0.5 * dt_s * k2[i]
-    derivatives(p, tmp, torque_n_m, k3)
-    for i in range(N_INTEGRATED):
-        tmp[i] = y[i] + dt_s * k3[i]
-    derivatives(p, tmp, torque_n_m, k4)
-    for i in range(N_INTEGRATED):
-        y[i] = y[i] + dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-    n = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
-    for i in range(4):
-        x[i] = y[i] / n
-    for i in range(4, N_STATE):
-        x[i] = y[i]
-    dtheta_rad[0] = y[7]
-    dtheta_rad[1] = y[8]
-    dtheta_rad[2] = y[9]
+    j = p.inertia_kg_m2
+    ji = p.inertia_inv_1_kg_m2
+    tx, ty, tz = torque_n_m[0], torque_n_m[1], torque_n_m[2]
+    qw, qx, qy, qz = x[0], x[1], x[2], x[3]
+    wx, wy, wz = x[4], x[5], x[6]
+    h = 0.5 * dt_s
+    # Stage k: derivatives at the stage point; the angle increments' derivative is w.
+    a0, a1, a2, a3, a4, a5, a6 = _rates(j, ji, qw, qx, qy, qz, wx, wy, wz, tx, ty, tz)
+    b0, b1, b2, b3, b4, b5, b6 = _rates(
+        j, ji, qw + h * a0, qx + h * a1, qy + h * a2, qz + h * a3,
+        wx + h * a4, wy + h * a5, wz + h * a6, tx, ty, tz)
+    bx, by, bz = wx + h * a4, wy + h * a5, wz + h * a6
+    c0, c1, c2, c3, c4, c5, c6 = _rates(
+        j, ji, qw + h * b0, qx + h * b1, qy + h * b2, qz + h * b3,
+        wx + h * b4, wy + h * b5, wz + h * b6, tx, ty, tz)
+    cx, cy, cz = wx + h * b4, wy + h * b5, wz + h * b6
+    d0, d1, d2, d3, d4, d5, d6 = _rates(
+        j, ji, qw + dt_s * c0, qx + dt_s * c1, qy + dt_s * c2, qz + dt_s * c3,
+        wx + dt_s * c4, wy + dt_s * c5, wz + dt_s * c6, tx, ty, tz)
+    dx, dy, dz = wx + dt_s * c4, wy + dt_s * c5, wz + dt_s * c6
+    k = dt_s / 6.0
+    qw = qw + k * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
+    qx = qx + k * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+    qy = qy + k * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
+    qz = qz + k * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
+    n = np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    x[0] = qw / n
+    x[1] = qx / n
+    x[2] = qy / n
+    x[3] = qz / n
+    x[4] = wx + k * (a4 + 2.0 * b4 + 2.0 * c4 + d4)
+    x[5] = wy + k * (a5 + 2.0 * b5 + 2.0 * c5 + d5)
+    x[6] = wz + k * (a6 + 2.0 * b6 + 2.0 * c6 + d6)
+    # The angle increments start at 0 and their derivative at each stage is its w.
+    dtheta_rad[0] = 0.0 + k * (wx + 2.0 * bx + 2.0 * cx + dx)
+    dtheta_rad[1] = 0.0 + k * (wy + 2.0 * by + 2.0 * cy + dy)
+    dtheta_rad[2] = 0.0 + k * (wz + 2.0 * bz + 2.0 * cz + dz)
 
 
 def angular_momentum_inertial(p: RigidBodyParams, x) -> np.ndarray:

@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from allsky import quaternion as quat
-from allsky.jit import njit
+from allsky.jit import njit, njit_alloc
 from allsky.plant import (
     N_INTEGRATED,
     angular_momentum_inertial,
@@ -84,7 +84,7 @@ def _closed_loop_derivatives(p, kp, kd, y, dy, tau):
     derivatives(p, y, tau, dy)
 
 
-@njit
+@njit_alloc
 def _closed_loop_rk4(p, kp, kd, x0, dt_s, n_steps, every, out):
     """Classical RK4 of the core's derivatives with the PD law inside them."""
     y = np.zeros(N_INTEGRATED)

@@ -64,7 +64,7 @@ import control
 import numpy as np
 
 from allsky import pwpf
-from allsky.jit import njit
+from allsky.jit import njit_alloc
 from allsky.pwpf import pwpf_step
 from allsky.units import RAD2ARCSEC
 
@@ -316,7 +316,7 @@ def pwpf_duty_cycle(filter_gain, time_constant_s, on_threshold_v, off_threshold_
     return t_on / (t_on + t_off)
 
 
-@njit
+@njit_alloc
 def _valve_trace(p, input_v, n_steps):
     """Valve commands of modulator 0 over ``n_steps`` steps, from rest, constant input."""
     filter_v = np.zeros(3)

@@ -41,15 +41,15 @@ class DitherParams(NamedTuple):
 @njit
 def dither_command(p, t_s, angle_arcsec, ff_volts):
     """Dither angle [arcsec] per axis and the feed-forward modulator input [V] at ``t_s``."""
-    acc = np.empty(3)
+    # a(t) = -A w^2 sin(w t) [rad/s^2], kept in ff_volts until the torque is formed
     for i in range(3):
         s = np.sin(p.omega_rad_s[i] * t_s)
         angle_arcsec[i] = p.amplitude_arcsec[i] * s
-        # a(t) = -A w^2 sin(w t), in rad/s^2
-        acc[i] = -p.amplitude_arcsec[i] * p.omega_rad_s[i] ** 2 * s / 206264.80624709636
+        ff_volts[i] = -p.amplitude_arcsec[i] * p.omega_rad_s[i] ** 2 * s / 206264.80624709636
+    a0, a1, a2 = ff_volts[0], ff_volts[1], ff_volts[2]
     for i in range(3):
-        torque = p.ff_inertia_kg_m2[i, 0] * acc[0] + p.ff_inertia_kg_m2[i, 1] * acc[1] \
-            + p.ff_inertia_kg_m2[i, 2] * acc[2]
+        torque = p.ff_inertia_kg_m2[i, 0] * a0 + p.ff_inertia_kg_m2[i, 1] * a1 \
+            + p.ff_inertia_kg_m2[i, 2] * a2
         ff_volts[i] = torque * p.ff_volts_per_n_m[i]
 
 

@@ -31,7 +31,7 @@ from allsky.dither import DitherParams, dither_command
 from allsky.gauss import seed as gauss_seed
 from allsky.gyro import RRW_STEP_S, GyroParams, gyro_output
 from allsky.jets import JetParams, jets
-from allsky.jit import njit
+from allsky.jit import njit, njit_alloc
 from allsky.plant import RigidBodyParams, rk4_step
 from allsky.pwpf import PwpfParams, pwpf_step
 from allsky.quaternion import rotate_to_body
@@ -90,6 +90,8 @@ N_CLOCK = 5
 N_TLM = 40
 # Dither record columns: t, counters 14/16/18, optical roll/pitch/yaw.
 N_REC = 7
+# Rows of 3-vectors of per-leg scratch (sensor outputs, amplifier signals, torque).
+N_SCRATCH = 14
 
 
 class ElectronicsParams(NamedTuple):
@@ -221,7 +223,7 @@ def _sun_inertial(p, t_s, out):
         out[i] /= n
 
 
-@njit
+@njit_alloc
 def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """Run frames until the leg's condition, timeout or an abort.
 
@@ -236,6 +238,15 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     again with ``resume=1`` carries on as if it had never stopped (the noise
     generator is not reseeded). Returns ``(exit_code, leg_time_s)``.
     """
+    # The scratch is allocated here, once per leg; the frames themselves are
+    # compiled without the reference-counted runtime (allsky.jit) and cannot allocate.
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
+                       np.zeros(N_SIGNALS))
+
+
+@njit
+def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, sig):
+    """The frames of :func:`run_leg`; ``scratch`` (N_SCRATCH, 3) and ``sig`` (N_SIGNALS,)."""
     if not leg.resume:
         gauss_seed(s.rng, leg.seed)
         s.leg_clock[:] = 0.0
@@ -243,22 +254,21 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     el = p.electronics
     sq = p.sequencer
     sw = s.switches
-    # Per-leg scratch (allocated once per leg, not per frame).
-    sun_i = np.empty(3)
-    sun_b = np.empty(3)
-    coarse = np.empty(3)
-    fine = np.empty(3)
-    trk = np.empty(3)
-    gyro = np.empty(3)
-    comp = np.empty(3)
-    line = np.empty(3)
-    pos = np.empty(3)
-    rate = np.empty(3)
-    volts = np.empty(3)
-    torque = np.zeros(3)
-    sig = np.zeros(N_SIGNALS)
-    dith = np.zeros(3)
-    ff = np.zeros(3)
+    # Per-leg scratch, rows of ``scratch`` (allocated by run_leg, once per leg).
+    sun_i = scratch[0]
+    sun_b = scratch[1]
+    coarse = scratch[2]
+    fine = scratch[3]
+    trk = scratch[4]
+    gyro = scratch[5]
+    comp = scratch[6]
+    line = scratch[7]
+    pos = scratch[8]
+    rate = scratch[9]
+    volts = scratch[10]
+    torque = scratch[11]
+    dith = scratch[12]
+    ff = scratch[13]
     pw = p.vfc.pulse_weight_arcsec
     rrw_every = max(1, round(RRW_STEP_S / dt))
     timer = s.leg_clock[CLOCK_SETTLE]

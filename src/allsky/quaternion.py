@@ -10,10 +10,10 @@ import math
 
 import numpy as np
 
-from allsky.jit import njit
+from allsky.jit import njit, njit_alloc
 
 
-@njit
+@njit_alloc
 def dcm_body_from_inertial(q):
     """Direction-cosine matrix of a unit quaternion ``[w, x, y, z]``."""
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -43,7 +43,7 @@ def rotate_to_body(q, v_inertial, out_body):
         + (w * w - x * x - y * y + z * z) * c
 
 
-@njit
+@njit_alloc
 def body_axis_inertial(q, axis):
     """Inertial components of body axis ``axis`` (0=x roll, 1=y pitch, 2=z yaw)."""
     c = dcm_body_from_inertial(q)

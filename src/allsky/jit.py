@@ -9,8 +9,8 @@ are borrowed from the caller and nothing is allocated, so a per-frame block
 that tried to allocate an array would not compile. This is also what makes
 the loop fast: with the runtime on, each array handed to a block (and each
 array field read from a parameter or state tuple) costs an atomic
-reference-count increment and decrement, some sixty a frame, which took
-about half the frame time (mission 96 -> 58 ms with it off).
+reference-count increment and decrement, dozens a frame, which took about
+40 % of the frame time (docs/design.md).
 
 :func:`njit_alloc` keeps the runtime, for the few compiled helpers that
 return new arrays (outside the frame loop, or once per leg).

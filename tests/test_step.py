@@ -137,7 +137,9 @@ def test_until_ends_the_session_at_that_mode_and_saved_state_resumes(capsys, tmp
 ])
 def test_bad_step_input_exits_2_naming_it(capsys, argv, words):
     assert cli.main(argv) == 2
-    assert words in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert words in err
+    assert not err.rstrip().endswith(":")  # a whole sentence, not a dangling "key:"
 
 
 def test_from_refuses_a_scenario_or_overrides(capsys, saved_states):
@@ -149,7 +151,9 @@ def test_from_refuses_a_file_that_is_not_a_state(capsys, tmp_path):
     bad = tmp_path / "bad.npz"
     bad.write_text("not a state")
     assert cli.main(["step", "--from", str(bad)]) == 2
-    assert "not a saved allsky mission state" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "not a saved allsky mission state" in err
+    assert not err.rstrip().endswith(":")
 
 
 def test_interactive_session_in_a_terminal(tmp_path):

@@ -250,22 +250,23 @@ def run_from_cli(cfg, args) -> int:
         telemetry.file_format(args.telemetry)  # refuse a bad suffix before flying
     if args.from_state:
         if args.scenario or args.overrides or args.plan != "legacy":
-            raise ConfigError("--from resumes a saved mission with its own scenario and "
-                              "plan; drop SCENARIO, --set and --plan")
+            raise ConfigError(None, rule="--from resumes a saved mission with its own "
+                              "scenario and plan; drop SCENARIO, --set and --plan")
         try:
             m = Mission.load(args.from_state, telemetry=want_tlm)
         except (ValueError, KeyError, zipfile.BadZipFile) as e:
-            raise ConfigError(f"--from {args.from_state}: not a saved allsky mission "
-                              f"state ({e})") from None
+            raise ConfigError(None, rule=f"--from {args.from_state}: not a saved allsky "
+                              f"mission state ({e})") from None
         if m.finished:
-            raise ConfigError(f"--from {args.from_state}: the saved mission is already "
-                              f"{m.status}")
+            raise ConfigError(None, rule=f"--from {args.from_state}: the saved mission is "
+                              f"already {m.status}")
     else:
         m = Mission(cfg, telemetry=want_tlm,
                     plan=DITHER_PLAN if args.plan == "dither" else LEGACY_PLAN)
     if args.until is not None and args.until not in m.plan[m.next_mode:]:
-        raise ConfigError(f"--until {args.until}: not a mode still to fly (remaining: "
-                          f"{' '.join(m.plan[m.next_mode:])})")
+        remaining = " ".join(m.plan[m.next_mode:])
+        raise ConfigError(None, rule=f"--until {args.until}: not a mode still to fly "
+                          f"(remaining: {remaining})")
     pause = not args.no_pause and sys.stdin.isatty()
     ask = _ask if pause else (lambda: "")
     save_dir = Path(args.save_dir) if args.save_dir else None

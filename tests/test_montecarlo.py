@@ -419,3 +419,31 @@ def test_campaign_without_a_directory(spec_cfg):
     assert result["rows"][0]["run"] == 0 and result["rows"][0]["seed"] == 100
     with pytest.raises(ConfigError):  # a scenario rule still applies to the base scenario
         load_scenario(overrides=["mission.seed=-1"])
+
+
+def test_two_campaigns_on_one_dask_cluster_keep_their_own_scenario(spec_cfg):
+    """Campaign B starts while A's scenario is on the cluster: each gets its own rows.
+
+    A scenario scattered as a dict used to put its sections on the cluster under
+    global keys ("gyro", "target", ...), so the second campaign silently flew
+    the first one's scenario.
+    """
+    distributed = pytest.importorskip("distributed")
+    cfg_b = load_scenario(overrides=["gyro.arw_deg_rt_h=0.01", "target.star='Vega'",
+                                     "mission.seed=500"])
+    local_a = run_campaign(spec_cfg, runs=2, workers=1)["rows"]
+    local_b = run_campaign(cfg_b, runs=2, workers=1)["rows"]
+    assert local_a != local_b
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        jobs = [(i, int(spec_cfg.mission.seed) + i) for i in range(2)]
+        # A's scenario is scattered and held while B flies from start to end.
+        stream_a, close_a = montecarlo._dask_stream(spec_cfg.as_dict(), jobs,
+                                                     cluster.scheduler_address)
+        try:
+            rows_b = run_campaign(cfg_b, runs=2, scheduler=cluster.scheduler_address)["rows"]
+            rows_a = sorted((r for chunk in stream_a for r in chunk), key=lambda r: r["run"])
+        finally:
+            close_a()
+    assert rows_b == local_b
+    assert rows_a == local_a

@@ -263,7 +263,11 @@ def _dask_stream(data, jobs, address):
         raise CampaignError(f"cannot reach the Dask scheduler at {address}: {e}") from None
     threads = max(1, sum(client.nthreads().values()))
     size = max(1, min(DASK_CHUNK_MAX, math.ceil(len(jobs) / (16 * threads))))
-    data_future = client.scatter(data, broadcast=True)
+    # Scatter the scenario as the single element of a list: a dict would be taken
+    # as {key: value} and each section would become a cluster-global key
+    # ("control", "gyro", ...) that another campaign on the same cluster could
+    # overwrite or read. hash=False gives this campaign a key of its own.
+    [data_future] = client.scatter([data], broadcast=True, hash=False)
 
     def submit(chunk):
         return client.submit(fly_runs, data_future, chunk, pure=False)

@@ -1,0 +1,78 @@
+"""Results stay bit-identical: hashes of summaries and telemetry of several missions.
+
+A change that is not meant to move results (a refactor, a speed-up, a new
+option that defaults off) must leave every hash below unchanged. A change
+that is meant to move results updates the hashes in the same commit and says
+why in its message. Run this file with ``-s`` and ``ALLSKY_PRINT_HASHES=1``
+to print the current hashes.
+"""
+
+import hashlib
+import json
+import os
+
+import numpy as np
+import pytest
+
+from allsky.compare import compare
+from allsky.config import load_scenario
+from allsky.mission import DITHER_PLAN, LEGACY_PLAN, Mission
+
+CASES = {
+    "legacy-seed1": (LEGACY_PLAN, 1, ()),
+    "legacy-seed7": (LEGACY_PLAN, 7, ()),
+    "legacy-seed23-vega": (LEGACY_PLAN, 23, ("target.star='Vega'",
+                                             "gyro.drift_deg_h=[1.5,-2.0,0.7]")),
+    "dither-seed1": (DITHER_PLAN, 1, ()),
+    "dither-seed5": (DITHER_PLAN, 5, ()),
+}
+
+#: sha256 of (summary JSON, telemetry bytes) per case, and of ``compare --runs 5``.
+EXPECTED = {
+    "dither-seed1": "02b848dc4a330b83c3f4ac1c95d65ce7",
+    "dither-seed5": "42aee7378ac866d64349c8fba40e2a2c",
+    "legacy-seed1": "3aaa6c2d677777c6cccfdf4abbdac34b",
+    "legacy-seed23-vega": "ccd02ab161b7cf299b4a6169deebe2f2",
+    "legacy-seed7": "941d68e972bca289420480d93ba813e2",
+    "compare-runs5": "00e60537f462ea06b2ba37b848430220",
+}
+
+
+def _digest(*parts: bytes) -> str:
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(p)
+        h.update(b"\0")
+    return h.hexdigest()[:32]
+
+
+def _summary_bytes(summary) -> bytes:
+    return json.dumps(summary, sort_keys=True).encode()
+
+
+def mission_hash(plan, seed, overrides) -> str:
+    cfg = load_scenario(overrides=[f"mission.seed={seed}", *overrides])
+    m = Mission(cfg, plan=plan)
+    summary = m.run()
+    tlm = np.ascontiguousarray(m.telemetry(), dtype=np.float64)
+    return _digest(_summary_bytes(summary), tlm.tobytes())
+
+
+def compare_hash() -> str:
+    result = compare(load_scenario(overrides=["mission.seed=3"]), runs=5, workers=2)
+    return _digest(_summary_bytes(result))
+
+
+def _check(name, value):
+    if os.environ.get("ALLSKY_PRINT_HASHES"):
+        print(f'    "{name}": "{value}",')
+    assert EXPECTED.get(name) == value, f"{name}: results changed"
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_mission_results_are_unchanged(name):
+    _check(name, mission_hash(*CASES[name]))
+
+
+def test_compare_results_are_unchanged():
+    _check("compare-runs5", compare_hash())

@@ -12,8 +12,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from allsky.config import load_scenario
-from allsky.mission import Mission
+from allsky.config.scenario import load_scenario
+from allsky.sim.mission import Mission
 
 RAD2ARCSEC = 206264.80624709636
 NAMES = ("drift roll [deg/h]", "drift pitch [deg/h]", "drift yaw [deg/h]",

@@ -18,8 +18,8 @@ import time
 from pathlib import Path
 
 import allsky
-from allsky.config import load_scenario
-from allsky.mission import Mission
+from allsky.config.scenario import load_scenario
+from allsky.sim.mission import Mission
 
 
 def one_mission(seed):

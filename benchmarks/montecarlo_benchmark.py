@@ -46,8 +46,9 @@ def _rss_mb():
 
 def _runner_parts_ms(cfg, out, n=200):
     """Cost of each thing the runner does around a mission [ms]."""
-    from allsky import dispersions, montecarlo
-    from allsky.mission import run_mission
+    from allsky.config import dispersions
+    from allsky.studies import montecarlo
+    from allsky.sim.mission import run_mission
 
     m = run_mission(cfg, telemetry=False)
     parts = {}
@@ -70,9 +71,9 @@ def _runner_parts_ms(cfg, out, n=200):
 
 def child(mode, runs, out):
     """One measurement, in this (fresh) process; prints a JSON line."""
-    from allsky.config import load_scenario
-    from allsky.mission import run_mission
-    from allsky.montecarlo import run_campaign
+    from allsky.config.scenario import load_scenario
+    from allsky.sim.mission import run_mission
+    from allsky.studies.montecarlo import run_campaign
 
     cfg = load_scenario()
     res = {"mode": mode, "runs": runs}

@@ -2,9 +2,9 @@
 
 import pytest
 
-from allsky.config import load_scenario
-from allsky.master_sequencer import MODES
-from allsky.mission import Mission
+from allsky.config.scenario import load_scenario
+from allsky.sequencer.master_sequencer import MODES
+from allsky.sim.mission import Mission
 
 
 @pytest.fixture(scope="session")

@@ -15,14 +15,14 @@ import math
 import numpy as np
 import pytest
 
-from allsky.analysis import (
+from allsky.studies.analysis import (
     AXES,
     format_margins,
     loop_margins,
     position_loop,
     scenario_loop_arguments,
 )
-from allsky.jets import make_params as make_jet_params
+from allsky.hardware.jets import make_params as make_jet_params
 from allsky.units import RAD2ARCSEC
 
 J_KG_M2 = np.array([100.0, 650.0, 680.0])

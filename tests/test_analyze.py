@@ -1,7 +1,7 @@
 """``allsky analyze``: the PWPF static characteristic (closed form and simulation) and the command.
 
 Truth for the static characteristic (derivation in
-:func:`allsky.analysis.pwpf_duty_cycle`; Wie, *Space Vehicle Dynamics and
+:func:`allsky.studies.analysis.pwpf_duty_cycle`; Wie, *Space Vehicle Dynamics and
 Control*, 2nd ed., sec. 7.4):
 
 * the cycle mean of the filter equation gives ``D = (K e - f_mean) / (K U_m)``
@@ -10,7 +10,7 @@ Control*, 2nd ed., sec. 7.4):
 * at the midpoint of the linear region, ``K e = (U_on + U_off + K U_m) / 2``,
   the on- and off-phase logarithms have the same argument: ``D = 1/2``, and
   the curve is point-symmetric about it, ``D(mid + x) = 1 - D(mid - x)``;
-* the simulated modulator (:func:`allsky.pwpf.pwpf_step`) converges on the
+* the simulated modulator (:func:`allsky.hardware.pwpf.pwpf_step`) converges on the
   continuous formulas as the step shrinks.
 """
 
@@ -22,8 +22,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import analysis, plots, pwpf
-from allsky.cli import main
+from allsky.apps import plots
+from allsky.hardware import pwpf
+from allsky.studies import analysis
+from allsky.apps.cli import main
 
 DEFAULT = {"filter_gain": 1.0, "time_constant_s": 0.1, "on_threshold_v": 0.001,
            "off_threshold_v": 0.0003, "full_on_v": 0.008}

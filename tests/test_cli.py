@@ -5,7 +5,7 @@ are in test_cli_config.py.)"""
 
 import json
 
-from allsky.cli import main
+from allsky.apps.cli import main
 
 
 def test_bad_override_exit_2(capsys):

@@ -15,9 +15,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import allsky.report
-from allsky.cli import main
-from allsky.config import DEFAULT_SCENARIO_PATH, Scenario, load_scenario, toml_dumps
+import allsky.apps.report
+from allsky.apps.cli import main
+from allsky.config.scenario import DEFAULT_SCENARIO_PATH, Scenario, load_scenario, toml_dumps
 
 DEFAULT_TEXT = DEFAULT_SCENARIO_PATH.read_text()
 DEFAULT = tomllib.loads(DEFAULT_TEXT)
@@ -114,7 +114,7 @@ def test_run_passes_the_scenario_and_arguments(capsys, monkeypatch, tmp_path):
         seen.update(cfg=cfg, args=args)
         return 7
 
-    monkeypatch.setattr(allsky.report, "run_from_cli", fake_run_from_cli)
+    monkeypatch.setattr(allsky.apps.report, "run_from_cli", fake_run_from_cli)
     code = main(["run", "--set", "mission.seed=5", "--json", str(tmp_path / "s.json"),
                  "--telemetry", str(tmp_path / "t.csv")])
     assert code == 7
@@ -124,7 +124,7 @@ def test_run_passes_the_scenario_and_arguments(capsys, monkeypatch, tmp_path):
 
 
 def test_run_with_a_bad_scenario_never_flies(capsys, monkeypatch):
-    monkeypatch.setattr(allsky.report, "run_from_cli", lambda cfg, args: pytest.fail("flown"))
+    monkeypatch.setattr(allsky.apps.report, "run_from_cli", lambda cfg, args: pytest.fail("flown"))
     code, _, err = run_main(capsys, ["run", "--set", "jets.isp_s=nan"])
     assert code == 2 and err == "allsky: error: jets.isp_s = nan: must be finite (not nan or inf)\n"
 

@@ -8,8 +8,8 @@ step (-1) and the selectors stay where they are.
 
 import pytest
 
-from allsky.computer_sequencer import sequencer_step
-from allsky.switch_bank import new_bank
+from allsky.computer.computer_sequencer import sequencer_step
+from allsky.hardware.switch_bank import new_bank
 
 
 @pytest.mark.parametrize("step_frames", [1, 2, 5, 7])

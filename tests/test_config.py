@@ -1,4 +1,4 @@
-"""Scenario loading, overrides, validation and the frozen result (allsky.config)."""
+"""Scenario loading, overrides, validation and the frozen result (allsky.config.scenario)."""
 
 import math
 import pickle
@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import config
-from allsky.config import (
+from allsky.config import scenario as config
+from allsky.config.scenario import (
     DEFAULT_SCENARIO_PATH,
     RULES,
     ConfigError,
@@ -74,7 +74,7 @@ def test_rule_table_covers_exactly_the_schema():
 
 
 def test_ephemeris_range_matches_sky():
-    from allsky.sky import EPHEMERIS_YEARS
+    from allsky.vehicle.sky import EPHEMERIS_YEARS
 
     assert (config.EPHEMERIS_START_UTC.year, config.EPHEMERIS_END_UTC.year) == EPHEMERIS_YEARS
 

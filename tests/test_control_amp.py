@@ -1,4 +1,4 @@
-"""Control amplifiers 31, 32, 33 against their transfer law (allsky.control_amp).
+"""Control amplifiers 31, 32, 33 against their transfer law (allsky.hardware.control_amp).
 
 Truth, integral held (``integrate`` False)::
 
@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.control_amp import ControlParams, control_amp
+from allsky.hardware.control_amp import ControlParams, control_amp
 
 # Scenario defaults: Kp = 1e-3 V/", Kd = 5e-4 V/("/s), limits 500/400/400 ".
 P = ControlParams(

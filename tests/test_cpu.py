@@ -6,7 +6,7 @@ Truth:
   counts accumulated on the other axis / true angle. A gyro triad with
   sensitivity S = diag(1 + sf)(I + M) counts S @ theta for a body rotation
   theta, so a perfect calibration stores 1/S[0,0], 1/S[2,2], S[1,0], S[2,0],
-  S[1,2], S[0,2] (:func:`allsky.gyro.perfect_calibration`).
+  S[1,2], S[0,2] (:func:`allsky.hardware.gyro.perfect_calibration`).
 * Mode 6-2, each cycle: (1) corrections = latest corrected roll/yaw x the
   stored factors; (2) intermediate = counter - corrections into that axis;
   (3) corrected = intermediate x scale factor; (4) errors = programmed -
@@ -23,8 +23,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import cpu, gyro
-from allsky import word_registers as wr
+from allsky.computer import cpu
+from allsky.hardware import gyro
+from allsky.computer import word_registers as wr
 
 FULL_TURN_ARCSEC = 1_296_000.0  # 360 deg
 PULSE_WEIGHT_ARCSEC = 0.1  # scenario default

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.dac import dac
+from allsky.hardware.dac import dac
 
 
 @settings(deadline=None)

@@ -10,8 +10,8 @@ the scale-factor spread over many seeds is N sqrt(2/T)/(A w)
 import numpy as np
 import pytest
 
-from allsky import dither
-from allsky.dither_mode import analyse
+from allsky.sequencer import dither
+from allsky.sequencer.dither_mode import analyse
 
 DT = 0.1
 PERIOD = 51.2  # = 0.1 s x 2**9, the dither document's preferred period
@@ -120,9 +120,9 @@ def test_optical_noise_adds_its_own_term():
 def test_on_the_target_only_the_biased_command_estimate_exists():
     """Holding on gyro-derived errors there is no optical reference: only estimate 1,
     which carries the loop's tracking error (several per cent, against ppm-level truth)."""
-    from allsky.config import load_scenario
-    from allsky.dither_mode import target_hold_dither
-    from allsky.mission import Mission
+    from allsky.config.scenario import load_scenario
+    from allsky.sequencer.dither_mode import target_hold_dither
+    from allsky.sim.mission import Mission
 
     for sf in ("[3000,0,3000]", "[-3000,0,-3000]"):
         m = Mission(load_scenario(overrides=[f"gyro.scale_factor_error_ppm={sf}",

@@ -5,7 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from allsky import config, docgen
+from allsky.apps import docgen
+from allsky.config import scenario as config
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -14,7 +15,7 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 def test_committed_page_is_what_the_code_generates(name):
     committed = (DOCS / name).read_text()
     assert committed == docgen.PAGES[name](), (
-        f"docs/{name} is out of date: run `python -m allsky.docgen docs`")
+        f"docs/{name} is out of date: run `python -m allsky.apps.docgen docs`")
 
 
 def test_every_key_has_a_meaning_a_rule_text_and_a_default_column():

@@ -1,4 +1,4 @@
-"""Rate gyros 1, 2, 3 (allsky.gyro) against their error model and its units.
+"""Rate gyros 1, 2, 3 (allsky.hardware.gyro) against their error model and its units.
 
 Truth:
 - with the noise off, the output is the linear model of the module docstring,
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from allsky import gauss, units
-from allsky.gyro import RRW_STEP_S, GyroParams, gyro_output, make_params, perfect_calibration
+from allsky.hardware.gyro import RRW_STEP_S, GyroParams, gyro_output, make_params, perfect_calibration
 
 # Default scenario values (src/allsky/scenarios/default.toml).
 DRIFT_DEG_H = [1.2, -0.8, 1.5]

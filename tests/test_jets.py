@@ -1,4 +1,4 @@
-"""Cold-gas jet couples 39, 40, 41 (allsky.jets) against the rocket equations.
+"""Cold-gas jet couples 39, 40, 41 (allsky.hardware.jets) against the rocket equations.
 
 Truth:
 - a couple of two jets of thrust F at +-r from the centre of mass gives a pure
@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.jets import JetParams, jets, make_params
+from allsky.hardware.jets import JetParams, jets, make_params
 
 THRUST_N = [0.25, 0.5, 0.5]
 ARM_M = [0.5, 1.25, 1.25]

@@ -10,10 +10,10 @@ import numba
 import numpy as np
 import pytest
 
-from allsky import kernel
-from allsky.config import load_scenario
+from allsky.sim import kernel
+from allsky.config.scenario import load_scenario
 from allsky.jit import njit, njit_alloc
-from allsky.mission import Mission
+from allsky.sim.mission import Mission
 
 needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT, reason="about compiled code")
 

@@ -14,8 +14,8 @@ import sys
 import numpy as np
 import pytest
 
-from allsky.config import load_scenario
-from allsky.mission import Mission
+from allsky.config.scenario import load_scenario
+from allsky.sim.mission import Mission
 
 ERROR_SETS = {
     "default": [],
@@ -105,7 +105,7 @@ def test_short_timeout_aborts_instead_of_hanging():
 def test_plain_python_gives_the_same_numbers(saved_states, tmp_path):
     """NUMBA_DISABLE_JIT=1 runs the blocks as plain Python: Mode 3 must agree bit for bit."""
     code = (
-        "import sys, numpy as np; from allsky.mission import Mission;"
+        "import sys, numpy as np; from allsky.sim.mission import Mission;"
         "m = Mission.load(sys.argv[1]); m.run_mode();"
         "np.savez(sys.argv[2], **m.state._asdict())"
     )

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from allsky import units
-from allsky.mission import Mission, reference_star_inertial, target_inertial
-from allsky.quaternion import dcm_body_from_inertial
-from allsky.sky import separation_deg
-from allsky.telemetry import INDEX, switch_closed
+from allsky.sim.mission import Mission, reference_star_inertial, target_inertial
+from allsky.vehicle.quaternion import dcm_body_from_inertial
+from allsky.vehicle.sky import separation_deg
+from allsky.sim.telemetry import INDEX, switch_closed
 
 SETTLE = 50.0  # arcsec, SPEC section 6
 HANDOVER = 7200.0  # arcsec
@@ -30,7 +30,7 @@ def fly(saved_states, mode):
 
 
 def closed_now(m):
-    from allsky.switch_bank import closed
+    from allsky.hardware.switch_bank import closed
     return set(closed(m.state.switches))
 
 
@@ -159,7 +159,7 @@ def test_mode_6_1_rolls_to_programmed_angle_and_presets_counters(saved_states):
     assert abs(t[k, INDEX["error_roll"]]) < HANDOVER < abs(t[0, INDEX["error_roll"]]) or \
         abs(roll_prog) < HANDOVER
     # Preset: intermediate pitch and yaw are zero at the start of 6-2.
-    from allsky import word_registers as wr
+    from allsky.computer import word_registers as wr
     w = m.state.word23
     phi = m.state.cpu[0]
     assert m.state.counters[1] * 0.1 == pytest.approx(w[wr.ROLL_INTO_PITCH] * phi, abs=0.05)

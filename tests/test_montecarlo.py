@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns (allsky.montecarlo) and dispersions (allsky.dispersions).
+"""Monte Carlo campaigns (allsky.studies.montecarlo) and dispersions (allsky.config.dispersions).
 
 Draws against their declared distributions; the same rows with 1 or 2
 worker processes and on a Dask cluster; a campaign killed part way and
@@ -19,10 +19,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from allsky import dispersions, montecarlo
-from allsky.cli import main
-from allsky.config import ConfigError, load_scenario
-from allsky.montecarlo import (
+from allsky.config import dispersions
+from allsky.studies import montecarlo
+from allsky.apps.cli import main
+from allsky.config.scenario import ConfigError, load_scenario
+from allsky.studies.montecarlo import (
     MANIFEST,
     RESULTS,
     columns,

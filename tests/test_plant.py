@@ -1,4 +1,4 @@
-"""Rigid-body plant (allsky.plant) against the mechanics of a rigid body.
+"""Rigid-body plant (allsky.vehicle.plant) against the mechanics of a rigid body.
 
 Truth:
 - torque-free motion conserves the inertial angular momentum and the kinetic
@@ -18,8 +18,8 @@ import numba
 import numpy as np
 import pytest
 
-from allsky import quaternion
-from allsky.plant import angular_momentum_inertial, kinetic_energy_j, make_params, rk4_step
+from allsky.vehicle import quaternion
+from allsky.vehicle.plant import angular_momentum_inertial, kinetic_energy_j, make_params, rk4_step
 
 # [kg m^2] the default scenario's full tensor (src/allsky/scenarios/default.toml).
 INERTIA_KG_M2 = [[100.0, 1.5, -1.0], [1.5, 650.0, 2.0], [-1.0, 2.0, 680.0]]

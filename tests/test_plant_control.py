@@ -15,9 +15,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import quaternion as quat
+from allsky.vehicle import quaternion as quat
 from allsky.jit import njit, njit_alloc
-from allsky.plant import (
+from allsky.vehicle.plant import (
     N_INTEGRATED,
     angular_momentum_inertial,
     derivatives,
@@ -25,7 +25,7 @@ from allsky.plant import (
     make_params,
     rk4_step,
 )
-from allsky.plant_control import (
+from allsky.vehicle.plant_control import (
     INPUT_NAMES,
     STATE_NAMES,
     linearize,

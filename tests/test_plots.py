@@ -12,8 +12,9 @@ import struct
 import numpy as np
 import pytest
 
-from allsky import mission, plots, telemetry
-from allsky.cli import main
+from allsky.apps import plots
+from allsky.sim import mission, telemetry
+from allsky.apps.cli import main
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

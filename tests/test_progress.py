@@ -2,8 +2,8 @@
 
 import io
 
-from allsky import progress
-from allsky.mission import Mission
+from allsky.apps import progress
+from allsky.sim.mission import Mission
 
 
 def test_progress_line_names_each_mode_and_the_flight_is_unchanged(default_cfg, saved_states):
@@ -36,7 +36,7 @@ def test_resumed_mission_counts_from_its_next_mode(saved_states):
 def test_run_json_dash_prints_the_summary_alone_on_stdout(capsys, saved_states):
     import json
 
-    from allsky import cli
+    from allsky.apps import cli
 
     assert cli.main(["run", "--json", "-"]) == 0
     captured = capsys.readouterr()
@@ -45,7 +45,7 @@ def test_run_json_dash_prints_the_summary_alone_on_stdout(capsys, saved_states):
 
 
 def test_run_quiet_keeps_the_report(capsys):
-    from allsky import cli
+    from allsky.apps import cli
 
     assert cli.main(["run", "--quiet"]) == 0
     captured = capsys.readouterr()

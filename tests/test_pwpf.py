@@ -4,7 +4,7 @@ Truth: for a constant input e the continuous-time modulator settles into a
 pulse train with on-time T_on = tau ln((U_on - K(e-U_m))/(U_off - K(e-U_m)))
 and off-time T_off = tau ln((K e - U_off)/(K e - U_on)); dead zone K e < U_on;
 saturation K(e - U_m) >= U_off (Wie, Space Vehicle Dynamics and Control,
-2nd ed., sec. 7.4; derivation in allsky.pwpf).
+2nd ed., sec. 7.4; derivation in allsky.hardware.pwpf).
 """
 
 import math
@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.pwpf import make_params, pwpf_step, static_on_off_times_s
+from allsky.hardware.pwpf import make_params, pwpf_step, static_on_off_times_s
 
 K, TAU, U_ON, U_OFF, U_M = 1.0, 0.1, 0.001, 0.0003, 0.008
 

@@ -1,4 +1,4 @@
-"""Attitude quaternion helpers (allsky.quaternion) against rotation-group identities.
+"""Attitude quaternion helpers (allsky.vehicle.quaternion) against rotation-group identities.
 
 Truth:
 - a direction-cosine matrix is orthonormal with determinant +1;
@@ -19,7 +19,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.quaternion import (
+from allsky.vehicle.quaternion import (
     body_axis_inertial,
     dcm_body_from_inertial,
     from_axis_angle,

@@ -7,7 +7,7 @@ direction the master sequencer chooses; 360 deg at that rate takes 240 s.
 import pytest
 
 from allsky import units
-from allsky.rate_command import rate_command
+from allsky.hardware.rate_command import rate_command
 
 RATE_ARCSEC_S = 1.5 * units.DEG2ARCSEC
 

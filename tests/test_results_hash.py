@@ -14,9 +14,9 @@ import os
 import numpy as np
 import pytest
 
-from allsky.compare import compare
-from allsky.config import load_scenario
-from allsky.mission import DITHER_PLAN, LEGACY_PLAN, Mission
+from allsky.studies.compare import compare
+from allsky.config.scenario import load_scenario
+from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
 
 CASES = {
     "legacy-seed1": (LEGACY_PLAN, 1, ()),

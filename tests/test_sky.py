@@ -1,4 +1,4 @@
-"""The sky (allsky.sky): the Sun and the bright stars against published values.
+"""The sky (allsky.vehicle.sky): the Sun and the bright stars against published values.
 
 Sources, cited beside each number:
 
@@ -26,7 +26,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from allsky import sky
+from allsky.vehicle import sky
 
 ARCSEC_PER_DEG = 3600.0
 

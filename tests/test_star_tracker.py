@@ -1,4 +1,4 @@
-"""Star tracker 105 (allsky.star_tracker) against the geometry of its slit field.
+"""Star tracker 105 (allsky.hardware.star_tracker) against the geometry of its slit field.
 
 Truth:
 - the outputs are the rotations that bring the boresight +z onto the star
@@ -21,8 +21,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import gauss, quaternion, units
-from allsky.star_tracker import StarTrackerParams, star_tracker
+from allsky import gauss, units
+from allsky.vehicle import quaternion
+from allsky.hardware.star_tracker import StarTrackerParams, star_tracker
 
 LONG_DEG, NARROW_DEG = 16.0, 8.0  # default scenario
 

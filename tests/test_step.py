@@ -12,8 +12,9 @@ import sys
 import numpy as np
 import pytest
 
-from allsky import cli, step, units
-from allsky.mission import Mission
+from allsky import units
+from allsky.apps import cli, step
+from allsky.sim.mission import Mission
 
 #: Switches closed at the end of each mode (SPEC section 4's switch actions).
 CLOSED_AT_END = {
@@ -210,7 +211,7 @@ def test_every_and_until_print_inside_stops_only_from_that_mode(capsys):
 
 
 def test_step_telemetry_as_parquet_holds_the_flight_so_far(tmp_path, capsys):
-    from allsky import telemetry
+    from allsky.sim import telemetry
 
     path = tmp_path / "t.parquet"
     assert cli.main(["step", "--no-pause", "--until", "2", "--telemetry", str(path)]) == 0

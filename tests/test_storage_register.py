@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.storage_register import store
+from allsky.hardware.storage_register import store
 
 LSB_ARCSEC = 0.25  # scenario default
 BITS = 16  # scenario default: full scale 32767 x 0.25" = 8191.75" (just above 7200")

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.summing_amp import summing_amp
+from allsky.hardware.summing_amp import summing_amp
 
 CMD_ARCSEC_S = 5400.0  # 1.5 deg/s, the patent's rate command
 

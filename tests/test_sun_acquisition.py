@@ -1,4 +1,4 @@
-"""Mode 1 sun-acquisition controller (allsky.sun_acquisition) against geometry.
+"""Mode 1 sun-acquisition controller (allsky.hardware.sun_acquisition) against geometry.
 
 Truth:
 - a body rate about u = x x s (s the Sun in body axes) turns the roll axis
@@ -9,7 +9,7 @@ Truth:
 - inside the fine sensor's +-7200" linear range (SPEC section 2) the fine
   pitch and yaw errors become the control amplifiers' position inputs and the
   gyro rates damp them;
-- the control amplifiers use V = Kp pos - Kd rate (allsky.control_amp): the
+- the control amplifiers use V = Kp pos - Kd rate (allsky.hardware.control_amp): the
   rate input is "measured minus commanded", so the commanded rate is
   gyro - rate.
 """
@@ -21,9 +21,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import gauss, quaternion, units
-from allsky.sun_acquisition import SunAcquisitionParams, sun_acquisition
-from allsky.sun_sensor import SunSensorParams, sun_sensor
+from allsky import gauss, units
+from allsky.vehicle import quaternion
+from allsky.hardware.sun_acquisition import SunAcquisitionParams, sun_acquisition
+from allsky.hardware.sun_sensor import SunSensorParams, sun_sensor
 
 GAIN_PER_S = 0.05
 CAP_ARCSEC_S = 3600.0

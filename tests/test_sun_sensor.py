@@ -1,4 +1,4 @@
-"""Sun sensor 104 and the coarse sun eyes (allsky.sun_sensor) against geometry.
+"""Sun sensor 104 and the coarse sun eyes (allsky.hardware.sun_sensor) against geometry.
 
 Truth:
 - the fine outputs are the rotations about body +y (pitch) and +z (yaw) that
@@ -20,8 +20,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky import gauss, quaternion, units
-from allsky.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
+from allsky import gauss, units
+from allsky.vehicle import quaternion
+from allsky.hardware.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
 
 LINEAR_ARCSEC = 7200.0
 PRESENCE_DEG = 30.0  # default scenario

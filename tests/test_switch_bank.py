@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.switch_bank import (
+from allsky.hardware.switch_bank import (
     N_SWITCHES,
     SwitchError,
     bitmask,

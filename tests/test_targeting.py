@@ -1,4 +1,4 @@
-"""Programmed target angles, register 24 (allsky.targeting), against spherical geometry.
+"""Programmed target angles, register 24 (allsky.computer.targeting), against spherical geometry.
 
 Truth:
 - the reference attitude left by Modes 1-5 has +x on the Sun and the reference
@@ -6,7 +6,7 @@ Truth:
 - a roll phi about +x then a yaw psi about the rolled +z carries +x to
   cos(psi) x + sin(psi)(cos(phi) y + sin(phi) z) (module docstring); the
   same manoeuvre composed with quaternions (body rotations on the right,
-  allsky.quaternion) must land +x on the target;
+  allsky.vehicle.quaternion) must land +x on the target;
 - |psi| is the Sun-target angle, and of the two (phi, psi) solutions the one
   with |phi| <= 90 deg is programmed.
 """
@@ -18,8 +18,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from allsky import quaternion
-from allsky.targeting import pointing_direction, programmed_angles_deg, reference_frame
+from allsky.vehicle import quaternion
+from allsky.computer.targeting import pointing_direction, programmed_angles_deg, reference_frame
 
 component = st.floats(-1.0, 1.0, allow_nan=False)
 directions = st.tuples(component, component, component).filter(

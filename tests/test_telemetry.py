@@ -2,7 +2,7 @@
 
 Truth: the column list in docs/telemetry.md is generated from
 ``telemetry.COLUMNS`` and must equal what the code generates; the recorder
-writes the columns in :func:`allsky.kernel._record`'s order, ``N_TLM`` of
+writes the columns in :func:`allsky.sim.kernel._record`'s order, ``N_TLM`` of
 them; a file read back equals the table written, bit for bit.
 """
 
@@ -13,9 +13,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from allsky import kernel, switch_bank, telemetry
-from allsky.cli import main
-from allsky.mission import MODE_CODE
+from allsky.hardware import switch_bank
+from allsky.sim import kernel, telemetry
+from allsky.apps.cli import main
+from allsky.sim.mission import MODE_CODE
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -51,7 +52,7 @@ def test_committed_column_list_is_what_the_code_generates():
     committed = (DOCS / "telemetry.md").read_text()
     assert committed == telemetry.markdown(), (
         "docs/telemetry.md is out of date: run "
-        "`python -m allsky.telemetry --markdown > docs/telemetry.md`")
+        "`python -m allsky.sim.telemetry --markdown > docs/telemetry.md`")
 
 
 def test_column_list_names_every_column_with_unit_and_meaning():

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.updown_counter import SATURATE, WRAP, count
+from allsky.hardware.updown_counter import SATURATE, WRAP, count
 
 
 def signed_wrap(v: int, bits: int) -> int:
@@ -83,7 +83,7 @@ def test_full_roll_fits_the_default_28_bit_counter():
     assert h.overflow[0] == 1
 
 
-# Word lengths up to 62 bits, the scenario limit (allsky.config): sums stay in int64.
+# Word lengths up to 62 bits, the scenario limit (allsky.config.scenario): sums stay in int64.
 pulse_lists = st.lists(st.integers(-(1 << 44), 1 << 44), min_size=1, max_size=30)
 
 

@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.vfc import VfcParams, vfc
+from allsky.hardware.vfc import VfcParams, vfc
 
 
 def run(p, rates_arcsec_s, dt_s, axis=0):

@@ -3,13 +3,13 @@
 Truth: register 23 holds six calibration results (roll and yaw scale
 factors, four cross-coupling factors; SPEC sec. 3), register 24 the
 programmed roll and yaw angles; "no calibration" is a unit scale factor
-and zero coupling. The summary keys match :func:`allsky.gyro.perfect_calibration`.
+and zero coupling. The summary keys match :func:`allsky.hardware.gyro.perfect_calibration`.
 """
 
 import numpy as np
 
-from allsky import gyro
-from allsky import word_registers as wr
+from allsky.hardware import gyro
+from allsky.computer import word_registers as wr
 
 COMPUTED = ("SF_ROLL", "SF_YAW", "ROLL_INTO_PITCH", "ROLL_INTO_YAW", "YAW_INTO_PITCH",
             "YAW_INTO_ROLL")

@@ -1,5 +1,5 @@
 """Allow ``python -m allsky``."""
 
-from allsky.cli import main
+from allsky.apps.cli import main
 
 raise SystemExit(main())

@@ -28,7 +28,7 @@ triangle, after checking symmetry to a relative 1e-9).
 
 ``[dispersions]`` (empty in the default) names keys drawn at random per
 mission seed for Monte Carlo campaigns (syntax and seeding:
-:mod:`allsky.dispersions`, ``docs/montecarlo.md``); its entries are merged by
+:mod:`allsky.config.dispersions`, ``docs/montecarlo.md``); its entries are merged by
 key, and ``load_scenario(..., disperse=FILE)`` merges a file's
 ``[dispersions]`` table over the scenario's.
 
@@ -57,7 +57,7 @@ import numpy as np
 DEFAULT_SCENARIO_PATH = Path(str(resources.files("allsky") / "scenarios" / "default.toml"))
 #: The master-sequencer modes, the keys of ``sequencer.timeout_s``.
 MODE_KEYS = ("1", "2", "3", "4", "5", "6-1", "6-2")
-#: Dates the ephemeris is trusted for (PyEphem; the same as ``allsky.sky.EPHEMERIS_YEARS``).
+#: Dates the ephemeris is trusted for (PyEphem; the same as ``allsky.vehicle.sky.EPHEMERIS_YEARS``).
 EPHEMERIS_START_UTC = datetime(1900, 1, 1, tzinfo=UTC)
 EPHEMERIS_END_UTC = datetime(2100, 12, 31, 23, 59, 59, 999999, tzinfo=UTC)
 #: The two forms of ``[target]``; keys the default need not contain.
@@ -634,8 +634,8 @@ def _merge(base: dict, incoming: dict, schema: dict, path=()) -> None:
         _replace_target_form(base, incoming)
     for k, v in incoming.items():
         here = (*path, k)
-        if not path and k == "dispersions":  # entries by key: see allsky.dispersions
-            from allsky import dispersions
+        if not path and k == "dispersions":  # entries by key: see allsky.config.dispersions
+            from allsky.config import dispersions
 
             base[k] = dispersions.merge(base.get(k) or {}, v)
             continue
@@ -904,7 +904,7 @@ def _validate(data: dict) -> dict:
     for key, v in flat.items():
         sec, name = key.split(".")
         sections.setdefault(sec, {})[name] = v
-    from allsky import dispersions
+    from allsky.config import dispersions
 
     sections["dispersions"] = dispersions.validate(data.get("dispersions") or {}, flat)
     # A key just added to the default but not yet to RULES is kept as read (frozen), so
@@ -973,7 +973,7 @@ def load_scenario(path=None, overrides=(), disperse=None) -> Scenario:
         if others:
             raise ConfigError(None, str(disperse), f"{disperse}: a dispersion file holds only a "
                               f"[dispersions] table, not {', '.join(map(repr, others))}")
-        from allsky import dispersions
+        from allsky.config import dispersions
 
         table = dispersions.merge({}, data.get("dispersions", {}))
         data = {**data, "dispersions": dispersions.merge(table, extra.get("dispersions", {}))}

@@ -45,7 +45,7 @@ leaves the draws of the others unchanged.
 
 A draw is validated like any scenario value: a draw that breaks a rule
 (a negative thrust, an inertia that is not positive definite) raises
-:class:`~allsky.config.ConfigError` naming the key and the drawn value.
+:class:`~allsky.config.scenario.ConfigError` naming the key and the drawn value.
 """
 
 import difflib
@@ -56,8 +56,8 @@ from datetime import datetime, timedelta
 
 import numpy as np
 
-from allsky import config
-from allsky.config import ConfigError
+from allsky.config import scenario as config
+from allsky.config.scenario import ConfigError
 
 #: Stream number of the dispersion draws under the mission seed.
 DISPERSION_STREAM = 2

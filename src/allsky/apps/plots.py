@@ -1,7 +1,7 @@
 """Figures of a flown mission from its telemetry, and ``allsky plot``.
 
-Each figure function takes the telemetry table (:mod:`allsky.telemetry`
-column order) or the mission summary (:meth:`allsky.mission.Mission.summary`)
+Each figure function takes the telemetry table (:mod:`allsky.sim.telemetry`
+column order) or the mission summary (:meth:`allsky.sim.mission.Mission.summary`)
 and returns a :class:`matplotlib.figure.Figure`; :func:`write_plots` writes
 them all as PNG. Figures are built on the object-oriented API and rendered by
 Agg, so nothing needs a display and no global pyplot state is touched.
@@ -30,9 +30,9 @@ from typing import NamedTuple
 import numpy as np
 from matplotlib.figure import Figure
 
-from allsky import switch_bank
-from allsky.config import ConfigError
-from allsky.telemetry import INDEX, TelemetryError, read, switch_closed
+from allsky.hardware import switch_bank
+from allsky.config.scenario import ConfigError
+from allsky.sim.telemetry import INDEX, TelemetryError, read, switch_closed
 
 AXES = ("roll", "pitch", "yaw")
 AXIS_COLOURS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
@@ -55,7 +55,7 @@ _MODE_COLOURS = ("#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#76b7b2
 
 
 def _switch_labels() -> dict:
-    """Sk -> short description, from the table in :mod:`allsky.switch_bank`'s docstring."""
+    """Sk -> short description, from the table in :mod:`allsky.hardware.switch_bank`'s docstring."""
     out = {}
     for line in (switch_bank.__doc__ or "").splitlines():
         m = re.match(r"^S(\d+)\s+(.+)$", line.strip())
@@ -255,7 +255,7 @@ def jets(table: np.ndarray) -> Figure:
 def calibration(summary: dict) -> Figure:
     """Stored calibration against the truth: drift, scale factor, cross-coupling, with errors.
 
-    ``summary`` is :meth:`allsky.mission.Mission.summary` (``allsky run --json``).
+    ``summary`` is :meth:`allsky.sim.mission.Mission.summary` (``allsky run --json``).
     Raises ``ValueError`` when the mission stored no calibration.
     """
     cal, truth = summary.get("calibration"), summary.get("truth")
@@ -302,10 +302,10 @@ def analysis(result: dict, frequency_responses: dict) -> Figure:
     Parameters
     ----------
     result : dict
-        :func:`allsky.analysis.analyze`.
+        :func:`allsky.studies.analysis.analyze`.
     frequency_responses : dict
         ``{loop name: (omega_rad_s, magnitude, phase_deg)}``
-        (:func:`allsky.analysis.frequency_responses`).
+        (:func:`allsky.studies.analysis.frequency_responses`).
     """
     fig = Figure(figsize=(12.0, 7.0), layout="constrained")
     grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1.0))
@@ -400,7 +400,7 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
     Parameters
     ----------
     table : numpy.ndarray
-        Telemetry, :data:`allsky.telemetry.COLUMNS` order.
+        Telemetry, :data:`allsky.sim.telemetry.COLUMNS` order.
     out_dir : path
         Directory for the files.
     summary : dict, optional

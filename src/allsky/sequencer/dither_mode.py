@@ -27,8 +27,9 @@ flies unchanged with the dither's calibration:
 
 import numpy as np
 
-from allsky import dither, kernel
-from allsky import word_registers as wr
+from allsky.sequencer import dither
+from allsky.sim import kernel
+from allsky.computer import word_registers as wr
 
 AXES = ("roll", "pitch", "yaw")
 

@@ -20,8 +20,8 @@ import os
 import sys
 
 from allsky import __version__
-from allsky.config import ConfigError, load_scenario
-from allsky.telemetry import TelemetryError
+from allsky.config.scenario import ConfigError, load_scenario
+from allsky.sim.telemetry import TelemetryError
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -243,17 +243,17 @@ def _positive_int(text):
 def _run(cfg, args) -> int:
     # Imported here so that `allsky config` never pays for compiling the simulator.
     if args.command == "compare":
-        from allsky.compare import run_from_cli
+        from allsky.studies.compare import run_from_cli
     elif args.command == "step":
-        from allsky.step import run_from_cli
+        from allsky.apps.step import run_from_cli
     elif args.command == "montecarlo":
-        from allsky.montecarlo import run_from_cli
+        from allsky.studies.montecarlo import run_from_cli
     elif args.command == "plot":
-        from allsky.plots import run_from_cli
+        from allsky.apps.plots import run_from_cli
     elif args.command == "analyze":
-        from allsky.analysis import run_from_cli
+        from allsky.studies.analysis import run_from_cli
     else:
-        from allsky.report import run_from_cli
+        from allsky.apps.report import run_from_cli
 
     return run_from_cli(cfg, args)
 

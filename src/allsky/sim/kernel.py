@@ -12,7 +12,7 @@ It reads top to bottom like the patent's block diagram::
     -> master sequencer 20's watch of the error signals, telemetry
 
 The master sequencer itself (switch actions, mode rules) is Python
-(:mod:`allsky.master_sequencer`): it sets the switches, then calls
+(:mod:`allsky.sequencer.master_sequencer`): it sets the switches, then calls
 :func:`run_leg` with a *leg*, the condition that ends the current step of a
 mode. The loop returns when that condition is met, at the leg's timeout, or
 on an abort (propellant gone, Sun or star lost). All state lives in the
@@ -23,27 +23,27 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky.computer_sequencer import sequencer_step
-from allsky.control_amp import ControlParams, control_amp
-from allsky.cpu import N_WORK, target_step
-from allsky.dac import dac
-from allsky.dither import DitherParams, dither_command
+from allsky.computer.computer_sequencer import sequencer_step
+from allsky.hardware.control_amp import ControlParams, control_amp
+from allsky.computer.cpu import N_WORK, target_step
+from allsky.hardware.dac import dac
+from allsky.sequencer.dither import DitherParams, dither_command
 from allsky.gauss import seed as gauss_seed
-from allsky.gyro import RRW_STEP_S, GyroParams, gyro_output
-from allsky.jets import JetParams, jets
+from allsky.hardware.gyro import RRW_STEP_S, GyroParams, gyro_output
+from allsky.hardware.jets import JetParams, jets
 from allsky.jit import njit, njit_alloc
-from allsky.plant import RigidBodyParams, rk4_step
-from allsky.pwpf import PwpfParams, pwpf_step
-from allsky.quaternion import rotate_to_body
-from allsky.rate_command import rate_command
-from allsky.star_tracker import StarTrackerParams, star_tracker
-from allsky.storage_register import store
-from allsky.summing_amp import summing_amp
-from allsky.sun_acquisition import SunAcquisitionParams, sun_acquisition
-from allsky.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
-from allsky.updown_counter import count
-from allsky.vfc import VfcParams, vfc
-from allsky.word_registers import N_PROGRAMMED
+from allsky.vehicle.plant import RigidBodyParams, rk4_step
+from allsky.hardware.pwpf import PwpfParams, pwpf_step
+from allsky.vehicle.quaternion import rotate_to_body
+from allsky.hardware.rate_command import rate_command
+from allsky.hardware.star_tracker import StarTrackerParams, star_tracker
+from allsky.hardware.storage_register import store
+from allsky.hardware.summing_amp import summing_amp
+from allsky.hardware.sun_acquisition import SunAcquisitionParams, sun_acquisition
+from allsky.hardware.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
+from allsky.hardware.updown_counter import count
+from allsky.hardware.vfc import VfcParams, vfc
+from allsky.computer.word_registers import N_PROGRAMMED
 
 # Computer programs a leg can run.
 PROGRAM_NONE = 0
@@ -86,7 +86,7 @@ CLOCK_STAR_GONE = 3  #: [s] time the star has been absent while in use
 CLOCK_FRAMES = 4  #: [frames] frames run in the leg
 N_CLOCK = 5
 
-# Telemetry columns (see allsky.telemetry for names and units).
+# Telemetry columns (see allsky.sim.telemetry for names and units).
 N_TLM = 40
 # Dither record columns: t, counters 14/16/18, optical roll/pitch/yaw.
 N_REC = 7
@@ -117,7 +117,7 @@ class SequencerParams(NamedTuple):
 
 
 class Params(NamedTuple):
-    """Everything the frame loop reads; built once per mission by :mod:`allsky.mission`."""
+    """Everything the frame loop reads; built once per mission by :mod:`allsky.sim.mission`."""
 
     frame_s: float  #: [s]
     telemetry_every: int  #: [frames] per telemetry row (0 = none)
@@ -169,8 +169,8 @@ class State(NamedTuple):
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
     """A fresh state at ejection: everything zero, switches open, neutral registers."""
-    from allsky.switch_bank import new_bank
-    from allsky.word_registers import neutral_computed
+    from allsky.hardware.switch_bank import new_bank
+    from allsky.computer.word_registers import neutral_computed
 
     x = np.zeros(7)
     x[0:4] = q0

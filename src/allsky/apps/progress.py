@@ -15,7 +15,7 @@ PROGRESS_EVERY_S = 20.0  #: [s] of mission time between refreshes
 
 def fly(m, quiet=False, stream=None):
     """Fly the remaining modes of mission ``m`` with a progress line; return its summary."""
-    from allsky.mission import MODE_TITLE
+    from allsky.sim.mission import MODE_TITLE
 
     stream = stream or sys.stderr
     disable = True if quiet else (None if stream is sys.stderr else False)

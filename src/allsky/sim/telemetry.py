@@ -8,7 +8,7 @@ The format follows the file's suffix: ``.csv`` (text, every value written
 with its shortest exact decimal form) or ``.parquet`` (Apache Parquet,
 float64 columns). Both read back bit-identical (:func:`read`).
 
-``python -m allsky.telemetry --markdown`` prints ``docs/telemetry.md``, the
+``python -m allsky.sim.telemetry --markdown`` prints ``docs/telemetry.md``, the
 column list generated from :data:`COLUMNS`.
 """
 
@@ -28,7 +28,7 @@ class Column(NamedTuple):
     meaning: str  #: what the value is, with the patent numeral of its block
 
 
-#: The columns, in the order :func:`allsky.kernel._record` writes them.
+#: The columns, in the order :func:`allsky.sim.kernel._record` writes them.
 COLUMNS = (
     Column("time", "s", "mission time since ejection"),
     Column("mode", "-", "mode code: 1, 2, 3, 4, 5, 6.1, 6.2 (7: dither comparison mode); "
@@ -217,14 +217,14 @@ def markdown() -> str:
     lines = [
         "# Telemetry columns",
         "",
-        ("<!-- Generated from allsky.telemetry.COLUMNS by "
-         "`python -m allsky.telemetry --markdown > docs/telemetry.md`; do not edit. -->"),
+        ("<!-- Generated from allsky.sim.telemetry.COLUMNS by "
+         "`python -m allsky.sim.telemetry --markdown > docs/telemetry.md`; do not edit. -->"),
         "",
         ("`allsky run --telemetry PATH` writes one row every "
          "`mission.telemetry_every_frames` frames (default 10 frames = 0.1 s), as CSV "
          "(`.csv`) or Apache Parquet (`.parquet`) by the file's suffix. Every column name "
          "carries its unit, `name [unit]`; all values are float64 (integers are exact). "
-         "`allsky.telemetry.read(path)` reads either format back and refuses a file whose "
+         "`allsky.sim.telemetry.read(path)` reads either format back and refuses a file whose "
          "columns are not these. `allsky plot` draws the figures from such a file."),
         "",
         "| # | column in the file | unit | meaning |",
@@ -236,8 +236,8 @@ def markdown() -> str:
 
 
 def main(argv=None) -> int:
-    """``python -m allsky.telemetry --markdown``: print the column list."""
-    p = argparse.ArgumentParser(prog="python -m allsky.telemetry",
+    """``python -m allsky.sim.telemetry --markdown``: print the column list."""
+    p = argparse.ArgumentParser(prog="python -m allsky.sim.telemetry",
                                 description="Print the telemetry column list.")
     p.add_argument("--markdown", action="store_true", required=True,
                    help="print docs/telemetry.md as generated from COLUMNS")

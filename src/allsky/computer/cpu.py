@@ -18,7 +18,7 @@ rotate about the positive axis), the sign convention of every position input
 of the control amplifiers.
 """
 
-from allsky import word_registers as wr
+from allsky.computer import word_registers as wr
 from allsky.jit import njit
 
 # CPU working-store layout (float64 array of N_WORK).

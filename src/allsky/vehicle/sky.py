@@ -220,7 +220,7 @@ def _canonical(name: str) -> str:
     if key not in by_lower:
         near = difflib.get_close_matches(key, list(by_lower), n=3, cutoff=0.5)
         hint = (f"; nearest: {', '.join(by_lower[k] for k in near)}" if near
-                else "; see allsky.sky.star_names()")
+                else "; see allsky.vehicle.sky.star_names()")
         raise KeyError(f"no star named {name!r} in the catalog{hint}")
     return by_lower[key]
 

@@ -2,7 +2,7 @@
 
 Run i of a campaign flies the scenario with ``mission.seed = base + i``
 (base: the scenario's ``mission.seed``) and its ``[dispersions]`` drawn for
-that seed (:mod:`allsky.dispersions`), so any run is reproduced alone by
+that seed (:mod:`allsky.config.dispersions`), so any run is reproduced alone by
 ``allsky run SCENARIO --set mission.seed=S`` with the same dispersions.
 
 Each run gives one row of scalars (:func:`columns`): its index and seed,
@@ -34,9 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from allsky import __version__, dispersions
-from allsky.config import ConfigError, scenario_from_dict
-from allsky.master_sequencer import MODES
+from allsky import __version__
+from allsky.config import dispersions
+from allsky.config.scenario import ConfigError, scenario_from_dict
+from allsky.sequencer.master_sequencer import MODES
 
 MANIFEST = "campaign.json"
 RESULTS = "runs.csv"
@@ -93,10 +94,10 @@ def columns(cfg) -> list:
 
 
 def row_from_summary(run: int, seed: int, inputs: dict, summary: dict) -> dict:
-    """A campaign row from a mission summary (:meth:`allsky.mission.Mission.summary`).
+    """A campaign row from a mission summary (:meth:`allsky.sim.mission.Mission.summary`).
 
     ``inputs`` are the drawn values as flat columns
-    (:func:`allsky.dispersions.flat_inputs`). Values a mission did not reach
+    (:func:`allsky.config.dispersions.flat_inputs`). Values a mission did not reach
     (modes not flown, no calibration, no final pointing) are None.
     """
     row = {"run": int(run), "seed": int(seed), "status": summary["status"],
@@ -126,7 +127,7 @@ def fly_one(cfg, run: int, seed: int) -> dict:
     unexpected failure status ``"error"``, each with its reason; neither stops
     the campaign.
     """
-    from allsky.mission import run_mission
+    from allsky.sim.mission import run_mission
 
     try:
         run_cfg, drawn = dispersions.disperse(cfg, seed)

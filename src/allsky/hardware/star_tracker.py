@@ -10,7 +10,7 @@ Its field of view is a slit: long (``fov_long_half``) in the pitch direction,
 since the Sun-Canopus angle varies by about +-14 deg over a year, narrow
 (``fov_narrow_half``) across. Only stars inside the magnitude window reach
 the kernel (the window is applied once, before flight, by
-:func:`allsky.mission` from the catalog); of those in the field, the one
+:func:`allsky.sim.mission` from the catalog); of those in the field, the one
 nearest the boresight is tracked. "Star present" flags a lock.
 """
 

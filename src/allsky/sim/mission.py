@@ -15,29 +15,16 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import (
-    control_amp,
-    dither,
-    gyro,
-    jets,
-    kernel,
-    plant,
-    pwpf,
-    quaternion,
-    sky,
-    star_tracker,
-    sun_acquisition,
-    sun_sensor,
-    switch_bank,
-    targeting,
-    units,
-    updown_counter,
-    vfc,
-)
-from allsky import master_sequencer as ms
-from allsky import word_registers as wr
-from allsky.dither_mode import mode_dither
-from allsky.telemetry import COLUMNS
+from allsky import units
+from allsky.computer import targeting
+from allsky.hardware import control_amp, gyro, jets, pwpf, star_tracker, sun_acquisition, sun_sensor, switch_bank, updown_counter, vfc
+from allsky.sequencer import dither
+from allsky.sim import kernel
+from allsky.vehicle import plant, quaternion, sky
+from allsky.sequencer import master_sequencer as ms
+from allsky.computer import word_registers as wr
+from allsky.sequencer.dither_mode import mode_dither
+from allsky.sim.telemetry import COLUMNS
 
 EXIT_TEXT = {
     kernel.EXIT_PROPELLANT: "propellant exhausted",
@@ -200,7 +187,7 @@ class Mission:
         self._tlm = []
         self._mode_deadline = None
         self._mode = None
-        #: Stepping hooks (:mod:`allsky.step`): call ``on_pause(self, leg_text)`` every
+        #: Stepping hooks (:mod:`allsky.apps.step`): call ``on_pause(self, leg_text)`` every
         #: ``pause_every_s`` of mission time inside legs [s]; None = fly straight through.
         self.pause_every_s = None
         self.on_pause = None

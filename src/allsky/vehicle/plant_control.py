@@ -1,12 +1,12 @@
 """The vehicle's rigid-body rotation as a python-control ``nlsys``, for analysis.
 
-The same plant as :mod:`allsky.plant`, the same equations and the same
+The same plant as :mod:`allsky.vehicle.plant`, the same equations and the same
 quaternion convention (``q = [w, x, y, z]`` inertial->body, scalar first)::
 
     J dw/dt = tau - w x (J w)          (Euler's equations, full inertia tensor)
     dq/dt   = 0.5 * q (x) [0, w]       (quaternion kinematics)
 
-The right-hand side *is* :func:`allsky.plant.derivatives`: one set of
+The right-hand side *is* :func:`allsky.vehicle.plant.derivatives`: one set of
 equations in one place, so what python-control analyses and what the
 compiled simulation core integrates cannot drift apart.
 
@@ -20,14 +20,14 @@ outputs    the states, same names      as above
 =========  ==========================  =========
 
 The ``nlsys`` does not renormalise the quaternion (an ODE has no such step);
-:func:`allsky.plant.rk4_step` does after each step, a change of the order of
+:func:`allsky.vehicle.plant.rk4_step` does after each step, a change of the order of
 its truncation error.
 """
 
 import control
 import numpy as np
 
-from allsky.plant import N_INTEGRATED, N_STATE, derivatives, make_params
+from allsky.vehicle.plant import N_INTEGRATED, N_STATE, derivatives, make_params
 
 STATE_NAMES = ("q_w", "q_x", "q_y", "q_z", "w_x", "w_y", "w_z")
 INPUT_NAMES = ("tau_x", "tau_y", "tau_z")

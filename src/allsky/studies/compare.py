@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from allsky import units
-from allsky.dither_mode import analyse
-from allsky.mission import DITHER_PLAN, LEGACY_PLAN, Mission
+from allsky.sequencer.dither_mode import analyse
+from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
 
 AXES = ("roll", "yaw")
 CC_KEYS = ("roll_into_pitch", "roll_into_yaw", "yaw_into_pitch", "yaw_into_roll")

@@ -10,7 +10,7 @@ The simulation core integrates these with classical fourth-order Runge-Kutta
 at the fixed frame, torque held over the frame (the jets are on/off valves
 commanded once a frame). Alongside, it integrates the body-axis angle
 increment ``int w dt`` [rad] over the frame, which is what a strapped-down
-gyro's pulse train measures. :mod:`allsky.plant_control` builds the same
+gyro's pulse train measures. :mod:`allsky.vehicle.plant_control` builds the same
 equations as a python-control ``nlsys`` for analysis.
 """
 
@@ -124,7 +124,7 @@ def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad):
 
 def angular_momentum_inertial(p: RigidBodyParams, x) -> np.ndarray:
     """Angular momentum [N m s] in inertial axes (conserved without torque)."""
-    from allsky.quaternion import dcm_body_from_inertial
+    from allsky.vehicle.quaternion import dcm_body_from_inertial
 
     h_body = p.inertia_kg_m2 @ np.asarray(x[4:7])
     return dcm_body_from_inertial(np.asarray(x[0:4])).T @ h_body

@@ -20,11 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
-from allsky import gauss, quaternion, switch_bank, units
-from allsky import word_registers as wr
-from allsky.dac import dac
-from allsky.star_tracker import star_tracker
-from allsky.sun_sensor import sun_sensor
+from allsky import gauss, units
+from allsky.hardware import switch_bank
+from allsky.vehicle import quaternion
+from allsky.computer import word_registers as wr
+from allsky.hardware.dac import dac
+from allsky.hardware.star_tracker import star_tracker
+from allsky.hardware.sun_sensor import sun_sensor
 
 AXES = ("roll", "pitch", "yaw")
 
@@ -60,13 +62,13 @@ def snapshot(m, kind, reason) -> dict:
 
     Parameters
     ----------
-    m : allsky.mission.Mission
+    m : allsky.sim.mission.Mission
     kind : str
         ``"mode end"`` or ``"every"``.
     reason : str
         Why the stop happened (the mode's exit text, or the leg under way).
     """
-    from allsky.mission import MODE_TITLE
+    from allsky.sim.mission import MODE_TITLE
 
     s, p = m.state, m.params
     el = p.electronics
@@ -166,7 +168,7 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
 
     Parameters
     ----------
-    m : allsky.mission.Mission
+    m : allsky.sim.mission.Mission
     on_stop : callable
         Receives each stop's :func:`snapshot`; raising :class:`StopStepping`
         ends the session with the mission where it is.
@@ -241,9 +243,10 @@ def _ask():
 
 def run_from_cli(cfg, args) -> int:
     """``allsky step``: the interactive (or ``--no-pause``) stop-by-stop mission."""
-    from allsky import report, telemetry
-    from allsky.config import ConfigError
-    from allsky.mission import DITHER_PLAN, LEGACY_PLAN, Mission
+    from allsky.apps import report
+    from allsky.sim import telemetry
+    from allsky.config.scenario import ConfigError
+    from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
 
     want_tlm = bool(args.telemetry)
     if want_tlm:

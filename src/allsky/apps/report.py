@@ -3,14 +3,14 @@
 import json
 from pathlib import Path
 
-from allsky import telemetry
+from allsky.sim import telemetry
 
 PPM = 1e6
 RAD2ARCSEC = 206264.80624709636
 
 
 def format_report(summary: dict) -> str:
-    """A plain-text report of a mission summary (:meth:`allsky.mission.Mission.summary`)."""
+    """A plain-text report of a mission summary (:meth:`allsky.sim.mission.Mission.summary`)."""
     status = summary["status"]
     if status == "running":
         status = "not finished (stopped before the end)"
@@ -53,9 +53,9 @@ def format_report(summary: dict) -> str:
 
 def run_from_cli(cfg, args) -> int:
     """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots."""
-    from allsky.dispersions import disperse, format_drawn
-    from allsky.mission import Mission
-    from allsky.progress import fly
+    from allsky.config.dispersions import disperse, format_drawn
+    from allsky.sim.mission import Mission
+    from allsky.apps.progress import fly
 
     json_path = getattr(args, "json", None)
     to_stdout = json_path == "-"  # machine output: the JSON alone on stdout
@@ -79,7 +79,7 @@ def run_from_cli(cfg, args) -> int:
     if tlm_path:
         telemetry.write(tlm_path, m.telemetry())
     if plots_dir:
-        from allsky import plots
+        from allsky.apps import plots
 
         say(plots.format_written(plots.write_plots(
             m.telemetry(), plots_dir, summary,

@@ -63,9 +63,9 @@ from pathlib import Path
 import control
 import numpy as np
 
-from allsky import pwpf
+from allsky.hardware import pwpf
 from allsky.jit import njit_alloc
-from allsky.pwpf import pwpf_step
+from allsky.hardware.pwpf import pwpf_step
 from allsky.units import RAD2ARCSEC
 
 AXES = ("roll", "pitch", "yaw")
@@ -204,14 +204,14 @@ def scenario_loop_arguments(cfg) -> dict:
 
     Parameters
     ----------
-    cfg : allsky.config.Scenario
-        A validated scenario (:func:`allsky.config.load_scenario`).
+    cfg : allsky.config.scenario.Scenario
+        A validated scenario (:func:`allsky.config.scenario.load_scenario`).
 
     Returns
     -------
     dict
         Plain numbers, torque per axis ``2 * thrust_n * moment_arm_m`` [N m]
-        (as :func:`allsky.jets.make_params`).
+        (as :func:`allsky.hardware.jets.make_params`).
     """
     return {
         "inertia_kg_m2": np.asarray(cfg.vehicle.inertia_kg_m2, dtype=float),
@@ -258,7 +258,7 @@ def pwpf_duty_cycle(filter_gain, time_constant_s, on_threshold_v, off_threshold_
     """Duty cycle of a continuous-time PWPF modulator for a constant input.
 
     Derivation (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., sec. 7.4,
-    worked here for the modulator of :mod:`allsky.pwpf`). With filter gain
+    worked here for the modulator of :mod:`allsky.hardware.pwpf`). With filter gain
     ``K``, time constant ``tau``, on/off thresholds ``U_on > U_off`` and
     fed-back full-on value ``U_m``, the filter obeys, for ``e > 0`` and
     valve state ``y`` in {0, 1}::
@@ -330,7 +330,7 @@ def _valve_trace(p, input_v, n_steps):
 
 
 def simulated_duty_cycle(params: pwpf.PwpfParams, input_v, step_s, duration_s) -> float:
-    """Duty cycle of the simulated modulator (:func:`allsky.pwpf.pwpf_step`), constant input.
+    """Duty cycle of the simulated modulator (:func:`allsky.hardware.pwpf.pwpf_step`), constant input.
 
     The modulator starts from rest; the duty cycle is the fraction of steps
     the valve is open over the whole cycles between the second and the last
@@ -340,8 +340,8 @@ def simulated_duty_cycle(params: pwpf.PwpfParams, input_v, step_s, duration_s) -
 
     Parameters
     ----------
-    params : allsky.pwpf.PwpfParams
-        Modulator parameters for the step ``step_s`` (:func:`allsky.pwpf.make_params`).
+    params : allsky.hardware.pwpf.PwpfParams
+        Modulator parameters for the step ``step_s`` (:func:`allsky.hardware.pwpf.make_params`).
     input_v : float
         [V] Constant input.
     step_s : float
@@ -517,7 +517,7 @@ def run_from_cli(cfg, args) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(_finite_or_none(result), indent=2) + "\n")
     if args.plot:
-        from allsky import plots
+        from allsky.apps import plots
 
         # Up to the frame's Nyquist frequency pi / frame_s: beyond it the loop is not defined.
         w = np.logspace(-2, math.log10(math.pi / cfg.mission.frame_s), 400)

@@ -1,0 +1,1 @@
+"""The simulation: the compiled frame loop, the mission state and driver, telemetry."""

@@ -1,0 +1,1 @@
+"""Studies built on missions: the calibration comparison, Monte Carlo campaigns, loop analysis."""

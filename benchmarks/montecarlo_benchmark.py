@@ -47,8 +47,8 @@ def _rss_mb():
 def _runner_parts_ms(cfg, out, n=200):
     """Cost of each thing the runner does around a mission [ms]."""
     from allsky.config import dispersions
-    from allsky.studies import montecarlo
     from allsky.sim.mission import run_mission
+    from allsky.studies import montecarlo
 
     m = run_mission(cfg, telemetry=False)
     parts = {}

@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 
+from allsky.hardware.jets import make_params as make_jet_params
 from allsky.studies.analysis import (
     AXES,
     format_margins,
@@ -22,7 +23,6 @@ from allsky.studies.analysis import (
     position_loop,
     scenario_loop_arguments,
 )
-from allsky.hardware.jets import make_params as make_jet_params
 from allsky.units import RAD2ARCSEC
 
 J_KG_M2 = np.array([100.0, 650.0, 680.0])

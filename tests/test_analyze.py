@@ -23,9 +23,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from allsky.apps import plots
+from allsky.apps.cli import main
 from allsky.hardware import pwpf
 from allsky.studies import analysis
-from allsky.apps.cli import main
 
 DEFAULT = {"filter_gain": 1.0, "time_constant_s": 0.1, "on_threshold_v": 0.001,
            "off_threshold_v": 0.0003, "full_on_v": 0.008}

@@ -7,8 +7,8 @@ acceptance is agreement within 20 % over at least 200 runs. Takes ~1 min on
 
 import pytest
 
-from allsky.studies.compare import compare
 from allsky.config.scenario import load_scenario
+from allsky.studies.compare import compare
 
 
 @pytest.mark.slow

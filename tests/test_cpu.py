@@ -24,8 +24,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from allsky.computer import cpu
-from allsky.hardware import gyro
 from allsky.computer import word_registers as wr
+from allsky.hardware import gyro
 
 FULL_TURN_ARCSEC = 1_296_000.0  # 360 deg
 PULSE_WEIGHT_ARCSEC = 0.1  # scenario default

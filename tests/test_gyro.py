@@ -20,7 +20,13 @@ import numpy as np
 import pytest
 
 from allsky import gauss, units
-from allsky.hardware.gyro import RRW_STEP_S, GyroParams, gyro_output, make_params, perfect_calibration
+from allsky.hardware.gyro import (
+    RRW_STEP_S,
+    GyroParams,
+    gyro_output,
+    make_params,
+    perfect_calibration,
+)
 
 # Default scenario values (src/allsky/scenarios/default.toml).
 DRIFT_DEG_H = [1.2, -0.8, 1.5]

@@ -10,9 +10,10 @@ import numba
 import numpy as np
 import pytest
 
-from allsky.sim import kernel
 from allsky.config.scenario import load_scenario
 from allsky.jit import njit, njit_alloc
+from allsky.sequencer import legs
+from allsky.sim import frame_loop
 from allsky.sim.mission import Mission
 
 needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT, reason="about compiled code")
@@ -37,10 +38,10 @@ def test_a_per_frame_block_that_allocates_does_not_compile():
 
 @needs_jit
 def test_frame_loop_and_blocks_are_compiled_without_the_runtime():
-    assert kernel._run_frames.targetoptions["_nrt"] is False
-    for block in (kernel.gyro_output, kernel.sun_sensor, kernel.star_tracker, kernel.rk4_step,
-                  kernel.pwpf_step, kernel.jets, kernel.count, kernel.vfc, kernel.dac,
-                  kernel.control_amp, kernel.target_step, kernel.dither_command):
+    assert frame_loop._run_frames.targetoptions["_nrt"] is False
+    for block in (frame_loop.gyro_output, frame_loop.sun_sensor, frame_loop.star_tracker, frame_loop.rk4_step,
+                  frame_loop.pwpf_step, frame_loop.jets, frame_loop.count, frame_loop.vfc, frame_loop.dac,
+                  frame_loop.control_amp, frame_loop.target_step, frame_loop.dither_command):
         assert block.targetoptions["_nrt"] is False, block.py_func.__name__
 
 
@@ -48,19 +49,19 @@ def _leg_allocations(program, frames):
     from numba.core.runtime import rtsys
 
     m = Mission(load_scenario(), telemetry=False)
-    leg = kernel.Leg(1, 1.0, program, kernel.WATCH_ELAPSED, 0, 0, 0.0,
+    leg = legs.Leg(1, 1.0, program, legs.WATCH_ELAPSED, 0, 0, 0.0,
                      frames * m.params.frame_s, 1e9)
-    args = (np.empty((0, kernel.N_TLM)), np.zeros(1, dtype=np.int64),
-            np.empty((0, kernel.N_REC)), np.zeros(1, dtype=np.int64))
+    args = (np.empty((0, frame_loop.N_TLM)), np.zeros(1, dtype=np.int64),
+            np.empty((0, frame_loop.N_REC)), np.zeros(1, dtype=np.int64))
     before = rtsys.get_allocation_stats().alloc
-    code, _ = kernel.run_leg(m.params, m.state, leg, *args)
-    assert code == kernel.EXIT_DONE
+    code, _ = frame_loop.run_leg(m.params, m.state, leg, *args)
+    assert code == legs.EXIT_DONE
     assert m.state.frame[0] == frames
     return rtsys.get_allocation_stats().alloc - before
 
 
 @needs_jit
-@pytest.mark.parametrize("program", [kernel.PROGRAM_MODE1, kernel.PROGRAM_TARGET_DITHER])
+@pytest.mark.parametrize("program", [legs.PROGRAM_MODE1, legs.PROGRAM_TARGET_DITHER])
 def test_a_leg_allocates_the_same_for_10_and_10000_frames(program):
     from numba.core.runtime import _nrt_python
 

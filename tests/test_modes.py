@@ -10,9 +10,9 @@ import pytest
 
 from allsky import units
 from allsky.sim.mission import Mission, reference_star_inertial, target_inertial
+from allsky.sim.telemetry import INDEX, switch_closed
 from allsky.vehicle.quaternion import dcm_body_from_inertial
 from allsky.vehicle.sky import separation_deg
-from allsky.sim.telemetry import INDEX, switch_closed
 
 SETTLE = 50.0  # arcsec, SPEC section 6
 HANDOVER = 7200.0  # arcsec

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from allsky.config import dispersions
-from allsky.studies import montecarlo
 from allsky.apps.cli import main
+from allsky.config import dispersions
 from allsky.config.scenario import ConfigError, load_scenario
+from allsky.studies import montecarlo
 from allsky.studies.montecarlo import (
     MANIFEST,
     RESULTS,

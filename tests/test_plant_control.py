@@ -15,8 +15,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.vehicle import quaternion as quat
 from allsky.jit import njit, njit_alloc
+from allsky.vehicle import quaternion as quat
 from allsky.vehicle.plant import (
     N_INTEGRATED,
     angular_momentum_inertial,

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from allsky.apps import plots
-from allsky.sim import mission, telemetry
 from allsky.apps.cli import main
+from allsky.sim import mission, telemetry
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

@@ -14,9 +14,9 @@ import os
 import numpy as np
 import pytest
 
-from allsky.studies.compare import compare
 from allsky.config.scenario import load_scenario
 from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
+from allsky.studies.compare import compare
 
 CASES = {
     "legacy-seed1": (LEGACY_PLAN, 1, ()),

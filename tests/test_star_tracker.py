@@ -22,8 +22,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from allsky import gauss, units
-from allsky.vehicle import quaternion
 from allsky.hardware.star_tracker import StarTrackerParams, star_tracker
+from allsky.vehicle import quaternion
 
 LONG_DEG, NARROW_DEG = 16.0, 8.0  # default scenario
 

@@ -22,9 +22,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from allsky import gauss, units
-from allsky.vehicle import quaternion
 from allsky.hardware.sun_acquisition import SunAcquisitionParams, sun_acquisition
 from allsky.hardware.sun_sensor import SunSensorParams, sun_sensor
+from allsky.vehicle import quaternion
 
 GAIN_PER_S = 0.05
 CAP_ARCSEC_S = 3600.0

@@ -21,8 +21,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from allsky import gauss, units
-from allsky.vehicle import quaternion
 from allsky.hardware.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
+from allsky.vehicle import quaternion
 
 LINEAR_ARCSEC = 7200.0
 PRESENCE_DEG = 30.0  # default scenario

@@ -18,8 +18,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from allsky.vehicle import quaternion
 from allsky.computer.targeting import pointing_direction, programmed_angles_deg, reference_frame
+from allsky.vehicle import quaternion
 
 component = st.floats(-1.0, 1.0, allow_nan=False)
 directions = st.tuples(component, component, component).filter(

@@ -2,7 +2,7 @@
 
 Truth: the column list in docs/telemetry.md is generated from
 ``telemetry.COLUMNS`` and must equal what the code generates; the recorder
-writes the columns in :func:`allsky.sim.kernel._record`'s order, ``N_TLM`` of
+writes the columns in :func:`allsky.sim.frame_loop._record`'s order, ``N_TLM`` of
 them; a file read back equals the table written, bit for bit.
 """
 
@@ -13,9 +13,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from allsky.hardware import switch_bank
-from allsky.sim import kernel, telemetry
 from allsky.apps.cli import main
+from allsky.hardware import switch_bank
+from allsky.sim import frame_loop, telemetry
 from allsky.sim.mission import MODE_CODE
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -35,7 +35,7 @@ def bits(a):
 # -- the columns and their documentation -------------------------------------------------
 
 def test_columns_match_the_recorder():
-    assert len(telemetry.COLUMNS) == kernel.N_TLM
+    assert len(telemetry.COLUMNS) == frame_loop.N_TLM
     names = [c.name for c in telemetry.COLUMNS]
     assert len(set(names)) == len(names)
     for c in telemetry.COLUMNS:

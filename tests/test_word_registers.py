@@ -8,8 +8,8 @@ and zero coupling. The summary keys match :func:`allsky.hardware.gyro.perfect_ca
 
 import numpy as np
 
-from allsky.hardware import gyro
 from allsky.computer import word_registers as wr
+from allsky.hardware import gyro
 
 COMPUTED = ("SF_ROLL", "SF_YAW", "ROLL_INTO_PITCH", "ROLL_INTO_YAW", "YAW_INTO_PITCH",
             "YAW_INTO_ROLL")

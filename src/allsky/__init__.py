@@ -4,6 +4,41 @@ The system is the one of US patent 4,012,018 (a sun sensor, a Canopus star
 tracker, three strapped-down rate gyros, cold-gas jets, hard-wired electronics
 and a small special-purpose computer). A dither scale-factor method is flown
 beside it for comparison.
+
+The packages follow the block diagram, from the bottom up: ``units`` and
+``jit`` (foundations), ``vehicle`` (rigid body, sky), ``config`` (scenarios),
+``hardware`` (the numbered blocks and the switch wiring), ``computer``
+(computer 111), ``sequencer`` (master sequencer 20: mode table, rules,
+watch, plans), ``sim`` (frame loop, mission), ``studies`` (comparison,
+Monte Carlo, loop analysis) and ``apps`` (command line, displays, files).
+
+The names most scripts need are importable from here; they are loaded on
+first use, so ``import allsky`` stays cheap.
 """
 
 __version__ = "0.1.0"
+
+#: Public name -> module that defines it (imported on first access).
+_EXPORTS = {
+    "load_scenario": "allsky.config",
+    "scenario_from_dict": "allsky.config",
+    "ConfigError": "allsky.config",
+    "Mission": "allsky.sim.mission",
+    "run_mission": "allsky.sim.mission",
+    "LEGACY_PLAN": "allsky.sim.mission",
+    "DITHER_PLAN": "allsky.sim.mission",
+    "compare": "allsky.studies.compare",
+}
+
+__all__ = ["__version__", *_EXPORTS]
+
+
+def __getattr__(name):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'allsky' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value

@@ -317,7 +317,7 @@ def block_diagram(path=None):
         arrow((bottom[0], 1.9), bottom, color="#8a6d00")
     ax.text(0.05, 0.5, "Orange: sensors and the vehicle. Red labels: switches of the bank "
             "(allsky.hardware.switch_bank). The per-frame loop that runs the blocks in this order: "
-            "allsky.sim.kernel.run_leg.", fontsize=8, color="#333333")
+            "allsky.sim.frame_loop.run_leg.", fontsize=8, color="#333333")
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=110)

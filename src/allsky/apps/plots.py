@@ -30,8 +30,8 @@ from typing import NamedTuple
 import numpy as np
 from matplotlib.figure import Figure
 
-from allsky.hardware import switch_bank
 from allsky.config.scenario import ConfigError
+from allsky.hardware import switch_bank
 from allsky.sim.telemetry import INDEX, TelemetryError, read, switch_closed
 
 AXES = ("roll", "pitch", "yaw")

@@ -53,9 +53,9 @@ def format_report(summary: dict) -> str:
 
 def run_from_cli(cfg, args) -> int:
     """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots."""
+    from allsky.apps.progress import fly
     from allsky.config.dispersions import disperse, format_drawn
     from allsky.sim.mission import Mission
-    from allsky.apps.progress import fly
 
     json_path = getattr(args, "json", None)
     to_stdout = json_path == "-"  # machine output: the JSON alone on stdout

@@ -21,12 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from allsky import gauss, units
-from allsky.hardware import switch_bank
-from allsky.vehicle import quaternion
 from allsky.computer import word_registers as wr
+from allsky.hardware import switch_bank
 from allsky.hardware.dac import dac
 from allsky.hardware.star_tracker import star_tracker
 from allsky.hardware.sun_sensor import sun_sensor
+from allsky.vehicle import quaternion
 
 AXES = ("roll", "pitch", "yaw")
 
@@ -244,8 +244,8 @@ def _ask():
 def run_from_cli(cfg, args) -> int:
     """``allsky step``: the interactive (or ``--no-pause``) stop-by-stop mission."""
     from allsky.apps import report
-    from allsky.sim import telemetry
     from allsky.config.scenario import ConfigError
+    from allsky.sim import telemetry
     from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
 
     want_tlm = bool(args.telemetry)

@@ -27,9 +27,8 @@ flies unchanged with the dither's calibration:
 
 import numpy as np
 
-from allsky.sequencer import dither
-from allsky.sim import kernel
 from allsky.computer import word_registers as wr
+from allsky.sequencer import dither, legs
 
 AXES = ("roll", "pitch", "yaw")
 
@@ -87,10 +86,10 @@ def mode_dither(m):
     d = m.cfg.dither
     p = m.params
     rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 4
-    record = m.leg("dither record complete", kernel.PROGRAM_DITHER, kernel.WATCH_ELAPSED,
+    record = m.leg("dither record complete", legs.PROGRAM_DITHER, legs.WATCH_ELAPSED,
                    hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s, record_rows=rec_rows)
-    m.leg("optical errors settled after the dither", kernel.PROGRAM_NONE, kernel.WATCH_SETTLE,
-          mask=kernel.SETTLE_OPTICAL)
+    m.leg("optical errors settled after the dither", legs.PROGRAM_NONE, legs.WATCH_SETTLE,
+          mask=legs.SETTLE_OPTICAL)
     est = analyse(record, d.sample_s, d.lead_in_s, d.record_s, p.dither.amplitude_arcsec,
                   p.dither.omega_rad_s, d.detector)
     m.dither_estimates = est
@@ -126,8 +125,8 @@ def target_hold_dither(m):
     rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 4
     m._mode = "6-2"
     m._mode_deadline = m.state.time_s[0] + d.lead_in_s + d.record_s + 10.0
-    record = m.leg("dither record on target", kernel.PROGRAM_TARGET_DITHER,
-                   kernel.WATCH_ELAPSED, hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s,
+    record = m.leg("dither record on target", legs.PROGRAM_TARGET_DITHER,
+                   legs.WATCH_ELAPSED, hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s,
                    record_rows=rec_rows)
     return analyse(record, d.sample_s, d.lead_in_s, d.record_s, m.params.dither.amplitude_arcsec,
                    m.params.dither.omega_rad_s, d.detector)

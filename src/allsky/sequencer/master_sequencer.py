@@ -2,7 +2,7 @@
 
 Each mode is one function below, written as the patent describes it (SPEC
 section 4): switch actions, then the condition the sequencer waits for.
-Waiting is done by the compiled frame loop (:func:`allsky.sim.kernel.run_leg`);
+Waiting is done by the compiled frame loop (:func:`allsky.sim.frame_loop.run_leg`);
 a step that does not finish within what is left of the mode's timeout ends
 the mission as aborted, with the reason.
 
@@ -16,9 +16,9 @@ import numpy as np
 
 from allsky import units
 from allsky.computer import cpu
-from allsky.hardware import switch_bank
 from allsky.computer import word_registers as wr
-from allsky.sim.kernel import (
+from allsky.hardware import switch_bank
+from allsky.sequencer.legs import (
     PROGRAM_MODE1,
     PROGRAM_NONE,
     PROGRAM_TARGET,

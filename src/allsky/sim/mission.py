@@ -17,19 +17,31 @@ import numpy as np
 
 from allsky import units
 from allsky.computer import targeting
-from allsky.hardware import control_amp, gyro, jets, pwpf, star_tracker, sun_acquisition, sun_sensor, switch_bank, updown_counter, vfc
-from allsky.sequencer import dither
-from allsky.sim import kernel
-from allsky.vehicle import plant, quaternion, sky
-from allsky.sequencer import master_sequencer as ms
 from allsky.computer import word_registers as wr
+from allsky.hardware import (
+    control_amp,
+    gyro,
+    jets,
+    pwpf,
+    star_tracker,
+    sun_acquisition,
+    sun_sensor,
+    switch_bank,
+    updown_counter,
+    vfc,
+)
+from allsky.sequencer import dither, legs
+from allsky.sequencer import master_sequencer as ms
 from allsky.sequencer.dither_mode import mode_dither
+from allsky.sim import frame_loop
+from allsky.sim import state as sim_state
 from allsky.sim.telemetry import COLUMNS
+from allsky.vehicle import plant, quaternion, sky
 
 EXIT_TEXT = {
-    kernel.EXIT_PROPELLANT: "propellant exhausted",
-    kernel.EXIT_SUN_LOST: "Sun lost",
-    kernel.EXIT_STAR_LOST: "star lost",
+    legs.EXIT_PROPELLANT: "propellant exhausted",
+    legs.EXIT_SUN_LOST: "Sun lost",
+    legs.EXIT_STAR_LOST: "star lost",
 }
 STATE_FORMAT = 3
 #: The patent's mission, and the comparison mission (dither in place of Modes 4 and 5).
@@ -59,7 +71,7 @@ def _sun_motion(date_utc):
     return s0, (s1 - s0) / units.HOUR_S
 
 
-def build_params(cfg) -> kernel.Params:
+def build_params(cfg) -> sim_state.Params:
     """Frame-loop parameters from a validated scenario."""
     dt = float(cfg.mission.frame_s)
     s0, sdot = _sun_motion(cfg.mission.date_utc)
@@ -68,7 +80,7 @@ def build_params(cfg) -> kernel.Params:
     stars_inertial = np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars],
                               dtype=float).reshape(-1, 3)
     el = cfg.electronics
-    return kernel.Params(
+    return sim_state.Params(
         frame_s=dt,
         telemetry_every=int(cfg.mission.telemetry_every_frames),
         sun0_inertial=s0, sun_rate_inertial=sdot,
@@ -85,7 +97,7 @@ def build_params(cfg) -> kernel.Params:
             cfg.star_tracker.fov_narrow_half_deg * units.DEG2RAD,
             float(cfg.star_tracker.noise_arcsec), stars_inertial),
         vfc=vfc.VfcParams(float(el.vfc_pulse_weight_arcsec), float(el.vfc_max_rate_pps)),
-        electronics=kernel.ElectronicsParams(
+        electronics=sim_state.ElectronicsParams(
             counter_bits=int(el.counter_bits), drift_counter_bits=int(el.drift_counter_bits),
             overflow_mode=(updown_counter.WRAP if el.counter_overflow == "wrap"
                            else updown_counter.SATURATE),
@@ -108,7 +120,7 @@ def build_params(cfg) -> kernel.Params:
         mode1=sun_acquisition.SunAcquisitionParams(
             float(cfg.sequencer.mode1_slew_gain_per_s),
             cfg.sequencer.mode1_slew_rate_deg_s * units.DEG2ARCSEC),
-        sequencer=kernel.SequencerParams(
+        sequencer=sim_state.SequencerParams(
             float(cfg.sequencer.settle_threshold_arcsec), float(cfg.sequencer.handover_arcsec),
             float(cfg.sequencer.sensor_loss_s)),
         dither=dither_params(cfg),
@@ -129,13 +141,13 @@ def dither_params(cfg) -> dither.DitherParams:
     return dither.DitherParams(amp, omega, j_est, v_per_nm)
 
 
-def ejection_state(cfg) -> kernel.State:
+def ejection_state(cfg) -> sim_state.State:
     """Mission state at ejection: attitude and tip-off rates drawn from the mission seed."""
     rng = np.random.default_rng([int(cfg.mission.seed), 0])
     att = cfg.ejection.attitude
     q0 = quaternion.random_unit(rng) if isinstance(att, str) else np.asarray(att, dtype=float)
     w0 = rng.uniform(-1.0, 1.0, 3) * cfg.ejection.tipoff_rate_max_deg_s * units.DEG2RAD
-    return kernel.new_state(q0, w0, cfg.jets.propellant_kg)
+    return sim_state.new_state(q0, w0, cfg.jets.propellant_kg)
 
 
 def target_inertial(cfg) -> np.ndarray:
@@ -209,20 +221,20 @@ class Mission:
         seed = int(np.random.SeedSequence([int(self.cfg.mission.seed), 1,
                                            self.leg_count]).generate_state(1)[0])
         self.leg_count += 1
-        leg = kernel.Leg(seed, MODE_CODE[self._mode], program, watch, mask, signal,
+        leg = legs.Leg(seed, MODE_CODE[self._mode], program, watch, mask, signal,
                          float(blank_s), float(hold_s), float(max(remaining, 0.0)))
         every = self.params.telemetry_every
         rows = math.ceil(leg.timeout_s / self.params.frame_s / every) + 1 if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
-        rec = np.empty((record_rows, kernel.N_REC))
+        rec = np.empty((record_rows, frame_loop.N_REC))
         rec_filled = np.zeros(1, dtype=np.int64)
         code = self._run_leg(leg, what, buf, filled, rec, rec_filled)
         if every:
             self._tlm.append(buf[: filled[0]])
-        if code == kernel.EXIT_DONE:
+        if code == legs.EXIT_DONE:
             return rec[: rec_filled[0]]
-        if code == kernel.EXIT_TIMEOUT:
+        if code == legs.EXIT_TIMEOUT:
             limit = self.mode_timeout_s(self._mode)
             raise ms.ModeAbort(f"Mode {self._mode}: {on_timeout or what + ' not achieved'}"
                                f" within the mode timeout of {limit:g} s")
@@ -237,8 +249,8 @@ class Mission:
                 # Next multiple of `every` in mission time, rounded to whole frames.
                 pause_at = (math.floor(t / every + 1e-9) + 1) * every
                 leg = leg._replace(pause_at_s=pause_at)
-            code, _ = kernel.run_leg(self.params, self.state, leg, buf, filled, rec, rec_filled)
-            if code != kernel.EXIT_PAUSE:
+            code, _ = frame_loop.run_leg(self.params, self.state, leg, buf, filled, rec, rec_filled)
+            if code != legs.EXIT_PAUSE:
                 return code
             self.on_pause(self, what)
             leg = leg._replace(resume=1)
@@ -379,7 +391,7 @@ class Mission:
 
         with np.load(Path(path), allow_pickle=False) as z:
             history = json.loads(str(z["history"]))
-            state = kernel.State(**{k: z[f"state_{k}"].copy() for k in kernel.State._fields})
+            state = sim_state.State(**{k: z[f"state_{k}"].copy() for k in sim_state.State._fields})
         if history.get("format") != STATE_FORMAT:
             raise ValueError(f"{path}: not an allsky mission state (format {STATE_FORMAT})")
         cfg = scenario_from_dict(history["scenario"])

@@ -28,7 +28,7 @@ class Column(NamedTuple):
     meaning: str  #: what the value is, with the patent numeral of its block
 
 
-#: The columns, in the order :func:`allsky.sim.kernel._record` writes them.
+#: The columns, in the order :func:`allsky.sim.frame_loop._record` writes them.
 COLUMNS = (
     Column("time", "s", "mission time since ejection"),
     Column("mode", "-", "mode code: 1, 2, 3, 4, 5, 6.1, 6.2 (7: dither comparison mode); "

@@ -64,8 +64,8 @@ import control
 import numpy as np
 
 from allsky.hardware import pwpf
-from allsky.jit import njit_alloc
 from allsky.hardware.pwpf import pwpf_step
+from allsky.jit import njit_alloc
 from allsky.units import RAD2ARCSEC
 
 AXES = ("roll", "pitch", "yaw")

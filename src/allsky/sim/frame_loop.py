@@ -13,78 +13,62 @@ It reads top to bottom like the patent's block diagram::
 
 The master sequencer itself (switch actions, mode rules) is Python
 (:mod:`allsky.sequencer.master_sequencer`): it sets the switches, then calls
-:func:`run_leg` with a *leg*, the condition that ends the current step of a
+:func:`run_leg` with a *leg* (:mod:`allsky.sequencer.legs`), the condition that ends the current step of a
 mode. The loop returns when that condition is met, at the leg's timeout, or
 on an abort (propellant gone, Sun or star lost). All state lives in the
-arrays of :class:`State`, so a mission can be saved and resumed between legs.
+arrays of :class:`allsky.sim.state.State`, so a mission can be saved and resumed between legs.
 """
-
-from typing import NamedTuple
 
 import numpy as np
 
 from allsky.computer.computer_sequencer import sequencer_step
-from allsky.hardware.control_amp import ControlParams, control_amp
-from allsky.computer.cpu import N_WORK, target_step
-from allsky.hardware.dac import dac
-from allsky.sequencer.dither import DitherParams, dither_command
+from allsky.computer.cpu import target_step
 from allsky.gauss import seed as gauss_seed
-from allsky.hardware.gyro import RRW_STEP_S, GyroParams, gyro_output
-from allsky.hardware.jets import JetParams, jets
-from allsky.jit import njit, njit_alloc
-from allsky.vehicle.plant import RigidBodyParams, rk4_step
-from allsky.hardware.pwpf import PwpfParams, pwpf_step
-from allsky.vehicle.quaternion import rotate_to_body
+from allsky.hardware.control_amp import control_amp
+from allsky.hardware.dac import dac
+from allsky.hardware.gyro import RRW_STEP_S, gyro_output
+from allsky.hardware.jets import jets
+from allsky.hardware.pwpf import pwpf_step
 from allsky.hardware.rate_command import rate_command
-from allsky.hardware.star_tracker import StarTrackerParams, star_tracker
+from allsky.hardware.star_tracker import star_tracker
 from allsky.hardware.storage_register import store
 from allsky.hardware.summing_amp import summing_amp
-from allsky.hardware.sun_acquisition import SunAcquisitionParams, sun_acquisition
-from allsky.hardware.sun_sensor import SunSensorParams, coarse_sun, sun_sensor
+from allsky.hardware.sun_acquisition import sun_acquisition
+from allsky.hardware.sun_sensor import coarse_sun, sun_sensor
 from allsky.hardware.updown_counter import count
-from allsky.hardware.vfc import VfcParams, vfc
-from allsky.computer.word_registers import N_PROGRAMMED
-
-# Computer programs a leg can run.
-PROGRAM_NONE = 0
-PROGRAM_MODE1 = 1  #: the Mode 1 sun-acquisition controller drives the loops
-PROGRAM_TARGET_ROLL = 2  #: Mode 6-1: CPU services the roll axis
-PROGRAM_TARGET = 3  #: Mode 6-2: CPU services all three axes
-PROGRAM_DITHER = 4  #: comparison mode: dither added to the attitude command of the hold
-PROGRAM_TARGET_DITHER = 5  #: dither added while the computer holds the target (Mode 6-2 program)
-
-# What ends a leg.
-WATCH_SETTLE = 0  #: all signals of ``settle_mask`` below the threshold for ``hold_s``
-WATCH_HANDOVER = 1  #: ``handover_signal`` inside the hand-over threshold after ``blank_s``
-WATCH_ELAPSED = 2  #: ``hold_s`` of leg time
-
-# Signals the master sequencer watches (index = bit of settle_mask).
-SIG_SUN_PITCH = 0
-SIG_SUN_YAW = 1
-SIG_TRACKER_YAW = 2
-SIG_TRACKER_PITCH = 3
-SIG_ERROR_ROLL = 4
-SIG_ERROR_PITCH = 5
-SIG_ERROR_YAW = 6
-N_SIGNALS = 7
-#: Sun pitch, Sun yaw and tracker yaw: the optical errors of the hold.
-SETTLE_OPTICAL = (1 << SIG_SUN_PITCH) | (1 << SIG_SUN_YAW) | (1 << SIG_TRACKER_YAW)
-
-# Leg exit codes.
-EXIT_DONE = 1
-EXIT_TIMEOUT = -1
-EXIT_PROPELLANT = -2
-EXIT_SUN_LOST = -3
-EXIT_STAR_LOST = -4
-EXIT_PAUSE = 2  #: the leg reached its ``pause_at_s``; run it again with ``resume=1``
-
-# Leg progress kept in State.leg_clock, so that a paused leg resumes exactly.
-CLOCK_T_LEG = 0  #: [s] time in the leg
-CLOCK_SETTLE = 1  #: [s] time the settle condition has held
-CLOCK_SUN_GONE = 2  #: [s] time the Sun has been absent while in use
-CLOCK_STAR_GONE = 3  #: [s] time the star has been absent while in use
-CLOCK_FRAMES = 4  #: [frames] frames run in the leg
-N_CLOCK = 5
+from allsky.hardware.vfc import vfc
+from allsky.jit import njit, njit_alloc
+from allsky.sequencer.dither import dither_command
+from allsky.sequencer.legs import (
+    CLOCK_FRAMES,
+    CLOCK_SETTLE,
+    CLOCK_STAR_GONE,
+    CLOCK_SUN_GONE,
+    CLOCK_T_LEG,
+    EXIT_DONE,
+    EXIT_PAUSE,
+    EXIT_PROPELLANT,
+    EXIT_STAR_LOST,
+    EXIT_SUN_LOST,
+    EXIT_TIMEOUT,
+    N_SIGNALS,
+    PROGRAM_DITHER,
+    PROGRAM_MODE1,
+    PROGRAM_TARGET,
+    PROGRAM_TARGET_DITHER,
+    PROGRAM_TARGET_ROLL,
+    SIG_ERROR_PITCH,
+    SIG_ERROR_ROLL,
+    SIG_ERROR_YAW,
+    SIG_SUN_PITCH,
+    SIG_SUN_YAW,
+    SIG_TRACKER_PITCH,
+    SIG_TRACKER_YAW,
+    WATCH_ELAPSED,
+    WATCH_HANDOVER,
+)
+from allsky.vehicle.plant import rk4_step
+from allsky.vehicle.quaternion import rotate_to_body
 
 # Telemetry columns (see allsky.sim.telemetry for names and units).
 N_TLM = 40
@@ -92,124 +76,6 @@ N_TLM = 40
 N_REC = 7
 # Rows of 3-vectors of per-leg scratch (sensor outputs, amplifier signals, torque).
 N_SCRATCH = 14
-
-
-class ElectronicsParams(NamedTuple):
-    """Word lengths and scalings of the counters, DACs, registers and rate commands."""
-
-    counter_bits: int  #: [bit] up/down counters 14, 16, 18
-    drift_counter_bits: int  #: [bit] drift counters 13, 15, 17
-    overflow_mode: int  #: updown_counter.WRAP or SATURATE
-    drift_dac_bits: int  #: [bit] drift DACs 7, 9, 11
-    drift_lsb_arcsec_s: float  #: [arcsec/s per count] pulse weight / drift interval
-    register_bits: int  #: [bit] registers 25-27 and DACs 28-30
-    register_lsb_arcsec: float  #: [arcsec]
-    rate_command_arcsec_s: float  #: [arcsec/s] rate-command modules 120, 128
-    computer_step_frames: int  #: [frames] per S7/S8 step
-
-
-class SequencerParams(NamedTuple):
-    """Thresholds of master sequencer 20's watch."""
-
-    settle_threshold_arcsec: float  #: [arcsec] "settled" error bound (50")
-    handover_arcsec: float  #: [arcsec] hand-over threshold (7200")
-    sensor_loss_s: float  #: [s] Sun/star absence tolerated while in use
-
-
-class Params(NamedTuple):
-    """Everything the frame loop reads; built once per mission by :mod:`allsky.sim.mission`."""
-
-    frame_s: float  #: [s]
-    telemetry_every: int  #: [frames] per telemetry row (0 = none)
-    sun0_inertial: np.ndarray  #: [-] Sun direction at t = 0
-    sun_rate_inertial: np.ndarray  #: [1/s] its time derivative (the Sun's ~1 deg/day motion)
-    plant: RigidBodyParams
-    gyro: GyroParams
-    sun: SunSensorParams
-    tracker: StarTrackerParams
-    vfc: VfcParams
-    electronics: ElectronicsParams
-    control: ControlParams
-    pwpf: PwpfParams
-    jets: JetParams
-    mode1: SunAcquisitionParams
-    sequencer: SequencerParams
-    dither: DitherParams
-    dither_sample_frames: int  #: [frames] per sample of the dither record
-
-
-class State(NamedTuple):
-    """The whole mission state, as arrays (mutated in place by the loop)."""
-
-    time_s: np.ndarray  #: (1,) [s] mission time
-    frame: np.ndarray  #: (1,) int64 frame counter
-    x: np.ndarray  #: (7,) plant state [q_w, q_x, q_y, q_z, w (rad/s)]
-    dtheta_rad: np.ndarray  #: (3,) body-angle increment of the last frame
-    gyro_rw_arcsec_s: np.ndarray  #: (3,) gyro rate-random-walk state
-    vfc_residue_pulses: np.ndarray  #: (3,) fractional pulses carried by converters 8/10/12
-    counters: np.ndarray  #: (3,) int64 up/down counters 14, 16, 18 [pulses]
-    drift_counters: np.ndarray  #: (3,) int64 drift counters 13, 15, 17 [pulses]
-    overflow: np.ndarray  #: (6,) int64 latched overflow flags (14,16,18,13,15,17)
-    registers: np.ndarray  #: (3,) int64 storage registers 25, 26, 27 [LSB]
-    switches: np.ndarray  #: (20,) uint8 switch bank S1-S19 (see switch_bank)
-    rate_sign: np.ndarray  #: (2,) int64 direction of rate-command modules 120, 128
-    amp_integral_arcsec: np.ndarray  #: (3,) control-amplifier integrals
-    pwpf_filter_v: np.ndarray  #: (3,) modulator filter states
-    pwpf_out: np.ndarray  #: (3,) int64 valve commands -1/0/+1
-    pwpf_on_frames: np.ndarray  #: (3,) int64 frames since each valve opened
-    propellant_kg: np.ndarray  #: (1,)
-    cpu: np.ndarray  #: (N_WORK,) CPU 22 working store
-    word23: np.ndarray  #: (6,) computed word register 23
-    word24: np.ndarray  #: (2,) programmed word register 24 [arcsec]
-    excursion_ref_q: np.ndarray  #: (4,) attitude the mission wants; [0,0,0,0] = not tracked
-    max_excursion_rad: np.ndarray  #: (1,) largest rotation away from it so far
-    leg_clock: np.ndarray  #: (N_CLOCK,) progress of the current leg (see CLOCK_*)
-    rng: np.ndarray  #: (1,) uint64 state of the noise generator (allsky.gauss)
-
-
-def new_state(q0, rate0_rad_s, propellant_kg) -> State:
-    """A fresh state at ejection: everything zero, switches open, neutral registers."""
-    from allsky.hardware.switch_bank import new_bank
-    from allsky.computer.word_registers import neutral_computed
-
-    x = np.zeros(7)
-    x[0:4] = q0
-    x[4:7] = rate0_rad_s
-    return State(
-        time_s=np.zeros(1), frame=np.zeros(1, dtype=np.int64), x=x, dtheta_rad=np.zeros(3),
-        gyro_rw_arcsec_s=np.zeros(3), vfc_residue_pulses=np.zeros(3),
-        counters=np.zeros(3, dtype=np.int64), drift_counters=np.zeros(3, dtype=np.int64),
-        overflow=np.zeros(6, dtype=np.int64), registers=np.zeros(3, dtype=np.int64),
-        switches=new_bank(), rate_sign=np.ones(2, dtype=np.int64),
-        amp_integral_arcsec=np.zeros(3), pwpf_filter_v=np.zeros(3), pwpf_out=np.zeros(3, dtype=np.int64),
-        pwpf_on_frames=np.zeros(3, dtype=np.int64),
-        propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
-        word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
-        excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
-        rng=np.ones(1, dtype=np.uint64),
-    )
-
-
-def copy_state(s: State) -> State:
-    """A deep copy (for saving a mission at a mode boundary)."""
-    return State(*(a.copy() for a in s))
-
-
-
-class Leg(NamedTuple):
-    """One step of a mode: what the computer runs and what ends the step."""
-
-    seed: int  #: seeds the noise of this leg (derived from the mission seed and leg number)
-    mode_code: float  #: mode number for telemetry (1..5, 6.1, 6.2)
-    program: int  #: PROGRAM_*
-    watch: int  #: WATCH_*
-    settle_mask: int  #: bits of the SIG_* signals that must settle
-    handover_signal: int  #: SIG_* watched for WATCH_HANDOVER
-    blank_s: float  #: [s] the watched signal is ignored this long after the leg starts
-    hold_s: float  #: [s] settle time (WATCH_SETTLE) or duration (WATCH_ELAPSED)
-    timeout_s: float  #: [s] the leg gives up after this long
-    pause_at_s: float = np.inf  #: [s] mission time at which to pause (EXIT_PAUSE)
-    resume: int = 0  #: 1 = continue a paused leg (clock and noise stream carry on)
 
 
 @njit

@@ -1,0 +1,119 @@
+"""The mission state and the frame loop's parameters.
+
+:class:`Params` is everything the frame loop reads, built once per mission
+from the scenario (:func:`allsky.sim.mission.build_params`); :class:`State`
+is everything it changes, as preallocated numpy arrays mutated in place,
+so that a mission can be saved and resumed between legs.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky.computer.cpu import N_WORK
+from allsky.computer.word_registers import N_PROGRAMMED, neutral_computed
+from allsky.hardware.control_amp import ControlParams
+from allsky.hardware.gyro import GyroParams
+from allsky.hardware.jets import JetParams
+from allsky.hardware.pwpf import PwpfParams
+from allsky.hardware.star_tracker import StarTrackerParams
+from allsky.hardware.sun_acquisition import SunAcquisitionParams
+from allsky.hardware.sun_sensor import SunSensorParams
+from allsky.hardware.switch_bank import new_bank
+from allsky.hardware.vfc import VfcParams
+from allsky.sequencer.dither import DitherParams
+from allsky.sequencer.legs import N_CLOCK
+from allsky.vehicle.plant import RigidBodyParams
+
+
+class ElectronicsParams(NamedTuple):
+    """Word lengths and scalings of the counters, DACs, registers and rate commands."""
+
+    counter_bits: int  #: [bit] up/down counters 14, 16, 18
+    drift_counter_bits: int  #: [bit] drift counters 13, 15, 17
+    overflow_mode: int  #: updown_counter.WRAP or SATURATE
+    drift_dac_bits: int  #: [bit] drift DACs 7, 9, 11
+    drift_lsb_arcsec_s: float  #: [arcsec/s per count] pulse weight / drift interval
+    register_bits: int  #: [bit] registers 25-27 and DACs 28-30
+    register_lsb_arcsec: float  #: [arcsec]
+    rate_command_arcsec_s: float  #: [arcsec/s] rate-command modules 120, 128
+    computer_step_frames: int  #: [frames] per S7/S8 step
+
+
+class SequencerParams(NamedTuple):
+    """Thresholds of master sequencer 20's watch."""
+
+    settle_threshold_arcsec: float  #: [arcsec] "settled" error bound (50")
+    handover_arcsec: float  #: [arcsec] hand-over threshold (7200")
+    sensor_loss_s: float  #: [s] Sun/star absence tolerated while in use
+
+
+class Params(NamedTuple):
+    """Everything the frame loop reads; built once per mission by :mod:`allsky.sim.mission`."""
+
+    frame_s: float  #: [s]
+    telemetry_every: int  #: [frames] per telemetry row (0 = none)
+    sun0_inertial: np.ndarray  #: [-] Sun direction at t = 0
+    sun_rate_inertial: np.ndarray  #: [1/s] its time derivative (the Sun's ~1 deg/day motion)
+    plant: RigidBodyParams
+    gyro: GyroParams
+    sun: SunSensorParams
+    tracker: StarTrackerParams
+    vfc: VfcParams
+    electronics: ElectronicsParams
+    control: ControlParams
+    pwpf: PwpfParams
+    jets: JetParams
+    mode1: SunAcquisitionParams
+    sequencer: SequencerParams
+    dither: DitherParams
+    dither_sample_frames: int  #: [frames] per sample of the dither record
+
+
+class State(NamedTuple):
+    """The whole mission state, as arrays (mutated in place by the loop)."""
+
+    time_s: np.ndarray  #: (1,) [s] mission time
+    frame: np.ndarray  #: (1,) int64 frame counter
+    x: np.ndarray  #: (7,) plant state [q_w, q_x, q_y, q_z, w (rad/s)]
+    dtheta_rad: np.ndarray  #: (3,) body-angle increment of the last frame
+    gyro_rw_arcsec_s: np.ndarray  #: (3,) gyro rate-random-walk state
+    vfc_residue_pulses: np.ndarray  #: (3,) fractional pulses carried by converters 8/10/12
+    counters: np.ndarray  #: (3,) int64 up/down counters 14, 16, 18 [pulses]
+    drift_counters: np.ndarray  #: (3,) int64 drift counters 13, 15, 17 [pulses]
+    overflow: np.ndarray  #: (6,) int64 latched overflow flags (14,16,18,13,15,17)
+    registers: np.ndarray  #: (3,) int64 storage registers 25, 26, 27 [LSB]
+    switches: np.ndarray  #: (20,) uint8 switch bank S1-S19 (see switch_bank)
+    rate_sign: np.ndarray  #: (2,) int64 direction of rate-command modules 120, 128
+    amp_integral_arcsec: np.ndarray  #: (3,) control-amplifier integrals
+    pwpf_filter_v: np.ndarray  #: (3,) modulator filter states
+    pwpf_out: np.ndarray  #: (3,) int64 valve commands -1/0/+1
+    pwpf_on_frames: np.ndarray  #: (3,) int64 frames since each valve opened
+    propellant_kg: np.ndarray  #: (1,)
+    cpu: np.ndarray  #: (N_WORK,) CPU 22 working store
+    word23: np.ndarray  #: (6,) computed word register 23
+    word24: np.ndarray  #: (2,) programmed word register 24 [arcsec]
+    excursion_ref_q: np.ndarray  #: (4,) attitude the mission wants; [0,0,0,0] = not tracked
+    max_excursion_rad: np.ndarray  #: (1,) largest rotation away from it so far
+    leg_clock: np.ndarray  #: (N_CLOCK,) progress of the current leg (see CLOCK_*)
+    rng: np.ndarray  #: (1,) uint64 state of the noise generator (allsky.gauss)
+
+
+def new_state(q0, rate0_rad_s, propellant_kg) -> State:
+    """A fresh state at ejection: everything zero, switches open, neutral registers."""
+    x = np.zeros(7)
+    x[0:4] = q0
+    x[4:7] = rate0_rad_s
+    return State(
+        time_s=np.zeros(1), frame=np.zeros(1, dtype=np.int64), x=x, dtheta_rad=np.zeros(3),
+        gyro_rw_arcsec_s=np.zeros(3), vfc_residue_pulses=np.zeros(3),
+        counters=np.zeros(3, dtype=np.int64), drift_counters=np.zeros(3, dtype=np.int64),
+        overflow=np.zeros(6, dtype=np.int64), registers=np.zeros(3, dtype=np.int64),
+        switches=new_bank(), rate_sign=np.ones(2, dtype=np.int64),
+        amp_integral_arcsec=np.zeros(3), pwpf_filter_v=np.zeros(3), pwpf_out=np.zeros(3, dtype=np.int64),
+        pwpf_on_frames=np.zeros(3, dtype=np.int64),
+        propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
+        word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
+        excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
+        rng=np.ones(1, dtype=np.uint64),
+    )

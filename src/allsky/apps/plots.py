@@ -23,7 +23,6 @@ calibration.png        stored calibration against the truth, with the errors
 
 import json
 import math
-import re
 from pathlib import Path
 from typing import NamedTuple
 
@@ -31,7 +30,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from allsky.config.scenario import ConfigError
-from allsky.hardware import switch_bank
+from allsky.hardware import switch_bank, wiring
 from allsky.sim.telemetry import INDEX, TelemetryError, read, switch_closed
 
 AXES = ("roll", "pitch", "yaw")
@@ -55,17 +54,15 @@ _MODE_COLOURS = ("#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#76b7b2
 
 
 def _switch_labels() -> dict:
-    """Sk -> short description, from the table in :mod:`allsky.hardware.switch_bank`'s docstring."""
+    """Sk -> short description of what it connects, from the wiring table."""
     out = {}
-    for line in (switch_bank.__doc__ or "").splitlines():
-        m = re.match(r"^S(\d+)\s+(.+)$", line.strip())
-        if m:
-            text = m.group(2)
-            for long, short in (("control amplifier", "amp"), ("summing amplifier", "sum amp"),
-                                ("rate-command module", "rate cmd"), (" output", ""),
-                                ("storage registers", "registers"), ("->", "→")):
-                text = text.replace(long, short)
-            out[int(m.group(1))] = text
+    for sw in wiring.SWITCHES:
+        text = sw.text
+        for long, short in (("control amplifier", "amp"), ("summing amplifier", "sum amp"),
+                            ("rate-command module", "rate cmd"), (" output", ""),
+                            ("storage registers", "registers"), ("->", "→")):
+            text = text.replace(long, short)
+        out[sw.number] = text
     return out
 
 

@@ -10,36 +10,17 @@ Mechanically coupled switches move together and only together: S16 with S18
 computer sequencer 21). :func:`operate` refuses a request that would move one
 member of a pair without the other.
 
-What each switch connects (SPEC section 3):
-
-====  ==========================================================
-S1    roll drift DAC 7 -> summing amplifier 4
-S2    pitch drift DAC 9 -> summing amplifier 5
-S3    yaw drift DAC 11 -> summing amplifier 6
-S4    roll VFC 8 -> roll drift counter 13
-S5    pitch VFC 10 -> pitch drift counter 15
-S6    yaw VFC 12 -> yaw drift counter 17
-S7    counters 14/16/18 -> CPU 22 (selector)
-S8    CPU 22 -> storage registers 25/26/27 (selector)
-S9    roll DAC 28 -> control amplifier 31
-S10   pitch DAC 29 -> control amplifier 32
-S11   yaw DAC 30 -> control amplifier 33
-S12   star tracker yaw output -> control amplifier 31
-S13   star tracker pitch output -> control amplifier 32
-S14   sun sensor pitch output -> control amplifier 32
-S15   sun sensor yaw output -> control amplifier 33
-S16   roll rate-command module 120 -> summing amplifier 4
-S17   yaw rate-command module 128 -> summing amplifier 6
-S18   summing amplifier 4 (line 130) -> control amplifier 31
-S19   summing amplifier 6 (line 131) -> control amplifier 33
-====  ==========================================================
+Switches S1, S2, S3, S4, S5, S6, S7, S8, S9, S10, S11, S12, S13, S14, S15,
+S16, S17, S18 and S19 are all here; what each connects is the wiring table,
+:mod:`allsky.hardware.wiring`.
 """
 
 import numpy as np
 
-N_SWITCHES = 19
-COUPLED = {16: 18, 18: 16, 17: 19, 19: 17, 7: 8, 8: 7}
-SELECTORS = (7, 8)
+from allsky.hardware.wiring import COUPLED_PAIRS, N_SWITCHES, SELECTORS
+
+#: Switch number -> the switch it is coupled to (both directions).
+COUPLED = {**dict(COUPLED_PAIRS), **{b: a for a, b in COUPLED_PAIRS}}
 
 
 class SwitchError(ValueError):

@@ -22,6 +22,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from allsky.apps import analyze as analyze_app
 from allsky.apps import plots
 from allsky.apps.cli import main
 from allsky.hardware import pwpf
@@ -155,8 +156,11 @@ def test_characteristic_spans_dead_zone_linear_region_and_saturation(default_res
 def test_analyze_gives_the_margins_of_loop_margins(default_cfg, default_result):
     assert default_result["margins"] == analysis.loop_margins(
         **analysis.scenario_loop_arguments(default_cfg))
-    text = analysis.format_analysis(default_result)
+    text = analyze_app.format_analysis(default_result)
     assert "roll position" in text and "yaw rate S17/S19" in text
+    table = analyze_app.format_margins(default_result["margins"])
+    assert len(table.splitlines()) == 2 + 3 + 2  # head, rule, three position and two rate loops
+    assert table.splitlines()[2].split()[:4] == ["roll", "position", "7.96", "14.54"]
     assert "PWPF modulators 34-36, static characteristic: K 1, tau 0.1 s" in text
     assert "e [mV]  T_on [ms] T_off [ms]" in text
     assert "largest |simulated - analytic| duty" in text

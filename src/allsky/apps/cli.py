@@ -251,7 +251,7 @@ def _run(cfg, args) -> int:
     elif args.command == "plot":
         from allsky.apps.plots import run_from_cli
     elif args.command == "analyze":
-        from allsky.studies.analysis import run_from_cli
+        from allsky.apps.analyze import run_from_cli
     else:
         from allsky.apps.report import run_from_cli
 

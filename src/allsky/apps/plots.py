@@ -302,7 +302,8 @@ def analysis(result: dict, frequency_responses: dict) -> Figure:
         :func:`allsky.studies.analysis.analyze`.
     frequency_responses : dict
         ``{loop name: (omega_rad_s, magnitude, phase_deg)}``
-        (:func:`allsky.studies.analysis.frequency_responses`).
+        (:func:`allsky.studies.analysis.frequency_responses` of
+        :func:`allsky.studies.analysis.scenario_loops`).
     """
     fig = Figure(figsize=(12.0, 7.0), layout="constrained")
     grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1.0))
@@ -322,8 +323,8 @@ def analysis(result: dict, frequency_responses: dict) -> Figure:
     mag.axhline(0.0, color="black", lw=0.6)
     phase.axhline(-180.0, color="black", lw=0.6)
     mag.set_ylabel("|L(jω)| [dB]")
-    mag.set_title("Loop transfer functions L(s), cut at the plant input "
-                  "(solid: position, dashed: rate)", fontsize=10, loc="left")
+    mag.set_title("Loop transfer functions L(s), cut at the plant input\n"
+                  "(other axes closed; solid: position, dashed: rate)", fontsize=10, loc="left")
     mag.grid(True, which="both", alpha=0.3)
     mag.legend(fontsize=8, loc="lower left")
     phase.set_ylabel("phase [deg]")

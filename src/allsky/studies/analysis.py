@@ -1,35 +1,61 @@
-"""Linear analysis of the attitude loops, and ``allsky analyze``.
+"""Linear analysis of the attitude loops, for ``allsky analyze``.
 
 Two parts: the per-axis stability margins of the position and rate loops
 (:func:`loop_margins`), and the static characteristic of the PWPF
 modulators 34/35/36, analytic and simulated (:func:`pwpf_static_characteristic`).
-:func:`analyze` gives both for a scenario.
+:func:`analyze` gives both for a scenario as plain data;
+:mod:`allsky.apps.analyze` prints, writes and draws them.
 
 Loop margins
 ------------
 
-Each axis's position loop (control amplifier 31/32/33 -> PWPF modulator
-34/35/36 -> jet couple 39/40/41 -> vehicle -> sensor) is cut at the plant
-input and approximated by the linear loop transfer function::
+The plant is the vehicle's own python-control model: the ``nlsys`` of
+:mod:`allsky.vehicle.plant_control`, linearised at attitude hold (identity
+attitude, zero rate, zero torque) by :func:`allsky.vehicle.plant_control.linearize`,
+which replaces the quaternion by small body-axis angles ``phi = 2 q_vec``
+and drops ``q_w``. Its inputs are the body torques ``tau_x, tau_y, tau_z``
+[N m], its outputs the angles ``phi_x, phi_y, phi_z`` [rad] and the body
+rates ``w_x, w_y, w_z`` [rad/s]; the full inertia tensor couples the axes.
 
-    L(s) = C(s) * K_a * 1/(tau s + 1) * e^{-T s} * 1/(J_ii s^2)
+Each axis closes its loop through three blocks, interconnected by signal
+name (:func:`control.interconnect`), roll shown:
 
-=================  ==================================================  =====
-Factor             Model                                               Unit
-=================  ==================================================  =====
-C(s)               ``RAD2ARCSEC * (Kp + Kd s)``: amplifier's position  V/rad
-                   gain plus its rate (damping) path
-K_a                ``torque_n_m / full_on_v``: the describing gain of  N m/V
-                   modulator + jets, average torque per volt
-1/(tau s + 1)      the PWPF filter's lag, ``tau = pwpf.time_constant_s``  -
-e^{-T s}           one frame ``T = frame_s`` of sampling and hold,        -
-                   as a Pade approximant (:func:`control.pade`)
-1/(J_ii s^2)       the plant, diagonal inertia element                 rad/(N m s^2)
-=================  ==================================================  =====
+=====================  ===============================================  ===========
+Block                  Model                                            Signals
+=====================  ===============================================  ===========
+control amplifier 31   ``u_x = -RAD2ARCSEC (Kp phi_x + Kd w_x)``:       phi_x, w_x
+                       position gain and the gyro rate (damping) path   -> u_x [V]
+PWPF modulator 34 and  ``K_a / (tau s + 1)``: the describing gain       u_x ->
+jets 39                ``K_a = torque_n_m / full_on_v`` [N m/V] and     torque_x [N m]
+                       the filter's lag ``tau = pwpf.time_constant_s``
+frame                  one frame ``T = frame_s`` of sampling and hold,  torque_x ->
+                       a Pade approximant (:func:`control.pade`)        tau_x [N m]
+=====================  ===============================================  ===========
 
-The rate-command loop of roll (S16/S18) and yaw (S17/S19) opens the position
-inputs and closes the rate path alone: ``L(s) = RAD2ARCSEC Kd K_a lag delay
-/ (J_ii s)``.
+The rate-command loop of roll (S16/S18) and yaw (S17/S19) opens the
+position inputs of its amplifier: only the rate path ``-RAD2ARCSEC Kd w``
+remains on that axis.
+
+**Where the loop is cut.** One axis's loop is cut at the vehicle's torque
+input: a torque ``tau_i`` is injected, the axis's frame block returns
+``tau_i_cut``, and ``L_i(s) = -tau_i_cut / tau_i`` (negative feedback closes
+it). The other two axes stay closed, because that is what the vehicle has:
+in the holds all three loops are closed, and during a rate command (Modes 2,
+4, 5, 6) the other two axes hold position. Through the products of inertia a
+torque on axis ``i`` moves the others, whose loops push back on ``i``; with
+them open the loop would see only the effective inertia ``1/(J^-1)_ii``.
+For a diagonal tensor both cuts give the textbook loop
+``C(s) K_a lag delay / (J_ii s^2)`` exactly. With the default tensor the
+coupling moves the margins by under 0.01 dB and 0.01 deg
+(docs/design.md).
+
+The interconnection carries all 18 states (6 per axis). States that the cut
+input cannot reach, or that cannot reach the cut output, are dropped by
+their pattern of structural zeros (:func:`_reachable_and_observable`, no
+tolerance involved): with a diagonal tensor this leaves the axis's own 6
+states (5 for a rate loop, whose angle is not fed back), so the margins
+equal the per-axis closed forms to rounding; with products of inertia all
+18 (17) remain.
 
 Assumptions, with their limits (see also docs/assumptions.md):
 
@@ -49,16 +75,15 @@ Assumptions, with their limits (see also docs/assumptions.md):
 * **Delay.** One frame: a measurement taken at the start of a frame acts,
   through a torque held over the frame, about half a frame late on average,
   and the gyro's rate is the average over the previous frame (another half).
-* **Diagonal inertia.** Each axis sees ``1/J_ii``; the products of inertia
-  couple axes. :func:`loop_margins` reports, per axis, the coupling ratio
-  ``max_j!=i |(J^-1)_ij| / (J^-1)_ii`` (the angular acceleration of axis
-  ``i`` per unit torque on axis ``j``, relative to its own) and the effective
-  inertia ``1 / (J^-1)_ii`` next to ``J_ii``.
+* **Attitude hold.** The linearisation point has zero rate: the gyroscopic
+  coupling ``w x (J w)`` of a turning vehicle is left out. At the 1.5 deg/s
+  of a rate command its Jacobian is at most ``0.026 rad/s * (J_zz - J_xx) /
+  J_yy ~ 0.02 1/s``, about 1e-3 of the crossover frequency. The
+  amplifiers' slow integral (``T_i`` = 10 s) is left out too: it acts two
+  decades below the crossover.
 """
 
-import json
 import math
-from pathlib import Path
 
 import control
 import numpy as np
@@ -67,34 +92,35 @@ from allsky.hardware import pwpf
 from allsky.hardware.pwpf import pwpf_step
 from allsky.jit import njit_alloc
 from allsky.units import RAD2ARCSEC
+from allsky.vehicle.plant_control import ANGLE_NAMES, INPUT_NAMES, RATE_NAMES, linearize
 
 AXES = ("roll", "pitch", "yaw")
 #: Axes with a rate-command loop and the switches that make it (SPEC.md / patent Fig. 1).
 RATE_LOOP_AXES = {"roll": "S16/S18", "yaw": "S17/S19"}
+#: Patent numerals of each axis's control amplifier, PWPF modulator and jets.
+AMPLIFIERS, MODULATORS, JETS = (31, 32, 33), (34, 35, 36), (39, 40, 41)
 #: Order of the one-frame delay's Pade approximant; its phase error at the
 #: default crossover (~17 rad/s, 0.01 s frame: wT ~ 0.17) is negligible.
 PADE_ORDER = 3
+#: Suffix of the torque an axis's loop returns where it is cut.
+CUT_SUFFIX = "_cut"
 
 
-def _actuator_and_sensor(torque_n_m, full_on_v, pwpf_time_constant_s, frame_s):
-    """Describing gain [N m/V] x PWPF lag x one-frame delay, as a transfer function."""
-    g = control.tf([torque_n_m / full_on_v], [1.0])
-    if pwpf_time_constant_s > 0.0:
-        g = g * control.tf([1.0], [pwpf_time_constant_s, 1.0])
-    if frame_s > 0.0:
-        num, den = control.pade(frame_s, PADE_ORDER)
-        g = g * control.tf(num, den)
-    return g
+def _static(gain, inputs, outputs, name):
+    """A static gain (no states) as a named ``StateSpace``."""
+    d = np.atleast_2d(np.asarray(gain, dtype=float))
+    return control.ss(np.zeros((0, 0)), np.zeros((0, d.shape[1])), np.zeros((d.shape[0], 0)), d,
+                      inputs=inputs, outputs=outputs, name=name)
 
 
-def position_loop(inertia_axis_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
-                  position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s):
-    """Loop transfer function L(s) of one axis's position loop, cut at the plant input.
+def axis_path(axis, torque_n_m, full_on_v, pwpf_time_constant_s, position_gain_v_per_arcsec,
+              rate_gain_v_per_arcsec_s, frame_s, rate_commanded=False, cut=False) -> list:
+    """One axis's control amplifier, modulator and jets, and frame, as named systems.
 
     Parameters
     ----------
-    inertia_axis_kg_m2 : float
-        [kg m^2] Diagonal inertia element of the axis.
+    axis : int
+        0 roll, 1 pitch, 2 yaw.
     torque_n_m : float
         [N m] Torque of the axis's jet couple, ``2 F r``.
     full_on_v : float
@@ -107,28 +133,143 @@ def position_loop(inertia_axis_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_
         [V/(arcsec/s)] Control amplifier rate gain ``Kd``.
     frame_s : float
         [s] Frame; 0 leaves the delay out.
+    rate_commanded : bool, optional
+        The position inputs are open (S16/S18, S17/S19 closed): the
+        amplifier reads the rate alone.
+    cut : bool, optional
+        Name the torque this path returns ``tau_i_cut`` instead of the
+        vehicle's input ``tau_i``, so that an interconnection leaves the loop
+        open there.
 
     Returns
     -------
-    control.TransferFunction
-        L(s), dimensionless (attitude in, attitude out).
+    list of control.StateSpace
+        Amplifier (``phi_i``, ``w_i`` [rad, rad/s] -> ``u_i`` [V]), modulator
+        and jets (``u_i`` -> ``torque_i`` [N m]) and frame (``torque_i`` ->
+        ``tau_i`` [N m]).
     """
-    c = control.tf([rate_gain_v_per_arcsec_s * RAD2ARCSEC, position_gain_v_per_arcsec * RAD2ARCSEC],
-                   [1.0])
-    plant = control.tf([1.0], [inertia_axis_kg_m2, 0.0, 0.0])
-    return c * _actuator_and_sensor(torque_n_m, full_on_v, pwpf_time_constant_s, frame_s) * plant
+    c = "xyz"[axis]
+    phi, w, u, torque = ANGLE_NAMES[axis], RATE_NAMES[axis], f"u_{c}", f"torque_{c}"
+    tau = INPUT_NAMES[axis] + (CUT_SUFFIX if cut else "")
+    kd_v_per_rad_s = rate_gain_v_per_arcsec_s * RAD2ARCSEC
+    if rate_commanded:
+        amplifier = _static([[-kd_v_per_rad_s]], [w], [u], f"control_amplifier_{AMPLIFIERS[axis]}")
+    else:
+        amplifier = _static([[-position_gain_v_per_arcsec * RAD2ARCSEC, -kd_v_per_rad_s]],
+                            [phi, w], [u], f"control_amplifier_{AMPLIFIERS[axis]}")
+    gain_n_m_per_v = torque_n_m / full_on_v
+    modulator_name = f"modulator_{MODULATORS[axis]}_jets_{JETS[axis]}"
+    if pwpf_time_constant_s > 0.0:
+        modulator = control.ss(control.tf([gain_n_m_per_v], [pwpf_time_constant_s, 1.0]),
+                               inputs=[u], outputs=[torque], name=modulator_name)
+    else:
+        modulator = _static([[gain_n_m_per_v]], [u], [torque], modulator_name)
+    if frame_s > 0.0:
+        frame = control.ss(control.tf(*control.pade(frame_s, PADE_ORDER)), inputs=[torque],
+                           outputs=[tau], name=f"frame_{c}")
+    else:
+        frame = _static([[1.0]], [torque], [tau], f"frame_{c}")
+    return [amplifier, modulator, frame]
 
 
-def rate_loop(inertia_axis_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
-              rate_gain_v_per_arcsec_s, frame_s):
-    """Loop transfer function of a rate-commanded axis (position inputs open).
+def _reachable_and_observable(sys: control.StateSpace) -> control.StateSpace:
+    """``sys`` without the states its input cannot reach or that cannot reach its output.
 
-    Parameters are those of :func:`position_loop`. Returns L(s) from body
-    rate to body rate, ``RAD2ARCSEC Kd K_a lag delay / (J_ii s)``.
+    Read from the non-zero pattern of A, B and C: state ``j`` drives state
+    ``k`` when ``A[k, j] != 0``. A structural zero is an exact zero, so the
+    reduction needs no tolerance and changes no transfer function.
     """
-    c = control.tf([rate_gain_v_per_arcsec_s * RAD2ARCSEC], [1.0])
-    plant = control.tf([1.0], [inertia_axis_kg_m2, 0.0])
-    return c * _actuator_and_sensor(torque_n_m, full_on_v, pwpf_time_constant_s, frame_s) * plant
+    a, b, c = sys.A, sys.B, sys.C
+    drives = a != 0.0
+
+    def closure(seed, step):
+        found = seed.copy()
+        while True:
+            grown = found | step(found)
+            if np.array_equal(grown, found):
+                return found
+            found = grown
+
+    reached = closure(b.any(axis=1), lambda s: drives[:, s].any(axis=1))
+    seen = closure(c.any(axis=0), lambda s: drives[s, :].any(axis=0))
+    keep = np.flatnonzero(reached & seen)
+    return control.ss(a[np.ix_(keep, keep)], b[keep, :], c[:, keep], sys.D,
+                      states=[sys.state_labels[k] for k in keep], inputs=sys.input_labels,
+                      outputs=sys.output_labels, name=sys.name)
+
+
+def loop_transfer(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
+                  position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s, axis,
+                  rate_commanded=False, vehicle=None) -> control.StateSpace:
+    """Loop transfer function L(s) of one axis, cut at its torque input, the other axes closed.
+
+    Parameters
+    ----------
+    inertia_kg_m2 : array_like, shape (3, 3)
+        [kg m^2] Full inertia tensor, body axes (roll, pitch, yaw).
+    torque_n_m : array_like, shape (3,)
+        [N m] Jet couple torque per axis.
+    full_on_v : float
+        [V] PWPF full-on voltage ``U_m``.
+    pwpf_time_constant_s : float
+        [s] PWPF filter time constant (0: no lag).
+    position_gain_v_per_arcsec : array_like, shape (3,)
+        [V/arcsec] Control amplifier position gains.
+    rate_gain_v_per_arcsec_s : array_like, shape (3,)
+        [V/(arcsec/s)] Control amplifier rate gains.
+    frame_s : float
+        [s] Frame (0: no delay).
+    axis : int
+        The axis whose loop is cut: 0 roll, 1 pitch, 2 yaw.
+    rate_commanded : bool, optional
+        Cut the axis's rate-command loop (position inputs open) instead of
+        its position loop. The other axes hold position either way.
+    vehicle : control.StateSpace, optional
+        :func:`allsky.vehicle.plant_control.linearize` of ``inertia_kg_m2``,
+        if already built.
+
+    Returns
+    -------
+    control.StateSpace
+        SISO, dimensionless: input the injected torque ``tau_i`` [N m],
+        output the torque the loop returns, sign reversed, so that
+        ``1 + L`` is the return difference. Only the states that take part
+        (:func:`_reachable_and_observable`).
+    """
+    vehicle = linearize(inertia_kg_m2) if vehicle is None else vehicle
+    torque = np.broadcast_to(np.asarray(torque_n_m, dtype=float), (3,))
+    kp = np.broadcast_to(np.asarray(position_gain_v_per_arcsec, dtype=float), (3,))
+    kd = np.broadcast_to(np.asarray(rate_gain_v_per_arcsec_s, dtype=float), (3,))
+    systems = [vehicle]
+    for i in range(3):
+        systems += axis_path(i, torque[i], full_on_v, pwpf_time_constant_s, kp[i], kd[i],
+                             frame_s, rate_commanded=rate_commanded and i == axis,
+                             cut=i == axis)
+    cut_in = INPUT_NAMES[axis]
+    loop = control.interconnect(
+        systems, inplist=[cut_in], outlist=["-" + cut_in + CUT_SUFFIX], inputs=[cut_in],
+        outputs=[cut_in + CUT_SUFFIX], name=f"{'rate' if rate_commanded else 'position'} "
+                                             f"{AXES[axis]}",
+        ignore_outputs=[ANGLE_NAMES[axis]] if rate_commanded else None)
+    return _reachable_and_observable(loop)
+
+
+def axis_loops(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
+               position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s) -> dict:
+    """Every loop of :func:`loop_transfer`: ``{"position roll": L(s), ..., "rate yaw": L(s)}``.
+
+    Parameters are those of :func:`loop_transfer` (without ``axis``). The
+    position loops of the three axes come first, then the rate-command
+    loops of :data:`RATE_LOOP_AXES`.
+    """
+    args = (inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
+            position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s)
+    vehicle = linearize(inertia_kg_m2)
+    loops = {f"position {a}": loop_transfer(*args, i, vehicle=vehicle)
+             for i, a in enumerate(AXES)}
+    loops.update({f"rate {a}": loop_transfer(*args, i, rate_commanded=True, vehicle=vehicle)
+                  for i, a in enumerate(AXES) if a in RATE_LOOP_AXES})
+    return loops
 
 
 def _margins(loop):
@@ -148,6 +289,9 @@ def _margins(loop):
 def loop_margins(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
                  position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s) -> dict:
     """Gain and phase margins, crossover and bandwidth of every axis's loops.
+
+    Each loop is cut at its axis's torque input with the other axes closed
+    (:func:`loop_transfer`).
 
     Parameters
     ----------
@@ -174,28 +318,30 @@ def loop_margins(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
         each ``m`` a dict of ``gain_margin_db`` (inf when the phase never
         crosses -180 deg), ``phase_margin_deg``, ``crossover_rad_s`` (gain
         crossover), ``phase_crossover_rad_s`` (nan if none),
-        ``bandwidth_rad_s`` (closed loop, -3 dB) and ``stable``. Position
-        entries also carry ``inertia_kg_m2`` (J_ii used),
-        ``effective_inertia_kg_m2`` (``1/(J^-1)_ii``) and
-        ``coupling_ratio`` (``max_j!=i |(J^-1)_ij| / (J^-1)_ii``).
+        ``bandwidth_rad_s`` (closed loop, -3 dB) and ``stable`` (every pole
+        of the closed loop's states in the left half-plane). Position
+        entries also carry, to show how much the axes couple,
+        ``inertia_kg_m2`` (``J_ii``), ``effective_inertia_kg_m2``
+        (``1/(J^-1)_ii``, what the axis sees with the other axes open) and
+        ``coupling_ratio`` (``max_j!=i |(J^-1)_ij| / (J^-1)_ii``, the angular
+        acceleration of axis ``i`` per unit torque on axis ``j``, relative to
+        its own).
     """
     j = np.asarray(inertia_kg_m2, dtype=float).reshape(3, 3)
     j_inv = np.linalg.inv(j)
-    torque = np.broadcast_to(np.asarray(torque_n_m, dtype=float), (3,))
-    kp = np.broadcast_to(np.asarray(position_gain_v_per_arcsec, dtype=float), (3,))
-    kd = np.broadcast_to(np.asarray(rate_gain_v_per_arcsec_s, dtype=float), (3,))
+    loops = axis_loops(j, torque_n_m, full_on_v, pwpf_time_constant_s,
+                       position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s)
     out = {"position": {}, "rate": {}}
-    for i, axis in enumerate(AXES):
-        m = _margins(position_loop(j[i, i], torque[i], full_on_v, pwpf_time_constant_s, kp[i],
-                                   kd[i], frame_s))
-        m["inertia_kg_m2"] = float(j[i, i])
-        m["effective_inertia_kg_m2"] = float(1.0 / j_inv[i, i])
-        m["coupling_ratio"] = float(max(abs(j_inv[i, k]) for k in range(3) if k != i)
-                                    / j_inv[i, i])
-        out["position"][axis] = m
-        if axis in RATE_LOOP_AXES:
-            out["rate"][axis] = _margins(rate_loop(j[i, i], torque[i], full_on_v,
-                                                   pwpf_time_constant_s, kd[i], frame_s))
+    for name, loop in loops.items():
+        kind, axis = name.split()
+        m = _margins(loop)
+        if kind == "position":
+            i = AXES.index(axis)
+            m["inertia_kg_m2"] = float(j[i, i])
+            m["effective_inertia_kg_m2"] = float(1.0 / j_inv[i, i])
+            m["coupling_ratio"] = float(max(abs(j_inv[i, k]) for k in range(3) if k != i)
+                                        / j_inv[i, i])
+        out[kind][axis] = m
     return out
 
 
@@ -223,22 +369,6 @@ def scenario_loop_arguments(cfg) -> dict:
         "rate_gain_v_per_arcsec_s": np.asarray(cfg.control.rate_gain_v_per_arcsec_s, dtype=float),
         "frame_s": float(cfg.mission.frame_s),
     }
-
-
-def format_margins(margins: dict) -> str:
-    """The result of :func:`loop_margins` as a small fixed-width text table."""
-    head = (f"{'loop':<19}{'GM [dB]':>9}{'PM [deg]':>10}{'w_gc [rad/s]':>14}"
-            f"{'w_pc [rad/s]':>14}{'BW [rad/s]':>12}{'coupling':>10}")
-    lines = [head, "-" * len(head)]
-    for kind, label in (("position", "position"), ("rate", "rate")):
-        for axis, m in margins[kind].items():
-            name = f"{axis} {label}" if kind == "position" else \
-                f"{axis} rate {RATE_LOOP_AXES.get(axis, '')}".rstrip()
-            coupling = f"{m['coupling_ratio']:>10.2%}" if "coupling_ratio" in m else f"{'':>10}"
-            lines.append(f"{name:<19}{m['gain_margin_db']:>9.2f}{m['phase_margin_deg']:>10.2f}"
-                         f"{m['crossover_rad_s']:>14.3f}{m['phase_crossover_rad_s']:>14.3f}"
-                         f"{m['bandwidth_rad_s']:>12.3f}{coupling}")
-    return "\n".join(lines)
 
 
 # -- PWPF static characteristic ------------------------------------------------
@@ -425,49 +555,11 @@ def scenario_pwpf_arguments(cfg) -> dict:
             "min_on_time_s": cfg.jets.min_on_time_s, "frame_s": cfg.mission.frame_s}
 
 
-def format_pwpf(result: dict) -> str:
-    """The result of :func:`pwpf_static_characteristic` as a fixed-width text table."""
-    def ms(v):
-        return f"{'inf':>9}" if v is None else f"{v * 1e3:>9.2f}"
-
-    head = (f"{'e [mV]':>8}{'T_on [ms]':>11}{'T_off [ms]':>11}{'f [Hz]':>8}"
-            f"{'duty':>8}{'sim fine':>10}{'sim frame':>11}")
-    title = (f"PWPF modulators 34-36, static characteristic: K {result['filter_gain']:g}, "
-             f"tau {result['time_constant_s']:g} s, U_on {result['on_threshold_v'] * 1e3:g} mV, "
-             f"U_off {result['off_threshold_v'] * 1e3:g} mV, U_m {result['full_on_v'] * 1e3:g} mV")
-    limits = (f"dead zone below {result['dead_zone_v'] * 1e3:.3f} mV, "
-              f"saturation above {result['saturation_v'] * 1e3:.3f} mV")
-    lines = [title, limits, head, "-" * len(head)]
-    for i, e in enumerate(result["input_v"]):
-        t_on, t_off = result["t_on_s"][i], result["t_off_s"][i]
-        freq = 1.0 / (t_on + t_off) if t_on and t_off else 0.0
-        lines.append(f"{e * 1e3:>8.3f}  {ms(t_on)}  {ms(t_off)}{freq:>8.2f}"
-                     f"{result['duty_analytic'][i]:>8.4f}{result['duty_simulated_fine'][i]:>10.4f}"
-                     f"{result['duty_simulated_frame'][i]:>11.4f}")
-    lines.append(f"largest |simulated - analytic| duty: {result['max_error_fine']:.4f} at a "
-                 f"{result['fine_step_s'] * 1e3:g} ms step, {result['max_error_frame']:.4f} at "
-                 f"the {result['frame_s'] * 1e3:g} ms frame with the "
-                 f"{result['min_on_time_s'] * 1e3:g} ms minimum on-time")
-    return "\n".join(lines)
-
-
-# -- the analyze command -------------------------------------------------------
+# -- a scenario's analysis ------------------------------------------------------
 
 def scenario_loops(cfg) -> dict:
-    """The loop transfer functions of a scenario: ``{"position roll": L(s), ...}``."""
-    a = scenario_loop_arguments(cfg)
-    j = np.asarray(a["inertia_kg_m2"])
-    loops = {}
-    for i, axis in enumerate(AXES):
-        loops[f"position {axis}"] = position_loop(
-            j[i, i], a["torque_n_m"][i], a["full_on_v"], a["pwpf_time_constant_s"],
-            a["position_gain_v_per_arcsec"][i], a["rate_gain_v_per_arcsec_s"][i], a["frame_s"])
-    for i, axis in enumerate(AXES):
-        if axis in RATE_LOOP_AXES:
-            loops[f"rate {axis}"] = rate_loop(
-                j[i, i], a["torque_n_m"][i], a["full_on_v"], a["pwpf_time_constant_s"],
-                a["rate_gain_v_per_arcsec_s"][i], a["frame_s"])
-    return loops
+    """The loop transfer functions of a scenario: :func:`axis_loops` of its parameters."""
+    return axis_loops(**scenario_loop_arguments(cfg))
 
 
 def frequency_responses(loops: dict, omega_rad_s) -> dict:
@@ -491,36 +583,3 @@ def analyze(cfg) -> dict:
     """
     return {"margins": loop_margins(**scenario_loop_arguments(cfg)),
             "pwpf": pwpf_static_characteristic(**scenario_pwpf_arguments(cfg))}
-
-
-def format_analysis(result: dict) -> str:
-    """The result of :func:`analyze` as text: the margins table, then the PWPF table."""
-    return "\n".join(["Loop margins (linear, cut at the plant input)", "",
-                      format_margins(result["margins"]), "", format_pwpf(result["pwpf"])])
-
-
-def _finite_or_none(value):
-    """JSON has no inf or nan: write them as null."""
-    if isinstance(value, dict):
-        return {k: _finite_or_none(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite_or_none(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def run_from_cli(cfg, args) -> int:
-    """``allsky analyze``: print the tables; write --json and the --plot PNG."""
-    result = analyze(cfg)
-    print(format_analysis(result))
-    if args.json:
-        Path(args.json).write_text(json.dumps(_finite_or_none(result), indent=2) + "\n")
-    if args.plot:
-        from allsky.apps import plots
-
-        # Up to the frame's Nyquist frequency pi / frame_s: beyond it the loop is not defined.
-        w = np.logspace(-2, math.log10(math.pi / cfg.mission.frame_s), 400)
-        fig = plots.analysis(result, frequency_responses(scenario_loops(cfg), w))
-        print(f"plot: {plots.save(fig, args.plot)}")
-    return 0

@@ -22,6 +22,11 @@ outputs    the states, same names      as above
 The ``nlsys`` does not renormalise the quaternion (an ODE has no such step);
 :func:`allsky.vehicle.plant.rk4_step` does after each step, a change of the order of
 its truncation error.
+
+:func:`linearize` is the plant of the loop analysis
+(:mod:`allsky.studies.analysis`, ``allsky analyze``): the ``nlsys``
+linearised at attitude hold, with small body-axis angles in place of the
+quaternion.
 """
 
 import control
@@ -31,6 +36,10 @@ from allsky.vehicle.plant import N_INTEGRATED, N_STATE, derivatives, make_params
 
 STATE_NAMES = ("q_w", "q_x", "q_y", "q_z", "w_x", "w_y", "w_z")
 INPUT_NAMES = ("tau_x", "tau_y", "tau_z")
+#: States (and outputs) of :func:`linearize`: small body-axis angles [rad], body rates [rad/s].
+ANGLE_NAMES = ("phi_x", "phi_y", "phi_z")
+RATE_NAMES = ("w_x", "w_y", "w_z")
+LINEAR_STATE_NAMES = ANGLE_NAMES + RATE_NAMES
 
 
 def vehicle_nlsys(inertia_kg_m2, name="vehicle") -> control.NonlinearIOSystem:
@@ -79,43 +88,51 @@ def operating_point() -> control.OperatingPoint:
     return control.OperatingPoint(np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.zeros(3))
 
 
-def linearize(inertia_kg_m2, name="vehicle_linearized") -> control.StateSpace:
-    """The vehicle linearised about :func:`operating_point`, as a ``StateSpace``.
+def linearize(inertia_kg_m2, name="vehicle") -> control.StateSpace:
+    """The vehicle linearised about :func:`operating_point`: small angles and body rates.
 
-    At the identity attitude with zero rate the Jacobian is exact and simple:
-    the gyroscopic term ``w x (J w)`` is quadratic in the rate and drops out,
-    and ``dq_w/dt = -0.5 q_vec . w`` is second order, so::
+    :func:`control.linearize` of :func:`vehicle_nlsys` (forward differences
+    of :func:`allsky.vehicle.plant.derivatives`), then two steps that the
+    quaternion state needs:
 
-        d q_vec / dt = 0.5 w             d q_w / dt = 0
-        d w / dt     = J^-1 tau
+    * **q_w is dropped.** At the identity ``dq_w/dt = -0.5 q_vec . w`` is
+      second order and no state depends on ``q_w``: its row and column of
+      the Jacobian are zero, an uncontrollable pole at zero that would sit in
+      every closed loop. The attitude has three degrees of freedom.
+    * **Small angles are twice the quaternion's vector part.** Near identity
+      ``q_vec = sin(phi/2) * axis ~ phi/2``, so the states become
+      ``phi = 2 q_vec`` [rad], rotations about the body axes, the angles a
+      sensor measures. The change of variables is exact in floating point
+      (a factor of two).
 
-    **Small angles are twice the quaternion's vector part**: near identity
-    ``q_vec = sin(phi/2) * axis ~ phi/2``, so the body-axis angles [rad] are
-    ``2 * (q_x, q_y, q_z)`` and each axis is ``angle_i = (J^-1 tau)_i / s^2``,
-    a double integrator ``1/(J_ii s^2)`` for a diagonal tensor. ``q_w`` is a
-    decoupled pole at zero (neither controllable nor moved by torque).
-
-    The matrices are written analytically rather than by finite differences
-    (:func:`control.linearize` of :func:`vehicle_nlsys` agrees to the
-    difference step's order; tests/test_plant_control.py checks it).
+    What remains is ``dphi/dt = w``, ``dw/dt = J^-1 tau``: with a diagonal
+    tensor three double integrators ``1/(J_ii s^2)``; products of inertia
+    couple the axes through ``J^-1``. The gyroscopic term ``w x (J w)`` is
+    quadratic in the rate and vanishes at rest; the forward difference
+    (step 1e-6) leaves ``step * J^-1 (e_j x J e_j)`` of it, 2e-8 1/s
+    for the default tensor and exactly zero for a diagonal one.
 
     Parameters
     ----------
     inertia_kg_m2 : array_like, shape (3, 3)
         [kg m^2] Inertia tensor, body axes.
     name : str, optional
-        Name of the linear system.
+        Name of the linear system (prefix of its signals in an interconnection).
 
     Returns
     -------
     control.StateSpace
-        7 states, 3 inputs [N m], 7 outputs (the states), signal names as in
-        :func:`vehicle_nlsys`.
+        States and outputs ``phi_x, phi_y, phi_z`` [rad] and ``w_x, w_y, w_z``
+        [rad/s] (:data:`LINEAR_STATE_NAMES`); inputs ``tau_x, tau_y, tau_z``
+        [N m].
     """
-    p = make_params(inertia_kg_m2)
-    a = np.zeros((N_STATE, N_STATE))
-    a[1:4, 4:7] = 0.5 * np.eye(3)
-    b = np.zeros((N_STATE, 3))
-    b[4:7, :] = p.inertia_inv_1_kg_m2
-    return control.ss(a, b, np.eye(N_STATE), np.zeros((N_STATE, 3)), states=list(STATE_NAMES),
-                      inputs=list(INPUT_NAMES), outputs=list(STATE_NAMES), name=name)
+    full = control.linearize(vehicle_nlsys(inertia_kg_m2), operating_point())
+    # z = T x[1:]: q_vec -> phi = 2 q_vec, w unchanged.
+    t = np.diag([2.0, 2.0, 2.0, 1.0, 1.0, 1.0])
+    t_inv = np.diag([0.5, 0.5, 0.5, 1.0, 1.0, 1.0])
+    a = t @ full.A[1:, 1:] @ t_inv
+    b = t @ full.B[1:, :]
+    n = len(LINEAR_STATE_NAMES)
+    return control.ss(a, b, np.eye(n), np.zeros((n, len(INPUT_NAMES))),
+                      states=list(LINEAR_STATE_NAMES), inputs=list(INPUT_NAMES),
+                      outputs=list(LINEAR_STATE_NAMES), name=name)

@@ -1,25 +1,30 @@
-"""Scenario loading, overrides, validation and the frozen result (allsky.config.scenario)."""
+"""Scenario loading, overrides, validation and the frozen result (allsky.config).
+
+Covers the modules of the package through the scenario they build: rules,
+schema, toml_io, dispersion_table and scenario.
+"""
 
 import math
 import pickle
 import tomllib
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from types import MappingProxyType
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.config import scenario as config
-from allsky.config.scenario import (
+from allsky.config import (
     DEFAULT_SCENARIO_PATH,
     RULES,
     ConfigError,
     Scenario,
     load_scenario,
     scenario_from_dict,
-    toml_dumps,
+    schema,
 )
+from allsky.config.rules import EPHEMERIS_END_UTC, EPHEMERIS_START_UTC, MODE_KEYS
+from allsky.config.toml_io import toml_dumps
 
 DEFAULT = tomllib.loads(DEFAULT_SCENARIO_PATH.read_text())
 
@@ -70,13 +75,13 @@ def test_every_default_key_has_its_unit_in_its_name():
 def test_rule_table_covers_exactly_the_schema():
     schema = {f"{s}.{k}" for s, t in DEFAULT.items() for k in t}
     assert set(RULES) == schema | {"target.ra_deg", "target.dec_deg"}
-    assert set(DEFAULT["sequencer"]["timeout_s"]) == set(config.MODE_KEYS)
+    assert set(DEFAULT["sequencer"]["timeout_s"]) == set(MODE_KEYS)
 
 
 def test_ephemeris_range_matches_sky():
     from allsky.vehicle.sky import EPHEMERIS_YEARS
 
-    assert (config.EPHEMERIS_START_UTC.year, config.EPHEMERIS_END_UTC.year) == EPHEMERIS_YEARS
+    assert (EPHEMERIS_START_UTC.year, EPHEMERIS_END_UTC.year) == EPHEMERIS_YEARS
 
 
 # -- files and overrides ---------------------------------------------------------
@@ -167,6 +172,14 @@ def test_config_error_is_one_line_key_value_rule():
     assert "\n" not in str(error(data={"a\nb": {}}))
 
 
+def test_config_error_with_rule_keeps_key_and_value():
+    shown = error(["gyro.arw_deg_rt_h=-1"]).with_rule("must be >= 0 (drawn)")
+    assert str(shown) == "gyro.arw_deg_rt_h = -1.0: must be >= 0 (drawn)"
+    hidden = error(["target.ra_deg=1"]).with_rule("missing (drawn)")
+    assert str(hidden) == "target.dec_deg: missing (drawn)" and hidden.value is None
+    assert pickle.loads(pickle.dumps(hidden)).args == hidden.args
+
+
 # -- one test per rule -----------------------------------------------------------
 
 RULE_CASES = [
@@ -187,14 +200,20 @@ RULE_CASES = [
     # mission
     ("mission.seed", "1.5", "must be an integer, not a float"),
     ("mission.seed", "true", "must be an integer, not a boolean"),
-    ("mission.seed", "-1", "must be >= 0"),
-    ("mission.seed", str(2**32), "must be < 4294967296"),
-    ("mission.frame_s", "0", "must be > 0"),
+    ("mission.seed", "-1", "must be in [0, 4294967295] (2**32 - 1"),
+    ("mission.seed", str(2**32), "must be in [0, 4294967295] (2**32 - 1"),
+    ("mission.frame_s", "0", "must be >= 0.0001"),
+    ("mission.frame_s", "1e-12", "must be >= 0.0001 (a hundredth of the default 10 ms valve"),
+    ("mission.frame_s", "1e-300", "must be >= 0.0001"),
     ("mission.frame_s", "0.02", "frame too coarse for the jet minimum on-time"),
-    ("mission.telemetry_every_frames", "0", "must be >= 1"),
+    ("mission.telemetry_every_frames", "0", "must be in [1, 100000000]"),
     ("mission.telemetry_every_frames", "2.0", "must be an integer"),
+    ("mission.telemetry_every_frames", "100000001", "must be in [1, 100000000] (the most frames"),
     ("mission.date_utc", "1899-12-31T23:59:59Z", "ephemeris range 1900-01-01..2100-12-31"),
     ("mission.date_utc", "2101-01-01T00:00:00Z", "ephemeris range"),
+    # the default's longest mission, 4500 s, must end by 2100-12-31T23:59:59.999999Z
+    ("mission.date_utc", "2100-12-31T23:00:00Z", ("must be <= 2100-12-31T22:44:59.999999Z: the "
+                                                 "mission would end after the ephemeris range")),
     ("mission.date_utc", "2100-12-31T23:30:00-01:00", "ephemeris range"),  # 2101 in UTC
     ("mission.date_utc", "0001-01-01T00:00:00+01:00", "ephemeris range"),
     ("mission.date_utc", '"yesterday"', "must be an ISO-8601 date-time"),
@@ -240,7 +259,8 @@ RULE_CASES = [
     # jets
     ("jets.thrust_n", "[0.25, 0, 0.5]", "element 1 must be > 0"),
     ("jets.moment_arm_m", "[0.5, 1.25, -1]", "element 2 must be > 0"),
-    ("jets.min_on_time_s", "0", "must be > 0"),
+    ("jets.min_on_time_s", "0", "must be in (0, 1]"),
+    ("jets.min_on_time_s", "1e300", "must be in (0, 1] (cold-gas valves"),
     ("jets.isp_s", "-65", "must be > 0"),
     ("jets.propellant_kg", "0", "must be > 0"),
     # pwpf
@@ -258,8 +278,11 @@ RULE_CASES = [
     ("control.integral_time_s", "0", "must be > 0"),
     ("control.integral_limit_arcsec", "0", "must be > 0"),
     # electronics
-    ("electronics.vfc_pulse_weight_arcsec", "0", "must be > 0"),
+    ("electronics.vfc_pulse_weight_arcsec", "0", "must be in (0, 3600]"),
+    ("electronics.vfc_pulse_weight_arcsec", "1e12", "must be in (0, 3600] (1 deg: a 360 deg"),
     ("electronics.vfc_max_rate_pps", "0", "must be > 0"),
+    # 1.5 deg/s = 5400 arcsec/s of turn over 0.1 arcsec pulses: 54000 pulses/s
+    ("electronics.vfc_max_rate_pps", "54000", "must be > 54000: converters 8, 10, 12 saturate"),
     ("electronics.counter_bits", "7", "must be in [8, 62]"),
     ("electronics.counter_bits", "63", "must be in [8, 62]"),
     ("electronics.counter_bits", "28.0", "must be an integer"),
@@ -270,17 +293,19 @@ RULE_CASES = [
     ("electronics.counter_overflow", "1", 'must be "wrap" or "saturate"'),
     ("electronics.register_lsb_arcsec", "0", "must be > 0"),
     ("electronics.rate_command_deg_s", "0", "must be > 0"),
-    ("electronics.computer_step_frames", "0", "must be >= 1"),
+    ("electronics.computer_step_frames", "0", "must be in [1, 100000000]"),
+    ("electronics.computer_step_frames", str(2**62), "must be in [1, 100000000]"),
     # sequencer
     ("sequencer.settle_threshold_arcsec", "0", "must be > 0"),
     ("sequencer.settle_time_s", "0", "must be > 0"),
     ("sequencer.handover_arcsec", "0", "must be > 0"),
-    ("sequencer.drift_count_s", "0", "must be > 0"),
+    ("sequencer.drift_count_s", "0", "must be in (0, 86400]"),
     ("sequencer.tracker_blanking_s", "0", "must be > 0"),
     ("sequencer.sensor_loss_s", "0", "must be > 0"),
     ("sequencer.mode1_slew_rate_deg_s", "0", "must be > 0"),
     ("sequencer.mode1_slew_gain_per_s", "0", "must be > 0"),
-    ("sequencer.timeout_s.6-1", "0", "must be > 0"),
+    ("sequencer.timeout_s.6-1", "0", "must be in (0, 86400] (a mission lasts at most a day)"),
+    ("sequencer.timeout_s.1", "1e12", "must be in (0, 86400]"),
     ("sequencer.timeout_s.1", '"long"', "must be a number"),
     # target
     ("target.star", "Canopis", "not in the PyEphem star catalog; nearest: Canopus"),
@@ -292,10 +317,16 @@ RULE_CASES = [
     ("dither.amplitude_urad", "[100, -1, 100]", "element 1 must be >= 0"),
     ("dither.period_s", "[51.2, 0, 25.6]", "element 1 must be > 0"),
     ("dither.period_s", "[51.2, 51.2, 0.15]", "element 2 must be > 2 x dither.sample_s"),
-    ("dither.sample_s", "0", "must be > 0"),
+    ("dither.sample_s", "0", "must be in (0, 86400]"),
     ("dither.sample_s", "0.001", "must be >= mission.frame_s"),
-    ("dither.record_s", "0", "must be > 0"),
-    ("dither.lead_in_s", "-1", "must be >= 0"),
+    ("dither.sample_s", "0.015", "must be a whole number of frames (mission.frame_s = 0.01 s)"),
+    ("dither.record_s", "0", "must be in (0, 86400]"),
+    ("dither.record_s", "1e6", "must be in (0, 86400]"),
+    # 1640 periods of 51.2 s: the dither plan takes 3000 + 51.2 + 83968 + 300 s
+    ("dither.record_s", "83968", "the dither plan would take 87319.2 s"),
+    ("dither.period_s", "[1000, 51.2, 25.6]", "element 0 must be <= dither.record_s (819.2 s)"),
+    ("dither.period_s", "[50, 51.2, 25.6]", "element 0 goes 16.384 times into dither.record_s"),
+    ("dither.lead_in_s", "-1", "must be in [0, 86400]"),
     ("dither.feedforward", "0", "must be true or false"),
     ("dither.inertia_estimate_scale", "-0.1", "must be >= 0"),
     ("dither.estimator", '"guess"', 'must be "optical" or "command"'),
@@ -323,7 +354,12 @@ def test_target_coordinate_ranges(target, words):
 
 @pytest.mark.parametrize("override", [
     "mission.seed=4294967295", "mission.seed=0", "mission.frame_s=0.005",
-    "mission.date_utc=1900-01-01T00:00:00Z", "mission.date_utc=2100-12-31T23:59:59Z",
+    "mission.date_utc=1900-01-01T00:00:00Z", "mission.date_utc=2100-12-31T22:44:59Z",
+    "mission.telemetry_every_frames=100000000",
+    "jets.min_on_time_s=1", "electronics.vfc_pulse_weight_arcsec=3600",
+    "electronics.vfc_max_rate_pps=54001", "dither.sample_s=0.02",  # whole frames
+    "dither.period_s=[51.2, 50, 25.6]",  # pitch's period: pitch is not dithered
+    "sequencer.timeout_s.1=82800",  # 82800 + 3600 = 86400 s, a day
     "gyro.misalignment_arcsec=[[0,3600,-3600],[0,0,0],[0,0,0]]",
     "gyro.scale_factor_error_ppm=[100000,-100000,0]", "gyro.arw_deg_rt_h=0",
     "ejection.tipoff_rate_max_deg_s=0", "pwpf.off_threshold_v=0",
@@ -336,6 +372,111 @@ def test_target_coordinate_ranges(target, words):
 ])
 def test_values_at_the_edge_of_a_rule_are_accepted(override):
     load_scenario(overrides=[override])
+
+
+# -- what a mission costs, and how long the ephemeris serves it ------------------------------
+
+def test_frame_count_of_the_longest_mission_is_bounded():
+    # 10000 s + the six other modes' 3600 s over 0.1 ms frames: 1.36e8 frames
+    e = error(["mission.frame_s=1e-4", "mission.telemetry_every_frames=1000",
+               "sequencer.timeout_s.1=10000"])
+    assert e.key == "mission.frame_s"
+    assert str(e) == ("mission.frame_s = 0.0001: the longest mission (13600 s) would take "
+                      "1.36e+08 frames; must be >= 0.000136 s (at most 1e+08 frames, about 40 s "
+                      "of computing)")
+    load_scenario(overrides=["mission.frame_s=0.0002", "mission.telemetry_every_frames=1000",
+                             "sequencer.timeout_s.1=10000"])  # 6.8e7 frames
+
+
+def test_telemetry_rows_of_the_longest_mission_are_bounded():
+    # The default's 4500 s at 0.1 ms frames: 4.5e7 frames, 4.5e6 rows at every 10th
+    e = error(["mission.frame_s=1e-4"])
+    assert str(e) == ("mission.telemetry_every_frames = 10: the longest mission (4.5e+07 frames) "
+                      "would record 4.5e+06 telemetry rows; must be >= 45 (at most 1e+06 rows, "
+                      "320 MB)")
+    load_scenario(overrides=["mission.frame_s=1e-4", "mission.telemetry_every_frames=45"])
+
+
+def test_the_mission_lasts_at_most_a_day():
+    e = error(["sequencer.timeout_s.1=86000"])  # + the six other modes' 3600 s
+    assert e.key == "sequencer.timeout_s"
+    assert "the modes' timeouts add up to 89600 s; a mission must fit in 86400 s" in str(e)
+
+
+def test_dither_record_samples_are_bounded():
+    # 0.01 s samples over 51.2 + 20480 s: 2053120 samples, more than 2^20; the most
+    # record is 2^20 x 0.01 s - 51.2 s = 10434.56 s
+    e = error(["dither.sample_s=0.01", "dither.record_s=20480"])
+    assert e.key == "dither.record_s" and "2.053e+06 samples" in str(e)
+    assert "must be <= 10434.6 s (at most 2^20 = 1048576 samples)" in str(e)
+
+
+def test_longest_mission_is_what_the_mode_table_allows():
+    """The schema's plan durations agree with the mode table the sequencer flies."""
+    from allsky.sequencer import modes
+
+    assert schema.DITHER_SETTLE_ALLOWANCE_S == modes.DITHER_SETTLE_ALLOWANCE_S
+    for overrides in ([], ["dither.record_s=409.6", "sequencer.timeout_s.5=50"],
+                      ["dither.lead_in_s=5000"]):
+        cfg = load_scenario(overrides=overrides)
+        flat = {f"{sec}.{k}": getattr(getattr(cfg, sec), k) for sec, k in
+                (key.split(".") for key in RULES)}
+        table = {name: sum(modes.timeout_s(cfg, m) for m in plan)
+                 for name, plan in modes.PLANS.items()}
+        assert schema.plan_durations_s(flat) == pytest.approx(table, rel=1e-15)
+
+
+def test_the_last_start_date_is_where_the_ephemeris_stops():
+    """The last date accepted builds a mission; a second later the ephemeris refuses it."""
+    from allsky.sim.mission import build_params
+    from allsky.vehicle import sky
+
+    # Timeouts of 10 s: the longest mission (the dither plan's 1220.4 s) is shorter than the
+    # hour over which the Sun's rate is taken, so that hour sets the last start.
+    short = [f"sequencer.timeout_s.{m}=10" for m in MODE_KEYS]
+    last = EPHEMERIS_END_UTC - timedelta(seconds=schema.SUN_RATE_SPAN_S)
+    cfg = load_scenario(overrides=[*short, f"mission.date_utc={last.isoformat()}"])
+    build_params(cfg)  # the Sun at the start and an hour later
+    later = last + timedelta(seconds=1)
+    e = error([*short, f"mission.date_utc={later.isoformat()}"])
+    assert e.key == "mission.date_utc" and "must be <= 2100-12-31T22:59:59.999999Z" in str(e)
+    with pytest.raises(ValueError, match="outside the ephemeris range"):
+        sky.sun_direction_inertial(later + timedelta(seconds=schema.SUN_RATE_SPAN_S))
+
+
+def test_a_day_of_linear_sun_stays_near_the_ephemeris():
+    """The frame loop's Sun (a line from its place and rate at the start) over MISSION_MAX_S."""
+    from allsky.sim.mission import build_params
+    from allsky.vehicle import sky
+
+    for date in ("2026-01-03T00:00:00Z", "2026-07-04T00:00:00Z", "2026-11-22T12:00:00Z"):
+        cfg = load_scenario(overrides=[f"mission.date_utc={date}"])
+        p = build_params(cfg)
+        line = p.sun0_inertial + p.sun_rate_inertial * schema.MISSION_MAX_S
+        truth = sky.sun_direction_inertial(cfg.mission.date_utc
+                                           + timedelta(seconds=schema.MISSION_MAX_S))
+        assert sky.separation_deg(line / math.hypot(*line), truth) * 3600 < 1.4
+
+
+@pytest.mark.parametrize("digits", [4301, 100_000])
+def test_integers_too_long_to_read_are_refused_by_the_rule(tmp_path, digits):
+    big = "9" * digits
+    words = f"({digits} digits): must be in [0, 4294967295] (2**32 - 1: 32-bit seeds)"
+    e = error([f"mission.seed={big}"])
+    assert e.key == "mission.seed" and str(e).endswith(words) and len(str(e)) < 300
+    assert str(error([f"mission.seed=-{big}"])).endswith(words)
+    with pytest.raises(ConfigError) as in_file:
+        load_scenario(write(tmp_path, f"[mission]\nseed = {big}  # a comment\n"))
+    assert str(in_file.value) == str(e)
+    assert str(error([f"jets.isp_s={big}"])).endswith("digits): must be finite")
+    assert "element 1 must be finite" in str(error([f"gyro.drift_deg_h=[1, {big}, 2]"]))
+
+
+def test_hexadecimal_integers_too_long_to_print_are_shown_by_their_size():
+    e = error(["mission.seed=0x" + "f" * 10_000])  # 40000 bits: about 12042 decimal digits
+    assert str(e) == ("mission.seed = an integer of about 12042 digits: must be in "
+                      "[0, 4294967295] (2**32 - 1: 32-bit seeds)")
+    assert "must be finite" in str(error(["gyro.drift_deg_h=[1, 0x" + "f" * 10_000 + ", 2]"]))
 
 
 def test_ints_accepted_where_floats_expected():

@@ -2,15 +2,17 @@
 
 A scenario is a TOML file merged over the packaged default, validated once
 at load (unknown key -> error) and then passed down as a frozen object.
+
+Modules, each one job, lowest first: ``rules`` (:class:`ConfigError`, the
+checkers of one value), ``toml_io`` (reading TOML, the writer), ``schema``
+(the keys, :data:`RULES`, :data:`CROSS_RULES`), ``dispersion_table`` (the
+``[dispersions]`` table), ``scenario`` (merging, overrides, the frozen
+:class:`Scenario`) and ``dispersions`` (drawing a scenario per mission seed).
 """
 
-from allsky.config.scenario import (
-    DEFAULT_SCENARIO_PATH,
-    ConfigError,
-    Scenario,
-    load_scenario,
-    scenario_from_dict,
-)
+from allsky.config.rules import ConfigError
+from allsky.config.scenario import Scenario, load_scenario, scenario_from_dict
+from allsky.config.schema import CROSS_RULES, DEFAULT_SCENARIO_PATH, RULES, allowed
 
-__all__ = ["DEFAULT_SCENARIO_PATH", "ConfigError", "Scenario", "load_scenario",
-           "scenario_from_dict"]
+__all__ = ["CROSS_RULES", "DEFAULT_SCENARIO_PATH", "RULES", "ConfigError", "Scenario",
+           "allowed", "load_scenario", "scenario_from_dict"]

@@ -43,12 +43,15 @@ only, so run i of a campaign (seed = base + i) is reproduced alone by
 ``allsky run --set mission.seed=S``, and adding or removing one dispersion
 leaves the draws of the others unchanged.
 
-A draw is validated like any scenario value: a draw that breaks a rule
-(a negative thrust, an inertia that is not positive definite) raises
-:class:`~allsky.config.scenario.ConfigError` naming the key and the drawn value.
+Entries are merged and checked when the scenario loads
+(:mod:`allsky.config.dispersion_table`): a date range must let a mission
+started on any of its dates end inside the ephemeris range. A draw is
+validated like any scenario value: a draw that breaks a rule (a negative
+thrust, an inertia that is not positive definite, a number past the float
+range) raises :class:`~allsky.config.rules.ConfigError` naming the key and
+the drawn value; :func:`draw` and :func:`disperse` raise nothing else.
 """
 
-import difflib
 import math
 import zlib
 from collections.abc import Mapping
@@ -56,221 +59,13 @@ from datetime import datetime, timedelta
 
 import numpy as np
 
-from allsky.config import scenario as config
-from allsky.config.scenario import ConfigError
+from allsky.config.dispersion_table import DATE_KEY, TARGET_KEY, value_shape
+from allsky.config.rules import ConfigError
+from allsky.config.scenario import scenario_from_dict
+from allsky.config.toml_io import iso_utc, toml_value
 
 #: Stream number of the dispersion draws under the mission seed.
 DISPERSION_STREAM = 2
-#: Keys that hold a number, vector or matrix but are never drawn, and why.
-NOT_DISPERSIBLE = {
-    "mission.seed": "it is the run's identity: a campaign sets it (base seed + run index)",
-    "ejection.attitude": "the ejection attitude is already random per mission.seed",
-}
-DATE_KEY = "mission.date_utc"
-TARGET_KEY = "target"
-#: Parameters of each kind of entry: dist -> (allowed, required groups (one of each)).
-_NUMBER_PARAMS = {
-    "normal": ({"dist", "mean", "sigma", "relative", "shared"}, (("sigma",),)),
-    "uniform": ({"dist", "mean", "low", "high", "half_width", "relative", "shared"},
-                (("low", "high"), ("half_width",))),
-}
-_DATE_PARAMS = {"uniform": ({"dist", "low", "high", "half_width_days"},
-                            (("low", "high"), ("half_width_days",)))}
-_TARGET_PARAMS = {"sphere": ({"dist"}, ((),)), "choice": ({"dist", "stars"}, (("stars",),))}
-_EXAMPLE = '{ dist = "normal", sigma = 0.5 }'
-
-
-# ---------------------------------------------------------------------------
-# Merging (tables of a scenario, a --disperse file and --set overrides)
-# ---------------------------------------------------------------------------
-
-def merge(base: dict, incoming) -> dict:
-    """Merge a ``[dispersions]`` table over ``base`` (flat ``{key: entry}``), in place.
-
-    Both spellings of a key are accepted: ``gyro.drift_deg_h = {...}`` (TOML
-    nests it as ``gyro = {drift_deg_h = {...}}``) and ``"gyro.drift_deg_h" =
-    {...}``. An entry replaces the same key's entry in ``base``; an entry with
-    ``dist = "none"`` removes it. Entries are checked later, by :func:`validate`.
-    """
-    if not isinstance(incoming, Mapping):
-        raise ConfigError("dispersions", incoming,
-                          f"must be a table of KEY = {_EXAMPLE} entries, "
-                          f"not {config._type_name(incoming)}")
-    for key, entry in _flatten(incoming):
-        if isinstance(entry, Mapping) and entry.get("dist") == "none":
-            base.pop(key, None)
-        else:
-            base[key] = entry
-    return base
-
-
-def _flatten(table):
-    for k, v in table.items():
-        nested = (k != TARGET_KEY and "." not in k and isinstance(v, Mapping)
-                  and "dist" not in v)
-        if nested:  # a section: gyro = { drift_deg_h = {...}, ... }
-            for name, entry in v.items():
-                yield f"{k}.{name}", entry
-        else:
-            yield k, v
-
-
-# ---------------------------------------------------------------------------
-# Validation
-# ---------------------------------------------------------------------------
-
-def validate(table: Mapping, values: Mapping) -> dict:
-    """Check the merged ``[dispersions]`` entries against the validated scenario ``values``.
-
-    Parameters
-    ----------
-    table : mapping
-        ``{key: entry}`` as merged by :func:`merge`.
-    values : mapping
-        The scenario's validated values by dotted key (``gyro.drift_deg_h`` -> tuple).
-
-    Returns
-    -------
-    dict
-        ``{key: entry}`` with numbers as floats (arrays as nested lists), dates as
-        ISO-8601 UTC text and star names in their catalog spelling; only the
-        parameters given.
-    """
-    return {key: _validate_entry(key, entry, values) for key, entry in table.items()}
-
-
-def _kind(key, values):
-    """'target', 'date' or the shape of a numeric key; ConfigError otherwise."""
-    where = f"dispersions.{key}"
-    if key == TARGET_KEY:
-        return "target"
-    if key == DATE_KEY:
-        return "date"
-    if key in NOT_DISPERSIBLE:
-        raise ConfigError(where, rule=f"cannot be dispersed: {NOT_DISPERSIBLE[key]}")
-    if key not in values or key.startswith("target."):
-        near = difflib.get_close_matches(key, dispersible_keys(values), n=3, cutoff=0.6)
-        hint = ("nearest: " + ", ".join(near)) if near else "see docs/montecarlo.md"
-        raise ConfigError(where, rule=f"not a dispersible scenario key; {hint}")
-    shape = _shape(values[key])
-    if shape is None:
-        raise ConfigError(where, rule="cannot be dispersed: not a real number, vector or "
-                          "matrix")
-    return shape
-
-
-def _shape(v):
-    """Shape of a real number, vector or matrix value; None for anything else."""
-    def real(x):
-        return isinstance(x, float)
-    if real(v):
-        return ()
-    if isinstance(v, tuple) and v and all(real(x) for x in v):
-        return (len(v),)
-    if (isinstance(v, tuple) and v and all(isinstance(r, tuple) and r for r in v)
-            and all(real(x) for r in v for x in r) and len({len(r) for r in v}) == 1):
-        return (len(v), len(v[0]))
-    return None
-
-
-def dispersible_keys(values: Mapping) -> list:
-    """Every key a ``[dispersions]`` table may name, for these scenario values."""
-    out = [k for k, v in values.items()
-           if k not in NOT_DISPERSIBLE and not k.startswith("target.") and _shape(v) is not None]
-    return [DATE_KEY, TARGET_KEY, *out]
-
-
-def _validate_entry(key, entry, values):
-    where = f"dispersions.{key}"
-    kind = _kind(key, values)
-    if not isinstance(entry, Mapping):
-        raise ConfigError(where, entry, f"must be a table such as {_EXAMPLE}")
-    table = {"target": _TARGET_PARAMS, "date": _DATE_PARAMS}.get(kind, _NUMBER_PARAMS)
-    dist = entry.get("dist")
-    names = list(table)
-    if dist is None:
-        raise ConfigError(f"{where}.dist", rule=f"missing: {_quoted(names)}")
-    if dist not in table:
-        raise ConfigError(f"{where}.dist", dist, f"must be {_quoted(names)} for {key}")
-    allowed, groups = table[dist]
-    for p in entry:
-        if p not in allowed:
-            raise ConfigError(f"{where}.{p}", rule=f'unknown parameter for dist = "{dist}"; '
-                              f"valid: {', '.join(sorted(allowed - {'dist'}))}")
-    need = ", or ".join(" and ".join(g) for g in groups)
-    if sum(any(p in entry for p in g) for g in groups) > 1:
-        raise ConfigError(where, rule=f'dist = "{dist}": give {need}, not both')
-    if not any(all(p in entry for p in g) for g in groups):
-        raise ConfigError(where, rule=f'dist = "{dist}" needs {need}')
-    if kind == "target":
-        return _validate_target(where, dist, entry)
-    if kind == "date":
-        return _validate_date(where, entry)
-    return _validate_number(where, entry, kind)
-
-
-def _quoted(names):
-    q = [f'"{n}"' for n in names]
-    return q[0] if len(q) == 1 else f"{', '.join(q[:-1])} or {q[-1]}"
-
-
-def _validate_target(where, dist, entry):
-    if dist == "sphere":
-        return {"dist": dist}
-    stars = entry["stars"]
-    if not isinstance(stars, list) or not stars:
-        raise ConfigError(f"{where}.stars", stars, "must be a non-empty array of star names")
-    return {"dist": dist,
-            "stars": [config.star_name(f"{where}.stars", s) for s in stars]}
-
-
-def _validate_date(where, entry):
-    out = {"dist": "uniform"}
-    if "half_width_days" in entry:
-        hw = config.number(config.NON_NEGATIVE)(f"{where}.half_width_days",
-                                                 entry["half_width_days"])
-        out["half_width_days"] = hw
-        return out
-    lo = config.utc_datetime(f"{where}.low", entry["low"])
-    hi = config.utc_datetime(f"{where}.high", entry["high"])
-    if hi < lo:
-        raise ConfigError(f"{where}.high", entry["high"], f"must be >= low ({config._iso_utc(lo)})")
-    return {**out, "low": config._iso_utc(lo), "high": config._iso_utc(hi)}
-
-
-def _validate_number(where, entry, shape):
-    out = {"dist": entry["dist"]}
-    for flag in ("relative", "shared"):
-        if flag in entry:
-            out[flag] = config.boolean(f"{where}.{flag}", entry[flag])
-    for p in ("mean", "sigma", "low", "high", "half_width"):
-        if p in entry:
-            out[p] = _param(f"{where}.{p}", entry[p], shape,
-                            config.NON_NEGATIVE if p in ("sigma", "half_width") else None)
-    if "low" in out:
-        lo, hi = np.broadcast_to(out["low"], shape), np.broadcast_to(out["high"], shape)
-        if np.any(hi < lo):
-            raise ConfigError(f"{where}.high", entry["high"], "must be >= low (element by element)")
-    return out
-
-
-def _param(key, v, shape, cond):
-    """A number, or an array of the key's shape; returned as a float or nested lists."""
-    if isinstance(v, list) and shape:
-        arr = config._array(key, v, shape)
-        flat = [x for row in arr for x in row] if len(shape) == 2 else list(arr)
-        if cond is not None:
-            for i, x in enumerate(flat):
-                config._apply((cond,), key, x, v, where=f"element {i} ")
-        return config._thaw(arr)
-    if isinstance(v, list):
-        raise ConfigError(key, v, "must be a number (the key is a single number)")
-    x, why = config._as_float(v)
-    if why:
-        raise ConfigError(key, v, f"{why}, or an array of the key's shape {list(shape)}"
-                          if shape else why)
-    config._apply((cond,) if cond is not None else (), key, x, x)
-    return x
 
 
 # ---------------------------------------------------------------------------
@@ -292,6 +87,12 @@ def _free_mask(key, shape):
 
 
 def _draw_number(key, e, value, seed):
+    # A draw past the float range becomes inf or nan, which the scenario's rules refuse.
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _draw_number_of(key, e, value, seed)
+
+
+def _draw_number_of(key, e, value, seed):
     base = np.array(value, dtype=float)
     free = _free_mask(key, base.shape)
     n = 1 if e.get("shared") else int(free.sum())
@@ -319,13 +120,17 @@ def _draw_number(key, e, value, seed):
 
 def _draw_date(e, value, seed):
     rng = rng_for(seed, DATE_KEY)
-    if "half_width_days" in e:
-        hw = timedelta(days=e["half_width_days"])
-        lo, hi = value - hw, value + hw
-    else:
-        lo, hi = datetime.fromisoformat(e["low"]), datetime.fromisoformat(e["high"])
-    span_us = (hi - lo) // timedelta(microseconds=1)
-    return config._iso_utc(lo + timedelta(microseconds=round(rng.random() * span_us)))
+    try:
+        if "half_width_days" in e:
+            hw = timedelta(days=e["half_width_days"])
+            lo, hi = value - hw, value + hw
+        else:
+            lo, hi = datetime.fromisoformat(e["low"]), datetime.fromisoformat(e["high"])
+        span_us = (hi - lo) // timedelta(microseconds=1)
+        return iso_utc(lo + timedelta(microseconds=round(rng.random() * span_us)))
+    except OverflowError:  # past the calendar (a spec the loader would have refused)
+        raise ConfigError(DATE_KEY, rule=f"no date can be drawn from {dict(e)} about "
+                          f"{iso_utc(value)}: past the calendar") from None
 
 
 def _draw_target(e, seed):
@@ -359,11 +164,7 @@ def draw(cfg, seed=None) -> dict:
 
 def spec(cfg) -> dict:
     """The scenario's dispersions as plain ``{key: entry}`` (empty when none)."""
-    try:
-        section = cfg.dispersions
-    except AttributeError:
-        return {}
-    return {k: config._thaw(v) for k, v in section._values.items()}
+    return cfg.as_dict().get("dispersions", {})
 
 
 def disperse(cfg, seed=None):
@@ -402,10 +203,9 @@ def disperse(cfg, seed=None):
             sec, name = key.split(".")
             data[sec][name] = v
     try:
-        return config.scenario_from_dict(data), drawn
+        return scenario_from_dict(data), drawn
     except ConfigError as e:
-        raise ConfigError(e.key, e._given, f"{e.rule} (drawn for mission.seed = {seed})"
-                          ) from None
+        raise e.with_rule(f"{e.rule} (drawn for mission.seed = {seed})") from None
 
 
 def flat_inputs(cfg, drawn: Mapping) -> dict:
@@ -440,7 +240,7 @@ def input_columns(cfg) -> list:
             cols.append(key)
         else:
             sec, name = key.split(".")
-            shape = _shape(getattr(getattr(cfg, sec), name))
+            shape = value_shape(getattr(getattr(cfg, sec), name))
             if not shape:
                 cols.append(key)
                 continue
@@ -458,5 +258,5 @@ def format_drawn(seed: int, drawn: Mapping) -> str:
             text = ", ".join(f"{k} = {x!r}" for k, x in v.items())
             lines.append(f"  target: {text}")
         else:
-            lines.append(f"  {key} = {config._toml_value(v)}")
+            lines.append(f"  {key} = {toml_value(v)}")
     return "\n".join(lines)

@@ -1,0 +1,399 @@
+"""The words of configuration rules: :class:`ConfigError`, numeric conditions, checkers.
+
+A checker takes ``(key, value as read from TOML)`` and returns the frozen
+value (a float, a tuple of floats, a UTC datetime ...) or raises
+:class:`ConfigError` naming the key, the value and the rule. Each checker
+carries ``allowed``, the words the configuration reference shows for it.
+A :class:`Cond` is one rule on one number: its text and its test.
+
+Type rules are the same everywhere: an integer is accepted where a float is
+expected; a boolean or a string is never a number; a number must be finite.
+"""
+
+import difflib
+import functools
+import math
+from collections.abc import Callable
+from datetime import UTC, date, datetime, time
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky.units import DEG2ARCSEC
+
+#: The master-sequencer modes, the keys of ``sequencer.timeout_s``.
+MODE_KEYS = ("1", "2", "3", "4", "5", "6-1", "6-2")
+#: Dates the ephemeris is trusted for (PyEphem; the same as ``allsky.vehicle.sky.EPHEMERIS_YEARS``).
+EPHEMERIS_START_UTC = datetime(1900, 1, 1, tzinfo=UTC)
+EPHEMERIS_END_UTC = datetime(2100, 12, 31, 23, 59, 59, 999999, tzinfo=UTC)
+#: Largest gyro input-axis misalignment [arcsec]: 1 degree.
+MISALIGNMENT_MAX_ARCSEC = 1.0 * DEG2ARCSEC
+#: Largest mission seed: seeds are 32-bit words (a campaign's seeds, base + run, too).
+SEED_MAX = 2**32 - 1
+
+
+class _Absent:
+    """Marks a ConfigError with no value to show (pickles as this very object)."""
+
+    def __reduce__(self):
+        return "_ABSENT"
+
+
+_ABSENT = _Absent()
+
+
+class ConfigError(Exception):
+    """A scenario that cannot be used: ``str()`` is one line, ``key = value: rule``.
+
+    Attributes
+    ----------
+    key : str or None
+        Dotted key path (``gyro.arw_deg_rt_h``), or None for a whole-file problem.
+    value : object
+        The offending value (a number as the float it became; None when none is shown).
+    rule : str
+        The rule that was broken, in words.
+    """
+
+    def __init__(self, key, value=_ABSENT, rule=""):
+        self.key, self.rule, self._given = key, rule, value
+        self.value = None if value is _ABSENT else value
+        if key is None:
+            text = rule
+        elif value is _ABSENT:
+            text = f"{_show_key(key)}: {rule}"
+        else:
+            text = f"{_show_key(key)} = {_show_value(value)}: {rule}"
+        # One line whatever the file held (a key or a path may contain newlines).
+        super().__init__(text.replace("\r", "\\r").replace("\n", "\\n"))
+
+    def __reduce__(self):  # so that it crosses process boundaries intact
+        return type(self), (self.key, self._given, self.rule)
+
+    def with_rule(self, rule: str) -> "ConfigError":
+        """The same key and value (shown or not, as here) with ``rule`` in place of the rule."""
+        return type(self)(self.key, self._given, rule)
+
+
+def _show_key(key: str) -> str:
+    return key if key.isprintable() else repr(key)
+
+
+def _show_value(value, limit=120) -> str:
+    if type(value) is int and value.bit_length() > 3 * limit:  # no 10**5000 in full
+        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+    try:
+        text = value.isoformat() if isinstance(value, datetime | date | time) else repr(value)
+    except ValueError:  # an integer inside has more digits than Python prints
+        text = f"{type_name(value)} holding an integer too long to show"
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+# ---------------------------------------------------------------------------
+# Conditions on one number
+# ---------------------------------------------------------------------------
+
+class Cond(NamedTuple):
+    """A rule on one number: the words shown when it fails, and the test."""
+
+    text: str
+    ok: Callable[[float], bool]
+
+
+def _g(x) -> str:
+    return str(x) if isinstance(x, int) else f"{x:g}"
+
+
+def _why(why: str) -> str:
+    return f" ({why})" if why else ""
+
+
+POSITIVE = Cond("must be > 0", lambda x: x > 0)
+NON_NEGATIVE = Cond("must be >= 0", lambda x: x >= 0)
+
+
+def at_least(lo, why=""):
+    return Cond(f"must be >= {_g(lo)}{_why(why)}", lambda x: x >= lo)
+
+
+def below(hi):
+    return Cond(f"must be < {_g(hi)}", lambda x: x < hi)
+
+
+def in_closed(lo, hi, why=""):
+    return Cond(f"must be in [{_g(lo)}, {_g(hi)}]{_why(why)}", lambda x: lo <= x <= hi)
+
+
+def in_open(lo, hi):
+    return Cond(f"must be in ({_g(lo)}, {_g(hi)})", lambda x: lo < x < hi)
+
+
+def in_open_closed(lo, hi, why=""):
+    return Cond(f"must be in ({_g(lo)}, {_g(hi)}]{_why(why)}", lambda x: lo < x <= hi)
+
+
+def in_closed_open(lo, hi):
+    return Cond(f"must be in [{_g(lo)}, {_g(hi)})", lambda x: lo <= x < hi)
+
+
+def magnitude_at_most(limit):
+    return Cond(f"magnitude must be <= {_g(limit)}", lambda x: abs(x) <= limit)
+
+
+def check_conds(conds, key, x, shown, where=""):
+    """Raise :class:`ConfigError` (value ``shown``) for the first ``Cond`` that ``x`` breaks."""
+    for c in conds:
+        if not c.ok(x):
+            raise ConfigError(key, shown, f"{where}{c.text}")
+
+
+# ---------------------------------------------------------------------------
+# Types as read from TOML
+# ---------------------------------------------------------------------------
+
+_TOML_TYPE_NAMES = ((bool, "a boolean"), (int, "an integer"), (float, "a float"),
+                    (str, "a string"), (list, "an array"), (dict, "a table"),
+                    (datetime, "a date-time"), (date, "a date"), (time, "a time"))
+
+
+def type_name(v) -> str:
+    """The TOML type of ``v`` in words (``"an array"``), for error messages."""
+    for t, name in _TOML_TYPE_NAMES:
+        if isinstance(v, t):
+            return name
+    return type(v).__name__
+
+
+def as_float(v):
+    """``(float, None)`` or ``(None, reason)``: a finite number, ints accepted, bools not."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return None, f"must be a number, not {type_name(v)}"
+    try:
+        x = float(v)
+    except OverflowError:  # an integer too large for a float
+        return None, "must be finite"
+    if not math.isfinite(x):
+        return None, "must be finite (not nan or inf)"
+    return x, None
+
+
+def real_array(key, v, shape):
+    """Nested tuples of finite floats with the exact ``shape`` (1 or 2 dimensions)."""
+    what = (f"an array of {shape[0]} numbers" if len(shape) == 1 else
+            f"a {shape[0]}x{shape[1]} array ({shape[0]} arrays of {shape[1]} numbers)")
+    if not isinstance(v, list) or len(v) != shape[0]:
+        got = f"{len(v)} elements" if isinstance(v, list) else type_name(v)
+        raise ConfigError(key, v, f"must be {what}, not {got}")
+    if len(shape) == 2:
+        if not all(isinstance(r, list) and len(r) == shape[1] for r in v):
+            raise ConfigError(key, v, f"must be {what}")
+        return tuple(tuple(_element(key, v, x, f"[{i}][{j}]") for j, x in enumerate(row))
+                     for i, row in enumerate(v))
+    return tuple(_element(key, v, x, f"{i}") for i, x in enumerate(v))
+
+
+def _element(key, whole, x, index):
+    f, why = as_float(x)
+    if why:
+        raise ConfigError(key, whole, f"element {index} {why}")
+    return f
+
+
+# ---------------------------------------------------------------------------
+# Checkers built from conditions
+# ---------------------------------------------------------------------------
+
+def _allowed(what, conds, each=False):
+    """Words for the configuration reference: ``a number; must be > 0``."""
+    rules = "; ".join(("each " if each else "") + c.text.removeprefix("must be ")
+                      for c in conds)
+    return f"{what}, {rules}" if rules else what
+
+
+def number(*conds: Cond):
+    """A finite float (an integer is accepted) obeying every ``Cond``."""
+    def check(key, v):
+        x, why = as_float(v)
+        if why:
+            raise ConfigError(key, v, why)
+        check_conds(conds, key, x, x)  # shown as the float it became: -1 -> -1.0
+        return x
+    check.allowed = _allowed("a number", conds)
+    return check
+
+
+def integer(*conds: Cond):
+    """An integer (not a float, not a boolean) obeying every ``Cond``."""
+    def check(key, v):
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ConfigError(key, v, f"must be an integer, not {type_name(v)}")
+        check_conds(conds, key, v, v)
+        return v
+    check.allowed = _allowed("an integer", conds)
+    return check
+
+
+def vector(n: int, *conds: Cond):
+    """An array of ``n`` finite floats, each obeying every ``Cond``."""
+    def check(key, v):
+        xs = real_array(key, v, (n,))
+        for i, x in enumerate(xs):
+            check_conds(conds, key, x, v, where=f"element {i} ")
+        return xs
+    check.allowed = _allowed(f"{n} numbers", conds, each=True)
+    return check
+
+
+def one_of(*choices: str):
+    """One of the given strings."""
+    def check(key, v):
+        if not isinstance(v, str) or v not in choices:
+            quoted = [f'"{c}"' for c in choices]
+            raise ConfigError(key, v, f"must be {', '.join(quoted[:-1])} or {quoted[-1]}")
+        return v
+    check.allowed = "one of " + ", ".join(f'"{c}"' for c in choices)
+    return check
+
+
+# ---------------------------------------------------------------------------
+# Checkers of one kind of value
+# ---------------------------------------------------------------------------
+
+def boolean(key, v):
+    """``true`` or ``false``."""
+    if not isinstance(v, bool):
+        raise ConfigError(key, v, f"must be true or false, not {type_name(v)}")
+    return v
+
+
+def utc_datetime(key, v):
+    """A date-time in the ephemeris range, returned timezone-aware in UTC."""
+    shown = v
+    if isinstance(v, str):
+        try:
+            v = datetime.fromisoformat(v.strip())
+        except ValueError:
+            raise ConfigError(key, shown, "must be an ISO-8601 date-time such as "
+                              "2026-11-22T12:00:00Z") from None
+    elif isinstance(v, date) and not isinstance(v, datetime):
+        v = datetime.combine(v, time(0, 0))
+    elif not isinstance(v, datetime):
+        raise ConfigError(key, v, f"must be a TOML date-time or an ISO-8601 string, "
+                          f"not {type_name(v)}")
+    rule = (f"must be within the ephemeris range {EPHEMERIS_START_UTC.date()}.."
+            f"{EPHEMERIS_END_UTC.date()} (UTC)")
+    try:
+        v = v.replace(tzinfo=UTC) if v.tzinfo is None else v.astimezone(UTC)
+    except OverflowError:  # year 1 or 9999 moved across midnight by its offset
+        raise ConfigError(key, shown, rule) from None
+    if not EPHEMERIS_START_UTC <= v <= EPHEMERIS_END_UTC:
+        raise ConfigError(key, shown, rule)
+    return v
+
+
+def inertia_tensor(key, v):
+    """A rigid body's inertia tensor: symmetric, positive definite, triangle inequalities."""
+    j = np.array(real_array(key, v, (3, 3)))
+    scale = float(np.abs(j).max())
+    if scale == 0.0:
+        raise ConfigError(key, v, "must be positive definite (all elements are 0)")
+    js = j / scale  # dimensionless, so no overflow for any finite input
+    if not np.all(np.abs(js - js.T) <= 1e-9):
+        raise ConfigError(key, v, "must be symmetric (to a relative 1e-9)")
+    a, b, c = np.linalg.eigvalsh(js)  # ascending
+    moments = ", ".join(f"{float(m) * scale:.6g}" for m in (a, b, c))
+    if a <= 1e-12 * c:
+        raise ConfigError(key, v, f"must be positive definite (principal moments {moments})")
+    if a + b < c * (1 - 1e-9):
+        raise ConfigError(key, v, f"principal moments {moments} break the triangle inequality"
+                          " (each must be <= the sum of the other two)")
+    # Mirror the upper triangle: exactly symmetric, and unchanged when loaded again.
+    return tuple(tuple(float(j[min(r, k), max(r, k)]) for k in range(3)) for r in range(3))
+
+
+def misalignment_matrix(key, v):
+    """Gyro input-axis misalignments: 3x3, zero diagonal, each within 1 degree."""
+    m = real_array(key, v, (3, 3))
+    if any(m[i][i] != 0.0 for i in range(3)):
+        raise ConfigError(key, v, "diagonal must be 0: scale-factor error is set by "
+                          "gyro.scale_factor_error_ppm")
+    if any(abs(x) > MISALIGNMENT_MAX_ARCSEC for row in m for x in row):
+        raise ConfigError(key, v, f"every element's magnitude must be <= "
+                          f"{_g(MISALIGNMENT_MAX_ARCSEC)} arcsec")
+    return m
+
+
+def attitude(key, v):
+    """``"random"``, or a quaternion [w, x, y, z] (inertial -> body), returned normalised."""
+    if v == "random":
+        return "random"
+    if not isinstance(v, list):
+        raise ConfigError(key, v, 'must be "random" or a quaternion [w, x, y, z] '
+                          "(inertial -> body)")
+    given = real_array(key, v, (4,))
+    big = max(abs(x) for x in given)
+    if big == 0.0:
+        raise ConfigError(key, v, "quaternion [w, x, y, z] must not be all zero")
+    if abs(math.fsum(x * x for x in given) - 1.0) <= 4e-16:
+        return given  # already unit: kept bit for bit, so a saved scenario loads unchanged
+    q = np.array(given) / big  # scaled first so that 1e-320 or 1e308 normalise too
+    return tuple(float(x) for x in q / np.linalg.norm(q))
+
+
+def mode_timeouts(*conds: Cond):
+    """A table of exactly the ``MODE_KEYS``, each a time [s] obeying every ``Cond``."""
+    each = number(*conds)
+
+    def check(key, v):
+        if not isinstance(v, dict):
+            raise ConfigError(key, v, f"must be a table of the modes {', '.join(MODE_KEYS)}")
+        missing = [m for m in MODE_KEYS if m not in v]
+        extra = [m for m in v if m not in MODE_KEYS]
+        if missing or extra:
+            raise ConfigError(key, v, f"must have exactly the modes {', '.join(MODE_KEYS)}")
+        return {m: each(f"{key}.{m}", v[m]) for m in MODE_KEYS}
+    check.allowed = (f"a table of the modes {', '.join(MODE_KEYS)}, each "
+                     + each.allowed.removeprefix("a number, "))
+    return check
+
+
+def magnitude_window(key, v):
+    """[brightest, faintest] visual magnitudes, brightest < faintest."""
+    lo, hi = real_array(key, v, (2,))
+    if not lo < hi:
+        raise ConfigError(key, v, "must be [brightest, faintest] with brightest < faintest")
+    return (lo, hi)
+
+
+@functools.cache
+def _catalog() -> dict:
+    import ephem.stars
+
+    return {name.lower(): name for name in ephem.stars.stars}
+
+
+def star_name(key, v):
+    """A star of PyEphem's catalog (any case), returned with its catalog spelling."""
+    if not isinstance(v, str):
+        raise ConfigError(key, v, f"must be a star name (a string), not {type_name(v)}")
+    found = _catalog().get(v.strip().lower())
+    if found is None:
+        near = difflib.get_close_matches(v.strip().lower(), list(_catalog()), n=3, cutoff=0.5)
+        hint = ("; nearest: " + ", ".join(_catalog()[n] for n in near)) if near else ""
+        raise ConfigError(key, v, f"not in the PyEphem star catalog{hint}")
+    return found
+
+
+# Words for the configuration reference (see allsky.config.schema.allowed).
+boolean.allowed = "true or false"
+utc_datetime.allowed = (f"a date-time (TOML or ISO-8601 string), UTC, within "
+                        f"{EPHEMERIS_START_UTC.date()}..{EPHEMERIS_END_UTC.date()}, the "
+                        "years allsky.vehicle.sky takes from PyEphem; the whole mission must "
+                        "end by then (rules between keys)")
+inertia_tensor.allowed = ("a 3x3 array: symmetric, positive definite, principal moments "
+                          "obeying the triangle inequality")
+misalignment_matrix.allowed = (f"a 3x3 array, diagonal 0, each element within "
+                               f"+-{_g(MISALIGNMENT_MAX_ARCSEC)}")
+attitude.allowed = '"random", or a quaternion [w, x, y, z] (inertial to body; normalised)'
+magnitude_window.allowed = "[brightest, faintest], brightest < faintest"
+star_name.allowed = "a star name of the PyEphem catalog (any case)"

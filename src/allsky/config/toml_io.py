@@ -1,0 +1,229 @@
+"""TOML in and out: reading with one-line errors, values in TOML syntax, a small writer.
+
+Reading wraps :mod:`tomllib`: a missing or unreadable file and a syntax
+error (with its line and column) become :class:`~allsky.config.rules.ConfigError`
+with no key. An integer literal longer than Python converts is read as a
+:class:`LongInteger`, past any bound, so that the key's rule refuses it.
+The writer covers what a scenario holds (tables of scalars, arrays and inline
+tables); ``tomllib.loads`` reads its text back to equal data.
+"""
+
+import math
+import re
+import sys
+import tomllib
+from collections.abc import Mapping
+from datetime import date, datetime, time
+from pathlib import Path
+
+from allsky.config.rules import ConfigError
+
+#: A TOML bare key (also one part of a dotted ``--set`` KEY).
+BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+#: Marks a long integer literal read as a TOML string (it starts with a NUL, which no
+#: scenario value does); in TOML text the NUL is written as an escape.
+_LONG_MARK = "\x00long integer "
+_LONG_MARK_TOML = _LONG_MARK.replace("\x00", "\\u0000")
+
+
+# ---------------------------------------------------------------------------
+# Reading
+# ---------------------------------------------------------------------------
+
+class LongInteger(int):
+    """An integer literal with more digits than Python converts, shown by its size.
+
+    Python turns at most ``sys.get_int_max_str_digits()`` decimal digits (4300
+    by default) into an ``int``, so that a huge literal cannot stall a reader.
+    Such a literal reads as this: an ``int`` of the literal's sign and
+    magnitude ``10**limit``, beyond any bound a rule sets and any float, whose
+    ``repr`` is the literal's start and its number of digits.
+    """
+
+    def __new__(cls, text: str):
+        digits = sum(ch.isdigit() for ch in text)
+        sign = -1 if text.lstrip().startswith("-") else 1
+        self = super().__new__(cls, sign * 10 ** sys.get_int_max_str_digits())
+        self.text, self.digits = text, digits
+        return self
+
+    def __repr__(self):
+        return f"{self.text[:90]}... ({self.digits} digits)"
+
+    __str__ = __repr__
+
+    def __reduce__(self):
+        return LongInteger, (self.text,)
+
+
+def os_reason(e: OSError) -> str:
+    """Why a file cannot be opened, in words (no errno number, no repeated path)."""
+    if isinstance(e, FileNotFoundError):
+        return "no such file"
+    if isinstance(e, IsADirectoryError):
+        return "a directory, not a file"
+    if isinstance(e, PermissionError):
+        return "permission denied"
+    return (e.strerror or type(e).__name__).lower()
+
+
+def read_toml(path, what="scenario file") -> dict:
+    """The parsed TOML file at ``path``; ConfigError if it is missing, unreadable or bad.
+
+    ``what`` names the file in the messages (``"scenario file"``, ``"--disperse file"``).
+    """
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(None, str(p), f"{what} not found: {p}") from None
+    except (OSError, ValueError) as e:  # a directory, no permission, NUL in the path
+        reason = os_reason(e) if isinstance(e, OSError) else str(e)
+        raise ConfigError(None, str(p), f"cannot read {what} {p}: {reason}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise ConfigError(None, str(p), f"cannot read {what} {p}: not UTF-8 text (byte "
+                          f"0x{data[e.start]:02x} on line {line})") from None
+    return parse_toml(text, str(p))
+
+
+def parse_toml(text: str, source: str) -> dict:
+    """The parsed TOML ``text``; a syntax error names ``source`` and the line."""
+    try:
+        return _loads(text)
+    except tomllib.TOMLDecodeError as e:  # its message gives the line and column
+        raise ConfigError(None, source, f"{source}: TOML syntax error: {e}") from None
+    except RecursionError:
+        raise ConfigError(None, source, f"{source}: TOML syntax error: nested too deeply"
+                          ) from None
+    except ValueError as e:  # a long integer where _loads could not mark it
+        raise ConfigError(None, source, f"{source}: TOML value not readable: {e}") from None
+
+
+def parse_value(text: str):
+    """One value in TOML syntax (``[1, 2]``, ``"Vega"``); text that is not TOML, stripped."""
+    try:
+        parsed = _loads(f"v = {text}")
+    except (ValueError, RecursionError):  # TOMLDecodeError is a ValueError
+        return text.strip()
+    return parsed["v"] if list(parsed) == ["v"] else text.strip()
+
+
+def _long_integers(limit: int) -> re.Pattern:
+    """A decimal integer literal of more than ``limit`` digits in a value's place."""
+    return re.compile(r"(?<=[=\[,{])([ \t]*)([+-]?[0-9](?:_?[0-9]){" + str(limit) + r",})"
+                      r"(?=[ \t]*(?:[,\]}#\r\n]|$))")
+
+
+def _loads(text: str) -> dict:
+    """:func:`tomllib.loads`, reading integers too long for ``int`` as :class:`LongInteger`.
+
+    Python converts at most ``sys.get_int_max_str_digits()`` decimal digits
+    (so that a huge literal cannot stall the reader); tomllib then raises a
+    bare ValueError. Such literals are read again as marked strings and
+    returned as :class:`LongInteger`.
+    """
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        raise
+    except ValueError:
+        limit = sys.get_int_max_str_digits()
+        marked, n = _long_integers(limit).subn(lambda m: f'{m[1]}"{_LONG_MARK_TOML}{m[2]}"',
+                                                     text)
+        if not n:
+            raise
+        return _unmark(tomllib.loads(marked))
+
+
+def _unmark(v):
+    if isinstance(v, dict):
+        return {k: _unmark(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_unmark(x) for x in v]
+    if isinstance(v, str) and v.startswith(_LONG_MARK):
+        return LongInteger(v[len(_LONG_MARK):])
+    return v
+
+
+def copy_tables(v):
+    """Copy of TOML data: tables and arrays copied, scalars (immutable) shared."""
+    if isinstance(v, Mapping):
+        return {k: copy_tables(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [copy_tables(x) for x in v]
+    return v
+
+
+# ---------------------------------------------------------------------------
+# Writing
+# ---------------------------------------------------------------------------
+
+def iso_utc(d: datetime) -> str:
+    """``YYYY-MM-DDTHH:MM:SS[.ffffff]Z`` for a UTC date-time (a TOML offset date-time)."""
+    frac = f".{d.microsecond:06d}" if d.microsecond else ""
+    return f"{d.year:04d}-{d:%m-%dT%H:%M:%S}{frac}Z"  # %Y drops the zeros of year 999
+
+
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
+            "\r": "\\r"}
+
+
+def _toml_key(k: str) -> str:
+    return k if BARE_KEY.fullmatch(k) else _toml_string(k)
+
+
+def _toml_string(s: str) -> str:
+    out = []
+    for ch in s:
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def toml_value(v) -> str:
+    """One value as TOML text (a UTC date-time as ``...Z``, a mapping as an inline table)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)  # shortest text that reads back to the same float
+    if isinstance(v, str):
+        return _toml_string(v)
+    if isinstance(v, datetime):
+        if v.tzinfo is not None and v.utcoffset().total_seconds() == 0:
+            return iso_utc(v)
+        return v.isoformat()
+    if isinstance(v, date | time):
+        return v.isoformat()
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):
+        if not v:
+            return "{}"
+        return "{ " + ", ".join(f"{_toml_key(k)} = {toml_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def toml_dumps(doc: Mapping) -> str:
+    """TOML text for a dict of tables (and top-level scalars); ``tomllib.loads`` reads it back."""
+    lines = [f"{_toml_key(k)} = {toml_value(v)}" for k, v in doc.items()
+             if not isinstance(v, Mapping)]
+    for name, table in doc.items():
+        if isinstance(table, Mapping):
+            if lines:
+                lines.append("")
+            lines.append(f"[{_toml_key(name)}]")
+            lines += [f"{_toml_key(k)} = {toml_value(v)}" for k, v in table.items()]
+    return "\n".join(lines) + "\n"

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from allsky.apps import docgen
-from allsky.config import scenario as config
+from allsky.config import schema as config
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -55,24 +55,63 @@ def test_cli_page_has_every_command():
         assert f"## allsky {command}\n" in page
 
 
+@pytest.mark.parametrize("page, section", [(p, n) for p, secs in sorted(docgen.SECTIONS.items())
+                                           for n in secs])
+def test_committed_section_is_what_the_code_generates(page, section):
+    committed = (DOCS / page).read_text()
+    expected = docgen.fill_sections(committed, {section: docgen.SECTIONS[page][section]})
+    assert committed == expected, (
+        f"section {section!r} of docs/{page} is out of date: run "
+        "`python -m allsky.apps.docgen docs`")
+
+
+def test_a_page_without_its_section_markers_is_refused():
+    with pytest.raises(ValueError, match="modes"):
+        docgen.fill_sections("no markers here", {"modes": docgen.mode_reference})
+
+
+def test_mode_page_shows_every_mode_code_and_switch_action():
+    from allsky.sequencer import modes
+
+    page = docgen.mode_reference()
+    for mode in modes.MODE_TABLE:
+        assert f"### Mode {mode.name}: {mode.title}" in page
+        assert f"| {mode.name} | {mode.code:.1f} | {mode.title} |" in page
+    # SPEC section 4, Mode 2: close S16+S18; on the hand-over open them and close S12.
+    assert "| close S16+S18; open S16+S18, close S12 | S12, S14, S15 |" in page
+
+
 def test_block_diagram_draws_every_numeral_and_an_existing_module(tmp_path):
     import importlib
 
-    from test_block_map import PATENT_NUMERALS
+    from allsky.apps import diagram_layout
+    from test_block_map import DRAWN_NUMERALS
 
     fig = docgen.block_diagram(tmp_path / "d.png")
     assert (tmp_path / "d.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     texts = " ".join(t.get_text() for t in fig.axes[0].texts)
     drawn = set(re.findall(r"\d+", texts))
-    assert PATENT_NUMERALS <= drawn, PATENT_NUMERALS - drawn
-    for *_, module in docgen.BLOCKS:
-        importlib.import_module(f"allsky.{module}")
+    assert DRAWN_NUMERALS <= drawn, DRAWN_NUMERALS - drawn
+    for numeral in diagram_layout.BOXES:
+        block = docgen._block(numeral)
+        importlib.import_module(block.modules[0])
     for k in range(1, 20):
         if k in (7, 8):
             assert f"S{k}" in texts
         else:
             assert any(f"S{a}-S{b}" in texts and a <= k <= b for a in range(1, 20)
                        for b in range(a, 20)) or f"S{k}" in texts, k
+
+
+def test_switch_labels_come_from_the_wiring_table():
+    # SPEC section 3: drift DACs 7/9/11 -> amplifiers 4/5/6 through S1-S3; converters
+    # -> drift counters through S4-S6; counters -> CPU through S7; lines 130/131 via S18/S19.
+    assert docgen.arrow_label("7", "4") == "S1-S3"
+    assert docgen.arrow_label("8", "13") == "S4-S6"
+    assert docgen.arrow_label("14", "22") == "S7"
+    assert docgen.arrow_label("105", "31") == "S12, S13"
+    assert docgen.arrow_label("4", "31") == "lines 130, 131 via S18, S19"
+    assert docgen.arrow_label("1", "4") == ""
 
 
 def test_every_command_help_shows_examples():

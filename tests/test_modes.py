@@ -1,15 +1,17 @@
 """Each mode on its own, starting from the mission state saved before it.
 
-Truth: the switch table and exit rules of SPEC section 4 (patent US 4,012,018,
-modes 1-6), the physics of the manoeuvres (1.5 deg/s rate commands), and the
-gyro errors the scenario sets.
+Each mode is flown by master sequencer 20's interpreter from the mode table
+(:mod:`allsky.sequencer.modes`). Truth: the switch table and exit rules of
+SPEC section 4 (patent US 4,012,018, modes 1-6), the physics of the
+manoeuvres (1.5 deg/s rate commands), and the gyro errors the scenario sets.
 """
 
 import numpy as np
 import pytest
 
 from allsky import units
-from allsky.sim.mission import Mission, reference_star_inertial, target_inertial
+from allsky.apps import states
+from allsky.sim.mission import reference_star_inertial, target_inertial
 from allsky.sim.telemetry import INDEX, switch_closed
 from allsky.vehicle.quaternion import dcm_body_from_inertial
 from allsky.vehicle.sky import separation_deg
@@ -20,7 +22,7 @@ HANDOVER = 7200.0  # arcsec
 
 def fly(saved_states, mode):
     """Resume the saved mission before ``mode`` and run that mode only."""
-    m = Mission.load(saved_states[mode])
+    m = states.load(saved_states[mode])
     assert m.timeline[-1].mode if m.timeline else True
     rec = m.run_mode()
     assert rec.mode == mode
@@ -180,8 +182,39 @@ def test_mode_6_2_yaws_onto_the_target(saved_states):
     assert m.summary()["target"]["pointing_error_arcsec"] == pytest.approx(err)
 
 
+def test_dither_mode_flies_in_the_mode_3_hold(saved_states):
+    """The comparison mode, in place of Mode 4: no switch moves; register 23 from the record.
+
+    Bound: 3 sigma of the dither scale-factor estimate for the default
+    vehicle, 1915 ppm roll and 697 ppm yaw (docs/comparison.md, predicted and
+    measured over 40 runs).
+    """
+    from allsky.computer import word_registers as wr
+    from allsky.sim.mission import DITHER_PLAN
+
+    m = states.load(saved_states["4"])
+    m.plan = DITHER_PLAN
+    before = closed_now(m)
+    rec = m.run_mode()
+    assert rec.mode == "dither" and m.status == "running", m.abort_reason
+    assert closed_now(m) == before == {1, 2, 3, 12, 14, 15}
+    d = m.cfg.dither
+    assert rec.exit == (f"dither record of {d.record_s:g} s analysed ({d.estimator} estimator, "
+                        f"{d.detector} detector); results in register 23")
+    # One sample every sample_s over the lead-in, the record and two spare samples.
+    assert len(m.dither_record) == pytest.approx((d.lead_in_s + d.record_s) / d.sample_s + 3,
+                                                 abs=1)
+    truth, cal = m.summary()["truth"], m.calibration()
+    assert cal["scale_factor"]["roll"] == pytest.approx(truth["scale_factor"]["roll"],
+                                                        abs=3 * 1915e-6)
+    assert cal["scale_factor"]["yaw"] == pytest.approx(truth["scale_factor"]["yaw"],
+                                                       abs=3 * 697e-6)
+    neutral = wr.neutral_computed()
+    assert m.state.word23[wr.ROLL_INTO_PITCH] == neutral[wr.ROLL_INTO_PITCH]  # not stored
+
+
 def test_resume_reproduces_the_uninterrupted_mission_bit_for_bit(saved_states):
-    m = Mission.load(saved_states["4"])
+    m = states.load(saved_states["4"])
     m.run()
     ref = saved_states["mission"]
     for a, b in zip(m.state, ref.state):

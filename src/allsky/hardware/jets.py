@@ -4,6 +4,9 @@ Each axis fires a couple: two jets of thrust ``F`` on opposite sides, each at
 ``r`` from the centre of mass, so the couple gives a pure torque ``2 F r``
 [N m] and no net force. A firing couple uses propellant at ``2 F / (Isp g0)``
 [kg/s]. With the tank empty the valves open on nothing.
+
+The patent's drawing of the vehicle shows the same jets as 106 and 107, fed
+from gas tank 108; the tank is the ``propellant_kg`` of the mission state.
 """
 
 from typing import NamedTuple

@@ -1,6 +1,8 @@
 """The comparison mode: gyro calibration by attitude dither, flown in place of Modes 4 and 5.
 
-Run in the Sun-and-star hold that ends Mode 3 (S1-S3, S12, S14, S15
+The mode's steps are in the mode table (:mod:`allsky.sequencer.modes`,
+mode ``"dither"``): a record leg, a settle leg, then :func:`dither_analysis`.
+It runs in the Sun-and-star hold that ends Mode 3 (S1-S3, S12, S14, S15
 closed): the dither generator adds ``A sin(w t)`` to the position input of
 each dithered axis's control amplifier and the feed-forward ``J_est a(t)``
 to its modulator input; the record (counters 14/16/18 and the optical
@@ -81,15 +83,16 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
     return out
 
 
-def mode_dither(m):
-    """Fly the dither record in the optical hold and store the results in register 23."""
+def dither_analysis(m, records):
+    """Analyse the dither record of the mode and store the results in register 23.
+
+    The record is the one the mode's first leg kept (``records["dither record"]``,
+    :data:`allsky.sequencer.modes.MODE_TABLE`); the estimates are kept on the
+    mission (``m.dither_estimates``, ``m.dither_record``) for the comparison.
+    """
     d = m.cfg.dither
     p = m.params
-    rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 4
-    record = m.leg("dither record complete", legs.PROGRAM_DITHER, legs.WATCH_ELAPSED,
-                   hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s, record_rows=rec_rows)
-    m.leg("optical errors settled after the dither", legs.PROGRAM_NONE, legs.WATCH_SETTLE,
-          mask=legs.SETTLE_OPTICAL)
+    record = records["dither record"]
     est = analyse(record, d.sample_s, d.lead_in_s, d.record_s, p.dither.amplitude_arcsec,
                   p.dither.omega_rad_s, d.detector)
     m.dither_estimates = est
@@ -107,8 +110,6 @@ def mode_dither(m):
         if "yaw" in est:
             w[wr.YAW_INTO_PITCH] = est["yaw"]["cross"]["pitch"]
             w[wr.YAW_INTO_ROLL] = est["yaw"]["cross"]["roll"]
-    return (f"dither record of {d.record_s:g} s analysed ({d.estimator} estimator,"
-            f" {d.detector} detector); results in register 23")
 
 
 def target_hold_dither(m):

@@ -1,178 +1,171 @@
-"""Master sequencer 20: the six modes, their switch actions and exit rules.
+"""Master sequencer 20: runs the mode table, step by step.
 
-Each mode is one function below, written as the patent describes it (SPEC
-section 4): switch actions, then the condition the sequencer waits for.
-Waiting is done by the compiled frame loop (:func:`allsky.sim.frame_loop.run_leg`);
-a step that does not finish within what is left of the mode's timeout ends
-the mission as aborted, with the reason.
+The modes are data (:mod:`allsky.sequencer.modes`, SPEC section 4);
+:func:`run_mode` walks one mode's steps in order: it operates the switch
+bank, hands each leg to the frame loop through the mission (``m.leg``,
+:func:`allsky.sim.frame_loop.run_leg` waits for the leg's condition), and
+calls the named actions of :data:`ACTIONS` for what is neither a switch
+nor a leg. A leg that does not finish within what is left of the mode's
+timeout ends the mission as aborted, with the reason (:class:`ModeAbort`).
 
-Calibration sequencer 19 is the part that, at the end of Modes 4 and 5,
-has CPU 22 read the counters through S7 and store the results in
-register 23 (:func:`calibration_sequencer`).
+The mission object ``m`` the actions work on offers ``state``
+(:class:`allsky.sim.state.State`), ``cfg`` (the scenario), ``params``,
+``switch(close, open_)``, ``leg(...)``, ``pulse_weight_arcsec``,
+``apply_calibration``, the programmed angles and ``program_target()``
+(the ground computation of register 24), and keeps ``counted_arcsec``,
+``dither_estimates`` and ``dither_record``.
+
+Calibration sequencer 19 (the counter reading and register 23 update at the
+end of Modes 4 and 5) is part of computer 111:
+:mod:`allsky.computer.calibration_sequencer`.
 """
 
-
-import numpy as np
-
 from allsky import units
+from allsky.computer import calibration_sequencer as cal19
 from allsky.computer import cpu
 from allsky.computer import word_registers as wr
-from allsky.hardware import switch_bank
-from allsky.sequencer.legs import (
-    PROGRAM_MODE1,
-    PROGRAM_NONE,
-    PROGRAM_TARGET,
-    PROGRAM_TARGET_ROLL,
-    SIG_ERROR_PITCH,
-    SIG_ERROR_ROLL,
-    SIG_ERROR_YAW,
-    SIG_SUN_PITCH,
-    SIG_SUN_YAW,
-    SIG_TRACKER_PITCH,
-    SIG_TRACKER_YAW,
-    WATCH_ELAPSED,
-    WATCH_HANDOVER,
-    WATCH_SETTLE,
-)
+from allsky.sequencer import modes
+from allsky.sequencer.dither_mode import dither_analysis
+from allsky.sequencer.legs import WATCH_HANDOVER, WATCH_SETTLE
 
-MODES = ("1", "2", "3", "4", "5", "6-1", "6-2")
-FULL_TURN_ARCSEC = 360.0 * units.DEG2ARCSEC
-
-
-def _mask(*signals):
-    m = 0
-    for k in signals:
-        m |= 1 << k
-    return m
-
-
-OPTICAL = _mask(SIG_SUN_PITCH, SIG_SUN_YAW, SIG_TRACKER_YAW)
+#: The patent's modes in flight order (the legacy plan).
+MODES = modes.LEGACY_PLAN
+#: Index of each rate-command module's direction in ``State.rate_sign``: 120 roll, 128 yaw.
+RATE_SIGN = {"roll": 0, "yaw": 1}
 
 
 class ModeAbort(Exception):
     """A mode could not finish; the message is the abort reason."""
 
 
-def mode_1(m):
-    """Sun orientation: the Mode 1 controller nulls rates and puts +x on the Sun."""
-    m.leg("sun acquired and settled", PROGRAM_MODE1, WATCH_SETTLE,
-          mask=_mask(SIG_SUN_PITCH, SIG_SUN_YAW))
-    m.switch(close=(14, 15))
-    return "sun pitch and yaw settled; S14, S15 closed"
+def run_mode(m, name) -> str:
+    """Fly mode ``name`` of the mode table on mission ``m``; return its exit text.
+
+    Raises
+    ------
+    ModeAbort
+        A leg was not completed (timeout, Sun or star lost, propellant gone).
+    """
+    mode = modes.BY_NAME[name]
+    records = {}
+    for step in mode.steps:
+        if isinstance(step, modes.Operate):
+            m.switch(close=step.close, open_=step.open_)
+        elif isinstance(step, modes.Wait):
+            out = fly_leg(m, name, step)
+            if step.record:
+                records[step.record] = out
+        else:
+            ACTIONS[step.action](m, records, *step.args)
+    return mode.exit.format(cfg=m.cfg)
 
 
-def mode_2(m):
-    """Stellar acquisition: roll about the Sun line until the star is 2 deg off, then lock."""
-    m.state.rate_sign[0] = 1
-    m.switch(close=(16, 18))
-    m.leg("star in the magnitude window", PROGRAM_NONE, WATCH_HANDOVER,
-          signal=SIG_TRACKER_YAW,
-          on_timeout="no star in the tracker's magnitude window during the acquisition roll")
-    m.switch(open_=(16, 18), close=(12,))
-    m.leg("locked on Sun and star", PROGRAM_NONE, WATCH_SETTLE, mask=OPTICAL)
-    return "tracker yaw and sun pitch/yaw settled"
+def fly_leg(m, name, step):
+    """Hand the leg of a :class:`~allsky.sequencer.modes.Wait` step to the mission.
+
+    Returns what ``m.leg`` returns (the samples kept by the leg).
+    """
+    watch = modes.WATCHES[step.watch].code
+    cfg = m.cfg
+    return m.leg(
+        step.what, modes.PROGRAMS[step.program].code, watch,
+        mask=modes.signal_mask(step.signals) if watch == WATCH_SETTLE else 0,
+        signal=modes.SIGNALS[step.signals[0]].code if watch == WATCH_HANDOVER else 0,
+        blank_s=modes.DURATIONS[step.blank].seconds(cfg, name) if step.blank else 0.0,
+        hold_s=modes.DURATIONS[step.hold].seconds(cfg, name),
+        on_timeout=step.on_timeout or None,
+        record_rows=modes.RECORDS[step.record](cfg) if step.record else 0)
 
 
-def mode_3(m):
-    """Gyro drift calibration: count each gyro's pulses over the drift interval."""
+# -- actions: what is neither a switch nor a leg ---------------------------------------
+# Each is called as ``action(m, records, *args)``; ``records`` holds the samples kept
+# by the mode's legs so far, by name.
+
+def clear_drift_counters(m, records):
+    """Clear drift counters 13, 15, 17 before the Mode 3 count."""
     m.state.drift_counters[:] = 0
-    m.switch(close=(4, 5, 6))
-    m.leg("drift count", PROGRAM_NONE, WATCH_ELAPSED, hold_s=m.drift_count_s)
-    m.switch(open_=(4, 5, 6), close=(1, 2, 3))
-    m.leg("optical errors settled", PROGRAM_NONE, WATCH_SETTLE, mask=OPTICAL)
-    return f"drift counted over {m.drift_count_s:g} s; S1-S3 closed"
 
 
-def mode_4(m):
-    """Roll calibration: roll 360 deg about the Sun line and re-acquire the star."""
+def clear_counters(m, records):
+    """Clear up/down counters 14, 16, 18 before a calibration turn or the target roll."""
     m.state.counters[:] = 0
-    m.state.rate_sign[0] = 1
-    m.switch(open_=(12,), close=(16, 18))
-    m.leg("star re-acquired after a full roll", PROGRAM_NONE, WATCH_HANDOVER,
-          signal=SIG_TRACKER_YAW, blank_s=m.blanking_s,
-          on_timeout="star not re-acquired after the calibration roll")
-    m.switch(open_=(16, 18), close=(12,))
-    m.leg("settled on Sun and star", PROGRAM_NONE, WATCH_SETTLE, mask=OPTICAL)
-    calibration_sequencer(m, "roll")
-    return "roll scale factor and roll cross-coupling stored in register 23"
 
 
-def mode_5(m):
-    """Yaw calibration: pitch to the star, yaw 360 deg about it, re-acquire the Sun, pitch back."""
-    m.state.counters[:] = 0
-    m.state.rate_sign[1] = 1
-    m.switch(close=(13,), open_=(14,))
-    m.leg("tracker pitch nulled", PROGRAM_NONE, WATCH_SETTLE, mask=_mask(SIG_TRACKER_PITCH))
-    m.switch(open_=(15,), close=(17, 19))
-    m.leg("Sun re-acquired in yaw after a full yaw", PROGRAM_NONE, WATCH_HANDOVER,
-          signal=SIG_SUN_YAW, blank_s=m.blanking_s,
-          on_timeout="Sun not re-acquired after the calibration yaw")
-    m.switch(open_=(17, 19), close=(15,))
-    m.leg("settled on star (yaw, pitch) and Sun yaw", PROGRAM_NONE, WATCH_SETTLE,
-          mask=_mask(SIG_TRACKER_YAW, SIG_TRACKER_PITCH, SIG_SUN_YAW))
-    m.switch(close=(14,), open_=(13,))
-    m.leg("pitched back, settled on Sun and star", PROGRAM_NONE, WATCH_SETTLE, mask=OPTICAL)
-    calibration_sequencer(m, "yaw")
-    return "yaw scale factor and yaw cross-coupling stored in register 23"
+def roll_rate_positive(m, records):
+    """Set roll rate-command module 120 to roll in the positive direction."""
+    m.state.rate_sign[RATE_SIGN["roll"]] = 1
 
 
-def calibration_sequencer(m, axis):
-    """Calibration sequencer 19: CPU 22 reads counters 14/16/18 via S7 and fills register 23."""
-    counts = np.empty(3)
-    for a in range(3):
-        switch_bank.select(m.state.switches, a)
-        counts[a] = m.state.counters[a] * m.pulse_weight_arcsec
-    if axis == "roll":
-        cpu.calibrate_roll(m.state.word23, counts, m.state.rate_sign[0] * FULL_TURN_ARCSEC)
-    else:
-        cpu.calibrate_yaw(m.state.word23, counts, m.state.rate_sign[1] * FULL_TURN_ARCSEC)
+def yaw_rate_positive(m, records):
+    """Set yaw rate-command module 128 to yaw in the positive direction."""
+    m.state.rate_sign[RATE_SIGN["yaw"]] = 1
+
+
+def calibration_sequencer(m, records, axis):
+    """Start calibration sequencer 19 for ``axis`` ("roll" or "yaw"): counters -> register 23."""
+    s = m.state
+    counts = cal19.calibrate(axis, s.switches, s.counters, m.pulse_weight_arcsec,
+                             s.rate_sign[RATE_SIGN[axis]], s.word23)
     m.counted_arcsec[axis] = counts.tolist()
 
 
-def mode_6_1(m):
-    """Target roll: roll through the programmed roll angle on the roll gyro, Sun holding pitch/yaw."""
-    s = m.state
+def withhold_calibration(m, records):
+    """Fly Mode 6 uncalibrated when the scenario says so: register 23 neutral, S1-S3 open."""
     if not m.apply_calibration:
-        s.word23[:] = wr.neutral_computed()
+        m.state.word23[:] = wr.neutral_computed()
         m.switch(open_=(1, 2, 3))
-    s.word24[wr.PROGRAMMED_ROLL] = m.programmed_roll_deg * units.DEG2ARCSEC
-    s.word24[wr.PROGRAMMED_YAW] = m.programmed_yaw_deg * units.DEG2ARCSEC
-    s.counters[:] = 0
+
+
+def load_register_24(m, records):
+    """Load programmed word register 24 with the target's roll and yaw angles [arcsec].
+
+    The angles are computed on the ground (``m.program_target()``) unless
+    the mission already holds them.
+    """
+    if m.programmed_roll_deg is None:
+        m.program_target()
+    m.state.word24[wr.PROGRAMMED_ROLL] = m.programmed_roll_deg * units.DEG2ARCSEC
+    m.state.word24[wr.PROGRAMMED_YAW] = m.programmed_yaw_deg * units.DEG2ARCSEC
+
+
+def start_roll_computation(m, records):
+    """Clear CPU 22's work words and compute the first roll error (counter 14 at zero)."""
+    s = m.state
     s.cpu[:] = 0.0
     cpu.target_step(0, 0.0, s.word23, s.word24, s.cpu)
-    s.rate_sign[0] = 1 if s.word24[wr.PROGRAMMED_ROLL] >= 0 else -1
-    m.switch(open_=(12,), close=(16, 18))
-    m.leg("roll error inside the hand-over threshold", PROGRAM_TARGET_ROLL, WATCH_HANDOVER,
-          signal=SIG_ERROR_ROLL)
-    m.switch(open_=(16, 18), close=(9,))
-    m.leg("roll error and Sun errors settled", PROGRAM_TARGET_ROLL, WATCH_SETTLE,
-          mask=_mask(SIG_ERROR_ROLL, SIG_SUN_PITCH, SIG_SUN_YAW))
+
+
+def roll_rate_toward_target(m, records):
+    """Set roll rate-command module 120 to the direction of the programmed roll."""
+    s = m.state
+    s.rate_sign[RATE_SIGN["roll"]] = 1 if s.word24[wr.PROGRAMMED_ROLL] >= 0 else -1
+
+
+def preset_counters(m, records):
+    """Preset counters 16 and 18 so that the corrected pitch and yaw start Mode 6-2 at zero."""
+    s = m.state
     pitch_arcsec, yaw_arcsec = cpu.mode6_preset_arcsec(s.word23, s.cpu)
     s.counters[1] = round(pitch_arcsec / m.pulse_weight_arcsec)
     s.counters[2] = round(yaw_arcsec / m.pulse_weight_arcsec)
-    return "roll settled; pitch and yaw counters preset"
 
 
-def mode_6_2(m):
-    """Target yaw: yaw through the programmed yaw angle on the gyros alone."""
+def start_yaw_computation(m, records):
+    """CPU 22 computes the yaw, then the pitch error from the preset counters 18 and 16."""
     s = m.state
     cpu.target_step(2, s.counters[2] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)
     cpu.target_step(1, s.counters[1] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)
-    s.rate_sign[1] = 1 if s.cpu[cpu.ERROR_YAW] >= 0 else -1
-    m.switch(open_=(14, 15), close=(17, 19, 10))
-    m.leg("yaw error inside the hand-over threshold", PROGRAM_TARGET, WATCH_HANDOVER,
-          signal=SIG_ERROR_YAW)
-    m.switch(open_=(17, 19), close=(11,))
-    m.leg("roll, pitch and yaw errors settled", PROGRAM_TARGET, WATCH_SETTLE,
-          mask=_mask(SIG_ERROR_ROLL, SIG_ERROR_PITCH, SIG_ERROR_YAW))
-    return "on target: computed errors settled"
 
 
-RULES = {"1": mode_1, "2": mode_2, "3": mode_3, "4": mode_4, "5": mode_5,
-         "6-1": mode_6_1, "6-2": mode_6_2}
-MODE_CODE = {"1": 1.0, "2": 2.0, "3": 3.0, "4": 4.0, "5": 5.0, "6-1": 6.1, "6-2": 6.2}
-#: What each mode does, for displays.
-MODE_TITLE = {"1": "Sun orientation", "2": "Canopus acquisition", "3": "drift calibration",
-              "4": "roll calibration, 360 deg roll", "5": "yaw calibration, 360 deg yaw",
-              "6-1": "target acquisition, roll", "6-2": "target acquisition, yaw"}
-assert set(RULES) == set(MODES) == set(MODE_TITLE)
+def yaw_rate_toward_target(m, records):
+    """Set yaw rate-command module 128 to the direction of CPU 22's yaw error."""
+    s = m.state
+    s.rate_sign[RATE_SIGN["yaw"]] = 1 if s.cpu[cpu.ERROR_YAW] >= 0 else -1
+
+
+#: Action name (as the mode table writes it) -> function.
+ACTIONS = {f.__name__: f for f in (
+    clear_drift_counters, clear_counters, roll_rate_positive, yaw_rate_positive,
+    calibration_sequencer, withhold_calibration, load_register_24, start_roll_computation,
+    roll_rate_toward_target, preset_counters, start_yaw_computation, yaw_rate_toward_target,
+    dither_analysis)}
+assert set(ACTIONS) == set(modes.ACTIONS), set(ACTIONS) ^ set(modes.ACTIONS)

@@ -1,0 +1,371 @@
+"""The mode table of master sequencer 20: every mode's steps, as data.
+
+Each :class:`Mode` is a name, the code the telemetry writes for it, a
+title and an ordered tuple of steps (SPEC section 4, patent US 4,012,018
+Modes 1 to 6-2, and the dither comparison mode of seed 000):
+
+* :class:`Operate`: close and open switches of the bank, by number
+  (coupled pairs S16+S18, S17+S19 named together);
+* :class:`Wait`: a leg of the frame loop: what the sequencer waits for,
+  the program computer 111 runs meanwhile, the kind of watch, the watched
+  signals by name, the blanking, the hold and the abort text on timeout;
+* :class:`Do`: a named action, for what is neither a switch nor a leg
+  (clear counters 14/16/18, set a rate-command direction, calibration
+  sequencer 19, load register 24, preset counters 16/18, the dither
+  analysis ...).
+
+:func:`allsky.sequencer.master_sequencer.run_mode` walks a mode's steps;
+the actions are the functions of
+:data:`allsky.sequencer.master_sequencer.ACTIONS`. The documentation's
+switch table and the displays read their mode names, codes and titles
+from here, so a mode is written once. Adding a step is a table edit;
+adding an action is one entry in :data:`ACTIONS` and one function.
+
+The words below name durations (:data:`DURATIONS`), programs, watches and
+signals; each maps to the frame loop's vocabulary
+(:mod:`allsky.sequencer.legs`) and, for durations, to scenario keys.
+"""
+
+import math
+from collections.abc import Callable
+from typing import NamedTuple
+
+from allsky.hardware import switch_bank
+from allsky.sequencer import legs
+
+
+class Operate(NamedTuple):
+    """Close and open switches of the bank, by number (coupled pairs named together)."""
+
+    close: tuple = ()
+    open_: tuple = ()
+
+
+class Wait(NamedTuple):
+    """One leg: computer 111 runs ``program`` until the sequencer's watch sees its condition."""
+
+    what: str  #: what is awaited, in words (abort messages and the step display show it)
+    program: str  #: key of :data:`PROGRAMS`
+    watch: str  #: key of :data:`WATCHES`
+    signals: tuple = ()  #: keys of :data:`SIGNALS`: all settle, or the one handed over
+    blank: str = ""  #: key of :data:`DURATIONS`: the watched signal is ignored this long
+    hold: str = "settle"  #: key of :data:`DURATIONS`: settle time, or the elapsed time
+    on_timeout: str = ""  #: abort reason on timeout ("" = "<what> not achieved")
+    record: str = ""  #: key of :data:`RECORDS`: keep the leg's samples under this name
+
+
+class Do(NamedTuple):
+    """A named action (key of :data:`ACTIONS`) with its arguments."""
+
+    action: str
+    args: tuple = ()
+
+
+class Mode(NamedTuple):
+    """One mode of the master sequencer."""
+
+    name: str  #: as plans and the timeline name it ("6-1")
+    code: float  #: written in the telemetry's mode column
+    title: str  #: what the mode does, for displays
+    steps: tuple  #: :class:`Operate`, :class:`Wait` and :class:`Do`, in order
+    exit: str  #: exit text; ``{cfg.section.key}`` fields are filled from the scenario
+    timeout: str = "mode timeout"  #: key of :data:`DURATIONS`: the time the mode is allowed
+
+
+class Term(NamedTuple):
+    """A word of the table and the frame loop's code for it."""
+
+    code: int  #: legs.PROGRAM_*, WATCH_* or SIG_*
+    text: str  #: meaning, for the documentation
+
+
+class Duration(NamedTuple):
+    """A named duration of the table, taken from the scenario."""
+
+    text: str  #: meaning, with the scenario keys it comes from
+    seconds: Callable  #: ``seconds(cfg, mode_name) -> float`` [s]
+
+
+#: Computer programs a leg can run.
+PROGRAMS = {
+    "none": Term(legs.PROGRAM_NONE, "none: the switched optical and rate loops hold"),
+    "sun acquisition": Term(legs.PROGRAM_MODE1, "the Mode 1 sun-acquisition controller"),
+    "target roll": Term(legs.PROGRAM_TARGET_ROLL, "CPU 22 computes the roll error "
+                        "(counter 14 -> register 25)"),
+    "target": Term(legs.PROGRAM_TARGET, "CPU 22 computes the roll, pitch and yaw errors, "
+                   "S7/S8 stepping over the three axes"),
+    "dither": Term(legs.PROGRAM_DITHER, "the dither generator adds A sin(wt) to the hold's "
+                   "attitude command, and its feed-forward"),
+    "target dither": Term(legs.PROGRAM_TARGET_DITHER, "the dither added to the target hold "
+                          "of Mode 6-2"),
+}
+#: What ends a leg.
+WATCHES = {
+    "settle": Term(legs.WATCH_SETTLE, "every watched signal under "
+                   "`sequencer.settle_threshold_arcsec` for the hold"),
+    "handover": Term(legs.WATCH_HANDOVER, "the watched signal inside "
+                     "`sequencer.handover_arcsec` (its Sun or star present), after the "
+                     "blanking"),
+    "elapsed": Term(legs.WATCH_ELAPSED, "the hold has elapsed"),
+}
+#: Signals the sequencer watches.
+SIGNALS = {
+    "sun pitch": Term(legs.SIG_SUN_PITCH, "sun sensor 104 pitch output"),
+    "sun yaw": Term(legs.SIG_SUN_YAW, "sun sensor 104 yaw output"),
+    "tracker yaw": Term(legs.SIG_TRACKER_YAW, "star tracker 105 yaw output"),
+    "tracker pitch": Term(legs.SIG_TRACKER_PITCH, "star tracker 105 pitch output"),
+    "roll error": Term(legs.SIG_ERROR_ROLL, "roll error computed by CPU 22"),
+    "pitch error": Term(legs.SIG_ERROR_PITCH, "pitch error computed by CPU 22"),
+    "yaw error": Term(legs.SIG_ERROR_YAW, "yaw error computed by CPU 22"),
+}
+#: The optical errors of the Sun-and-star hold.
+OPTICAL = ("sun pitch", "sun yaw", "tracker yaw")
+
+#: [s] allowed to the dither mode after its record, for the settling that follows.
+DITHER_SETTLE_ALLOWANCE_S = 300.0
+
+
+def _dither_record_s(cfg, mode) -> float:
+    d = cfg.dither
+    return d.lead_in_s + d.record_s + 2 * d.sample_s
+
+
+def _mode_timeout_s(cfg, mode) -> float:
+    return cfg.sequencer.timeout_s[mode]
+
+
+def _dither_timeout_s(cfg, mode) -> float:
+    d = cfg.dither
+    return d.lead_in_s + d.record_s + DITHER_SETTLE_ALLOWANCE_S
+
+
+#: Durations the table names.
+DURATIONS = {
+    "settle": Duration("`sequencer.settle_time_s`",
+                       lambda cfg, mode: cfg.sequencer.settle_time_s),
+    "drift count": Duration("`sequencer.drift_count_s`",
+                            lambda cfg, mode: cfg.sequencer.drift_count_s),
+    "blanking": Duration("`sequencer.tracker_blanking_s`",
+                         lambda cfg, mode: cfg.sequencer.tracker_blanking_s),
+    "dither record": Duration("`dither.lead_in_s` + `dither.record_s` + 2 `dither.sample_s`",
+                              _dither_record_s),
+    "mode timeout": Duration("`sequencer.timeout_s` of the mode", _mode_timeout_s),
+    "dither timeout": Duration(f"`dither.lead_in_s` + `dither.record_s` + "
+                               f"{DITHER_SETTLE_ALLOWANCE_S:g} s", _dither_timeout_s),
+}
+
+
+def _dither_rows(cfg) -> int:
+    d = cfg.dither
+    return math.ceil((d.lead_in_s + d.record_s) / d.sample_s) + 4
+
+
+#: Samples a leg can keep for an action: name -> rows needed, from the scenario.
+RECORDS = {"dither record": _dither_rows}
+
+#: Named actions, in words ("{0}" is the first argument).
+ACTIONS = {
+    "clear_drift_counters": "clear drift counters 13, 15, 17",
+    "clear_counters": "clear up/down counters 14, 16, 18",
+    "roll_rate_positive": "set roll rate-command module 120 to the positive direction",
+    "yaw_rate_positive": "set yaw rate-command module 128 to the positive direction",
+    "calibration_sequencer": ("calibration sequencer 19: CPU 22 reads counters 14, 16, 18 "
+                              "through S7 and stores the {0} scale factor and the {0} "
+                              "cross-coupling factors in register 23"),
+    "withhold_calibration": ("if the scenario withholds the calibration "
+                             "(`calibration.apply = false`): register 23 neutral, S1-S3 "
+                             "opened"),
+    "load_register_24": ("load register 24 with the programmed roll and yaw angles (computed "
+                         "on the ground for the target, if not given)"),
+    "start_roll_computation": "clear CPU 22 and compute the first roll error",
+    "roll_rate_toward_target": ("set roll rate-command module 120 to the direction of the "
+                                "programmed roll"),
+    "preset_counters": ("preset counters 16 and 18 so that the corrected pitch and yaw start "
+                        "Mode 6-2 at zero"),
+    "start_yaw_computation": ("CPU 22 computes the yaw and pitch errors from the preset "
+                              "counters"),
+    "yaw_rate_toward_target": ("set yaw rate-command module 128 to the direction of the yaw "
+                               "error"),
+    "dither_analysis": ("analyse the dither record at each dither frequency; scale factors "
+                        "(with `dither.store_cross_coupling`, cross-coupling too) into "
+                        "register 23"),
+}
+
+
+def action_text(step: Do) -> str:
+    """The words of an action step, its arguments filled in."""
+    return ACTIONS[step.action].format(*step.args)
+
+
+#: The mode table: the patent's six modes (SPEC section 4), then the comparison mode.
+MODE_TABLE = (
+    Mode("1", 1.0, "Sun orientation", (
+        Wait("sun acquired and settled", "sun acquisition", "settle",
+             ("sun pitch", "sun yaw")),
+        Operate(close=(14, 15)),
+    ), "sun pitch and yaw settled; S14, S15 closed"),
+    Mode("2", 2.0, "Canopus acquisition", (
+        Do("roll_rate_positive"),
+        Operate(close=(16, 18)),
+        Wait("star in the magnitude window", "none", "handover", ("tracker yaw",),
+             on_timeout="no star in the tracker's magnitude window during the acquisition "
+                        "roll"),
+        Operate(open_=(16, 18), close=(12,)),
+        Wait("locked on Sun and star", "none", "settle", OPTICAL),
+    ), "tracker yaw and sun pitch/yaw settled"),
+    Mode("3", 3.0, "drift calibration", (
+        Do("clear_drift_counters"),
+        Operate(close=(4, 5, 6)),
+        Wait("drift count", "none", "elapsed", hold="drift count"),
+        Operate(open_=(4, 5, 6), close=(1, 2, 3)),
+        Wait("optical errors settled", "none", "settle", OPTICAL),
+    ), "drift counted over {cfg.sequencer.drift_count_s:g} s; S1-S3 closed"),
+    Mode("4", 4.0, "roll calibration, 360 deg roll", (
+        Do("clear_counters"),
+        Do("roll_rate_positive"),
+        Operate(open_=(12,), close=(16, 18)),
+        Wait("star re-acquired after a full roll", "none", "handover", ("tracker yaw",),
+             blank="blanking",
+             on_timeout="star not re-acquired after the calibration roll"),
+        Operate(open_=(16, 18), close=(12,)),
+        Wait("settled on Sun and star", "none", "settle", OPTICAL),
+        Do("calibration_sequencer", ("roll",)),
+    ), "roll scale factor and roll cross-coupling stored in register 23"),
+    Mode("5", 5.0, "yaw calibration, 360 deg yaw", (
+        Do("clear_counters"),
+        Do("yaw_rate_positive"),
+        Operate(close=(13,), open_=(14,)),
+        Wait("tracker pitch nulled", "none", "settle", ("tracker pitch",)),
+        Operate(open_=(15,), close=(17, 19)),
+        Wait("Sun re-acquired in yaw after a full yaw", "none", "handover", ("sun yaw",),
+             blank="blanking", on_timeout="Sun not re-acquired after the calibration yaw"),
+        Operate(open_=(17, 19), close=(15,)),
+        Wait("settled on star (yaw, pitch) and Sun yaw", "none", "settle",
+             ("tracker yaw", "tracker pitch", "sun yaw")),
+        Operate(close=(14,), open_=(13,)),
+        Wait("pitched back, settled on Sun and star", "none", "settle", OPTICAL),
+        Do("calibration_sequencer", ("yaw",)),
+    ), "yaw scale factor and yaw cross-coupling stored in register 23"),
+    Mode("6-1", 6.1, "target acquisition, roll", (
+        Do("withhold_calibration"),
+        Do("load_register_24"),
+        Do("clear_counters"),
+        Do("start_roll_computation"),
+        Do("roll_rate_toward_target"),
+        Operate(open_=(12,), close=(16, 18)),
+        Wait("roll error inside the hand-over threshold", "target roll", "handover",
+             ("roll error",)),
+        Operate(open_=(16, 18), close=(9,)),
+        Wait("roll error and Sun errors settled", "target roll", "settle",
+             ("roll error", "sun pitch", "sun yaw")),
+        Do("preset_counters"),
+    ), "roll settled; pitch and yaw counters preset"),
+    Mode("6-2", 6.2, "target acquisition, yaw", (
+        Do("start_yaw_computation"),
+        Do("yaw_rate_toward_target"),
+        Operate(open_=(14, 15), close=(17, 19, 10)),
+        Wait("yaw error inside the hand-over threshold", "target", "handover", ("yaw error",)),
+        Operate(open_=(17, 19), close=(11,)),
+        Wait("roll, pitch and yaw errors settled", "target", "settle",
+             ("roll error", "pitch error", "yaw error")),
+    ), "on target: computed errors settled"),
+    Mode("dither", 7.0, "dither calibration (comparison method)", (
+        Wait("dither record complete", "dither", "elapsed", hold="dither record",
+             record="dither record"),
+        Wait("optical errors settled after the dither", "none", "settle", OPTICAL),
+        Do("dither_analysis"),
+    ), ("dither record of {cfg.dither.record_s:g} s analysed ({cfg.dither.estimator} "
+        "estimator, {cfg.dither.detector} detector); results in register 23"),
+        timeout="dither timeout"),
+)
+#: Mode name -> its :class:`Mode`.
+BY_NAME = {mode.name: mode for mode in MODE_TABLE}
+#: Mode name -> telemetry code.
+MODE_CODE = {mode.name: mode.code for mode in MODE_TABLE}
+#: Mode name -> title, for displays.
+MODE_TITLE = {mode.name: mode.title for mode in MODE_TABLE}
+
+#: The patent's mission: Modes 1 to 6-2.
+LEGACY_PLAN = ("1", "2", "3", "4", "5", "6-1", "6-2")
+#: The comparison mission: the dither calibration in place of Modes 4 and 5.
+DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
+#: Plans by the name ``--plan`` takes.
+PLANS = {"legacy": LEGACY_PLAN, "dither": DITHER_PLAN}
+
+
+def signal_mask(signals) -> int:
+    """Settle mask of the frame loop: bit ``SIG_*`` set for each named signal."""
+    mask = 0
+    for name in signals:
+        mask |= 1 << SIGNALS[name].code
+    return mask
+
+
+def timeout_s(cfg, name) -> float:
+    """Time allowed to mode ``name`` [s] under scenario ``cfg``."""
+    mode = BY_NAME[name]
+    return float(DURATIONS[mode.timeout].seconds(cfg, name))
+
+
+def closed_after(plan) -> dict:
+    """Mode name -> switches closed at its end, flying ``plan`` from an all-open bank.
+
+    Folds the :class:`Operate` steps only, on the nominal path (the
+    calibration applied; :func:`allsky.sequencer.master_sequencer.withhold_calibration`
+    would open S1-S3 at the start of Mode 6-1).
+    """
+    bank = switch_bank.new_bank()
+    out = {}
+    for name in plan:
+        for step in BY_NAME[name].steps:
+            if isinstance(step, Operate):
+                switch_bank.operate(bank, close=step.close, open_=step.open_)
+        out[name] = switch_bank.closed(bank)
+    return out
+
+
+def check(table=MODE_TABLE) -> None:
+    """Raise ValueError unless every word of ``table`` is in the vocabulary.
+
+    A settle watch needs at least one signal, a hand-over exactly one, an
+    elapsed wait none; names, codes and plans must be unique and known.
+    """
+    def fail(mode, msg):
+        raise ValueError(f"mode table, Mode {mode.name}: {msg}")
+
+    if len({m.name for m in table}) != len(table) or len({m.code for m in table}) != len(table):
+        raise ValueError("mode table: mode names and codes must be unique")
+    for mode in table:
+        if mode.timeout not in DURATIONS:
+            fail(mode, f"unknown timeout {mode.timeout!r}")
+        for step in mode.steps:
+            if isinstance(step, Operate):
+                if not (step.close or step.open_):
+                    fail(mode, "a switch step operates no switch")
+            elif isinstance(step, Wait):
+                if step.program not in PROGRAMS or step.watch not in WATCHES:
+                    fail(mode, f"{step.what}: unknown program or watch")
+                unknown = [s for s in step.signals if s not in SIGNALS]
+                if unknown:
+                    fail(mode, f"{step.what}: unknown signals {unknown}")
+                n = len(step.signals)
+                if (step.watch == "settle" and n == 0) or (step.watch == "handover" and n != 1) \
+                        or (step.watch == "elapsed" and n != 0):
+                    fail(mode, f"{step.what}: {n} signals for a {step.watch} watch")
+                for d in (step.blank, step.hold):
+                    if d and d not in DURATIONS:
+                        fail(mode, f"{step.what}: unknown duration {d!r}")
+                if step.record and step.record not in RECORDS:
+                    fail(mode, f"{step.what}: unknown record {step.record!r}")
+            elif isinstance(step, Do):
+                if step.action not in ACTIONS:
+                    fail(mode, f"unknown action {step.action!r}")
+            else:
+                fail(mode, f"not a step: {step!r}")
+    names = {m.name for m in table}
+    for plan in PLANS.values():
+        if not set(plan) <= names:
+            raise ValueError(f"plan {plan} names modes not in the table")
+
+
+check()

@@ -1,9 +1,10 @@
 """How the frame loop is compiled: no allocation, no reference counting per frame.
 
 The per-frame blocks are compiled by :func:`allsky.jit.njit` without numba's
-reference-counted runtime. Two consequences are checked here: a block that
-allocates does not compile at all, and a leg's heap allocations do not grow
-with its number of frames (numba's own allocation statistics).
+reference-counted runtime, and the loop's stages are inlined into it. Two
+consequences are checked here: a block that allocates does not compile at
+all, and a leg's heap allocations do not grow with its number of frames
+(numba's own allocation statistics).
 """
 
 import numba
@@ -11,9 +12,9 @@ import numpy as np
 import pytest
 
 from allsky.config.scenario import load_scenario
-from allsky.jit import njit, njit_alloc
-from allsky.sequencer import legs
-from allsky.sim import frame_loop
+from allsky.jit import njit, njit_alloc, njit_stage
+from allsky.sequencer import legs, watch
+from allsky.sim import frame_loop, recorder
 from allsky.sim.mission import Mission
 
 needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT, reason="about compiled code")
@@ -29,6 +30,16 @@ def _allocating_helper(n):
     return np.zeros(n).sum()
 
 
+@njit_stage
+def _allocating_stage(n):
+    return np.zeros(n).sum()
+
+
+@njit
+def _loop_calling(n):
+    return _allocating_stage(n)
+
+
 @needs_jit
 def test_a_per_frame_block_that_allocates_does_not_compile():
     with pytest.raises(numba.core.errors.TypingError):
@@ -37,12 +48,60 @@ def test_a_per_frame_block_that_allocates_does_not_compile():
 
 
 @needs_jit
+def test_a_stage_that_allocates_does_not_compile_alone_or_inlined():
+    with pytest.raises(numba.core.errors.TypingError):
+        _allocating_stage(3)
+    with pytest.raises(numba.core.errors.TypingError):
+        _loop_calling(3)
+
+
+def _py(f):
+    """The Python function behind a compiled one (itself under NUMBA_DISABLE_JIT=1)."""
+    return getattr(f, "py_func", f)
+
+
+#: The stages the loop calls every frame, in signal order.
+STAGES = (frame_loop.sense, frame_loop.sum_and_count, frame_loop.compute, frame_loop.route,
+          frame_loop.acquire_sun, frame_loop.control, frame_loop.actuate, frame_loop.advance,
+          recorder.record_telemetry, recorder.record_dither, watch.watch)
+
+
+@needs_jit
 def test_frame_loop_and_blocks_are_compiled_without_the_runtime():
     assert frame_loop._run_frames.targetoptions["_nrt"] is False
-    for block in (frame_loop.gyro_output, frame_loop.sun_sensor, frame_loop.star_tracker, frame_loop.rk4_step,
-                  frame_loop.pwpf_step, frame_loop.jets, frame_loop.count, frame_loop.vfc, frame_loop.dac,
-                  frame_loop.control_amp, frame_loop.target_step, frame_loop.dither_command):
+    fl = frame_loop
+    for block in (fl.gyro_output, fl.sun_sensor, fl.star_tracker, fl.rk4_step, fl.pwpf_step,
+                  fl.jets, fl.count, fl.vfc, fl.dac, fl.control_amp, fl.target_step,
+                  fl.dither_command, fl.route_positions, fl.wire_leg, watch.watched_signals,
+                  watch.leg_condition, watch.sensors_in_use):
         assert block.targetoptions["_nrt"] is False, block.py_func.__name__
+
+
+@needs_jit
+@pytest.mark.parametrize("stage", STAGES, ids=lambda f: _py(f).__name__)
+def test_stages_are_compiled_without_the_runtime_and_inlined(stage):
+    assert stage.targetoptions["_nrt"] is False
+    # Inlined into the loop by numba: no call, and no argument passing, per frame.
+    assert stage.targetoptions["inline"] == "always"
+
+
+def test_the_loop_calls_every_stage():
+    import inspect
+
+    source = inspect.getsource(_py(frame_loop._run_frames))
+    for stage in STAGES:
+        assert f"{_py(stage).__name__}(" in source, _py(stage).__name__
+
+
+def test_no_switch_number_is_typed_in_the_loop():
+    """The loop and its stages read the bank through the wiring table's index arrays only."""
+    import inspect
+    import re
+
+    for f in (frame_loop._run_frames, frame_loop.wire_leg, frame_loop.route_positions,
+              watch.sensors_in_use, *STAGES):
+        source = inspect.getsource(_py(f))
+        assert not re.search(r"(sw|bank|switches)\[\s*\d", source), _py(f).__name__
 
 
 def _leg_allocations(program, frames):
@@ -51,8 +110,8 @@ def _leg_allocations(program, frames):
     m = Mission(load_scenario(), telemetry=False)
     leg = legs.Leg(1, 1.0, program, legs.WATCH_ELAPSED, 0, 0, 0.0,
                      frames * m.params.frame_s, 1e9)
-    args = (np.empty((0, frame_loop.N_TLM)), np.zeros(1, dtype=np.int64),
-            np.empty((0, frame_loop.N_REC)), np.zeros(1, dtype=np.int64))
+    args = (np.empty((0, recorder.N_TLM)), np.zeros(1, dtype=np.int64),
+            np.empty((0, recorder.N_REC)), np.zeros(1, dtype=np.int64))
     before = rtsys.get_allocation_stats().alloc
     code, _ = frame_loop.run_leg(m.params, m.state, leg, *args)
     assert code == legs.EXIT_DONE

@@ -140,6 +140,25 @@ def _position_order(axis):
     return sorted(sw, key=lambda s: (s.source in ("28", "29", "30"), s.number))
 
 
+#: The rate-command modules in table order; ``State.rate_sign`` holds their directions.
+RATE_COMMAND_MODULES = tuple(s.source for s in SWITCHES if s.port == "rate_command")
+
+
+def _rate_command_module() -> np.ndarray:
+    """Index into :data:`RATE_COMMAND_MODULES` of each axis's module (NONE where none)."""
+    out = np.full(3, NONE, dtype=np.int64)
+    for s in SWITCHES:
+        if s.port == "rate_command":
+            out[s.axis] = RATE_COMMAND_MODULES.index(s.source)
+    return out
+
+
+def _position_switches_from(source) -> np.ndarray:
+    """Numbers of the position switches carrying an output of block ``source``."""
+    return np.array([s.number for s in SWITCHES if s.port == "position" and s.source == source],
+                    dtype=np.int64)
+
+
 class Routing(NamedTuple):
     """The wiring as index arrays for the compiled frame loop."""
 
@@ -148,6 +167,9 @@ class Routing(NamedTuple):
     rate_command_switch: np.ndarray  #: (3,) switch gating rate command -> summing amp (or NONE)
     rate_mode_switch: np.ndarray  #: (3,) switch putting the amplifier in rate mode (or NONE)
     position_routes: np.ndarray  #: (n, 3) int64 rows (switch, source index, axis)
+    rate_command_module: np.ndarray  #: (3,) index into RATE_COMMAND_MODULES per axis (or NONE)
+    sun_switches: np.ndarray  #: switches routing sun sensor 104 outputs (the Sun is in use)
+    tracker_switches: np.ndarray  #: switches routing star tracker 105 outputs (the star in use)
 
 
 #: The wiring table in the form the frame loop reads.
@@ -157,6 +179,9 @@ ROUTING = Routing(
     rate_command_switch=_per_axis("rate_command"),
     rate_mode_switch=_per_axis("rate_mode"),
     position_routes=_position_routes(),
+    rate_command_module=_rate_command_module(),
+    sun_switches=_position_switches_from("104"),
+    tracker_switches=_position_switches_from("105"),
 )
 
 

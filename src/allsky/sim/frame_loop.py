@@ -1,22 +1,35 @@
-"""The per-frame loop: one compiled function that runs the vehicle frame by frame.
+"""The per-frame loop: compiled stages that run the vehicle frame by frame.
 
-It reads top to bottom like the patent's block diagram::
+:func:`_run_frames` calls one stage after another, in the order the signal
+flows through the patent's block diagram::
 
-    sensors (gyros 1-3, sun sensor 104, star tracker 105)
-    -> summing amplifiers 4-6 (drift DACs 7/9/11 via S1-S3, rate commands 120/128 via S16/S17)
-    -> voltage-to-frequency converters 8/10/12 -> up/down counters 14/16/18
-                                            (and drift counters 13/15/17 via S4-S6)
-    -> computer 111 (sequencer 21 steps S7/S8; CPU 22 -> storage registers 25-27)
-    -> DACs 28-30 and optical errors through S9-S15 -> control amplifiers 31-33
-    -> PWPF modulators 34-36 -> jets 39-41 -> rigid-body plant
-    -> master sequencer 20's watch of the error signals, telemetry
+    sense          sun sensor 104, star tracker 105, gyros 1-3
+    sum_and_count  summing amplifiers 4-6 (drift DACs 7/9/11 via S1-S3, rate
+                   commands 120/128 via S16/S17) -> converters 8/10/12 ->
+                   counters 14/16/18 (and drift counters 13/15/17 via S4-S6)
+    compute        computer 111: sequencer 21 steps S7/S8, CPU 22 -> registers 25-27
+    route          DACs 28-30 and optical outputs through S9-S15 -> position
+                   inputs of control amplifiers 31-33; lines 130/131 -> rate inputs
+    acquire_sun    (instead of route, when the leg runs Mode 1's controller)
+    control        control amplifiers 31-33 (and the dither command with its feed-forward)
+    actuate        PWPF modulators 34-36 -> jets 39-41
+    advance        rigid-body plant, mission clock
+    record         telemetry row and dither record (allsky.sim.recorder)
+    watch          master sequencer 20's watch (allsky.sequencer.watch)
+
+The on/off switches are read through the wiring table's index arrays
+(:data:`allsky.hardware.wiring.ROUTING`, carried in ``Params.routing``), once
+a leg (:func:`wire_leg`): the master sequencer operates them between legs.
+Each stage is compiled by :func:`allsky.jit.njit_stage`, which has numba
+inline it into the loop: a frame makes no calls to the stages themselves.
 
 The master sequencer itself (switch actions, mode rules) is Python
 (:mod:`allsky.sequencer.master_sequencer`): it sets the switches, then calls
-:func:`run_leg` with a *leg* (:mod:`allsky.sequencer.legs`), the condition that ends the current step of a
-mode. The loop returns when that condition is met, at the leg's timeout, or
-on an abort (propellant gone, Sun or star lost). All state lives in the
-arrays of :class:`allsky.sim.state.State`, so a mission can be saved and resumed between legs.
+:func:`run_leg` with a *leg* (:mod:`allsky.sequencer.legs`), the condition
+that ends the current step of a mode. The loop returns when that condition
+is met, at the leg's timeout, or on an abort (propellant gone, Sun or star
+lost). All state lives in the arrays of :class:`allsky.sim.state.State`, so a
+mission can be saved and resumed between legs.
 """
 
 import numpy as np
@@ -37,7 +50,16 @@ from allsky.hardware.sun_acquisition import sun_acquisition
 from allsky.hardware.sun_sensor import coarse_sun, sun_sensor
 from allsky.hardware.updown_counter import count
 from allsky.hardware.vfc import vfc
-from allsky.jit import njit, njit_alloc
+from allsky.hardware.wiring import (
+    N_POSITION_SOURCES,
+    NONE,
+    SRC_DAC,
+    SRC_SUN_PITCH,
+    SRC_SUN_YAW,
+    SRC_TRACKER_PITCH,
+    SRC_TRACKER_YAW,
+)
+from allsky.jit import njit, njit_alloc, njit_stage
 from allsky.sequencer.dither import dither_command
 from allsky.sequencer.legs import (
     CLOCK_FRAMES,
@@ -45,11 +67,7 @@ from allsky.sequencer.legs import (
     CLOCK_STAR_GONE,
     CLOCK_SUN_GONE,
     CLOCK_T_LEG,
-    EXIT_DONE,
     EXIT_PAUSE,
-    EXIT_PROPELLANT,
-    EXIT_STAR_LOST,
-    EXIT_SUN_LOST,
     EXIT_TIMEOUT,
     N_SIGNALS,
     PROGRAM_DITHER,
@@ -57,36 +75,21 @@ from allsky.sequencer.legs import (
     PROGRAM_TARGET,
     PROGRAM_TARGET_DITHER,
     PROGRAM_TARGET_ROLL,
-    SIG_ERROR_PITCH,
-    SIG_ERROR_ROLL,
-    SIG_ERROR_YAW,
-    SIG_SUN_PITCH,
-    SIG_SUN_YAW,
-    SIG_TRACKER_PITCH,
-    SIG_TRACKER_YAW,
-    WATCH_ELAPSED,
-    WATCH_HANDOVER,
 )
+from allsky.sequencer.watch import EXIT_NONE, sensors_in_use, watch
+from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_telemetry  # noqa: F401
 from allsky.vehicle.plant import rk4_step
 from allsky.vehicle.quaternion import rotate_to_body
 
-# Telemetry columns (see allsky.sim.telemetry for names and units).
-N_TLM = 40
-# Dither record columns: t, counters 14/16/18, optical roll/pitch/yaw.
-N_REC = 7
 # Rows of 3-vectors of per-leg scratch (sensor outputs, amplifier signals, torque).
 N_SCRATCH = 14
-
-
-@njit
-def _sun_inertial(p, t_s, out):
-    n = 0.0
-    for i in range(3):
-        out[i] = p.sun0_inertial[i] + p.sun_rate_inertial[i] * t_s
-        n += out[i] * out[i]
-    n = np.sqrt(n)
-    for i in range(3):
-        out[i] /= n
+# Rows of the per-leg ``gates`` (wire_leg), one column per axis.
+GATE_DRIFT = 0  #: S1-S3: drift DAC 7/9/11 into summing amplifier 4/5/6
+GATE_DRIFT_COUNT = 1  #: S4-S6: converter 8/10/12 into drift counter 13/15/17
+GATE_COMMAND = 2  #: S16/S17: rate-command module 120/128 into summing amplifier 4/6
+COMMAND_ARCSEC_S = 3  #: [arcsec/s] that module's command (0 on pitch, which has none)
+GATE_RATE_MODE = 4  #: S18/S19: control amplifier 31/33 follows the rate command
+N_GATES = 5
 
 
 @njit_alloc
@@ -95,10 +98,9 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
 
     ``tlm`` is a preallocated (rows, N_TLM) telemetry buffer and
     ``tlm_rows`` (1,) its fill count. ``rec`` (rows, N_REC) receives the
-    dither record of a PROGRAM_DITHER leg: every ``dither_sample_frames``
-    frames, time, counters 14/16/18 [arcsec] and the attitude the optics
-    see [arcsec] per axis (roll from the tracker, pitch and yaw from the Sun),
-    as rotations made.
+    dither record of a PROGRAM_DITHER leg (:func:`allsky.sim.recorder.record_dither`):
+    every ``dither_sample_frames`` frames, time, counters 14/16/18 [arcsec]
+    and the attitude the optics see [arcsec] per axis.
     A leg may pause at mission time ``leg.pause_at_s``: the loop returns
     EXIT_PAUSE with its progress in ``s.leg_clock``, and the same leg run
     again with ``resume=1`` carries on as if it had never stopped (the noise
@@ -107,36 +109,36 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     # The scratch is allocated here, once per leg; the frames themselves are
     # compiled without the reference-counted runtime (allsky.jit) and cannot allocate.
     return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
-                       np.zeros(N_SIGNALS))
+                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
+                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS))
 
 
 @njit
-def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, sig):
-    """The frames of :func:`run_leg`; ``scratch`` (N_SCRATCH, 3) and ``sig`` (N_SIGNALS,)."""
+def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
+                sig):
+    """The frames of :func:`run_leg`.
+
+    ``scratch`` (N_SCRATCH, 3), ``gates`` (N_GATES, 3), ``position_gain``
+    (one per position route), ``sources`` (N_POSITION_SOURCES,) and ``sig``
+    (N_SIGNALS,) are per-leg work arrays. Each stage is handed only the
+    parameters and state arrays of its own blocks.
+    """
     if not leg.resume:
         gauss_seed(s.rng, leg.seed)
         s.leg_clock[:] = 0.0
     dt = p.frame_s
+    sun_i, sun_b, coarse, fine, trk, gyro, comp = (scratch[0], scratch[1], scratch[2],
+                                                   scratch[3], scratch[4], scratch[5],
+                                                   scratch[6])
+    line, pos, rate, volts, torque, dith, ff = (scratch[7], scratch[8], scratch[9], scratch[10],
+                                                scratch[11], scratch[12], scratch[13])
     el = p.electronics
-    sq = p.sequencer
     sw = s.switches
-    # Per-leg scratch, rows of ``scratch`` (allocated by run_leg, once per leg).
-    sun_i = scratch[0]
-    sun_b = scratch[1]
-    coarse = scratch[2]
-    fine = scratch[3]
-    trk = scratch[4]
-    gyro = scratch[5]
-    comp = scratch[6]
-    line = scratch[7]
-    pos = scratch[8]
-    rate = scratch[9]
-    volts = scratch[10]
-    torque = scratch[11]
-    dith = scratch[12]
-    ff = scratch[13]
-    pw = p.vfc.pulse_weight_arcsec
+    program = leg.program
+    dithering = program == PROGRAM_DITHER or program == PROGRAM_TARGET_DITHER
     rrw_every = max(1, round(RRW_STEP_S / dt))
+    wire_leg(p.routing, el, sw, s.rate_sign, gates, position_gain)
+    sun_in_use, star_in_use = sensors_in_use(sw, p.routing)
     timer = s.leg_clock[CLOCK_SETTLE]
     sun_gone = s.leg_clock[CLOCK_SUN_GONE]
     star_gone = s.leg_clock[CLOCK_STAR_GONE]
@@ -144,129 +146,34 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, sig):
     done = int(s.leg_clock[CLOCK_FRAMES])
     n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
     for frame_in_leg in range(done, n_max):
-        # --- sensors -------------------------------------------------------
-        _sun_inertial(p, s.time_s[0], sun_i)
-        rotate_to_body(s.x, sun_i, sun_b)
-        sun_sensor(p.sun, sun_b, fine, s.rng)
-        star_tracker(p.tracker, s.x, trk, s.rng)
-        gyro_output(p.gyro, s.dtheta_rad, dt, s.gyro_rw_arcsec_s, gyro,
-                    s.frame[0] % rrw_every == 0, s.rng)
-        # --- summing amplifiers 4, 5, 6 ------------------------------------
-        for a in range(3):
-            drift = dac(s.drift_counters[a], el.drift_dac_bits, el.drift_lsb_arcsec_s)
-            if a == 0:
-                cmd = rate_command(el.rate_command_arcsec_s, s.rate_sign[0])
-                cmd_sw = sw[16]
-            elif a == 2:
-                cmd = rate_command(el.rate_command_arcsec_s, s.rate_sign[1])
-                cmd_sw = sw[17]
-            else:
-                cmd = 0.0
-                cmd_sw = 0
-            comp[a], line[a] = summing_amp(gyro[a], drift, sw[1 + a], cmd, cmd_sw)
-        # --- converters 8/10/12, counters 14/16/18, drift counters 13/15/17
-        for a in range(3):
-            n = vfc(p.vfc, a, comp[a], dt, s.vfc_residue_pulses)
-            count(s.counters, a, n, el.counter_bits, el.overflow_mode, s.overflow, a)
-            if sw[4 + a]:
-                count(s.drift_counters, a, n, el.drift_counter_bits, el.overflow_mode,
-                      s.overflow, 3 + a)
-        # --- computer 111 ---------------------------------------------------
-        all_axes = leg.program == PROGRAM_TARGET or leg.program == PROGRAM_TARGET_DITHER
-        dithering = leg.program == PROGRAM_DITHER or leg.program == PROGRAM_TARGET_DITHER
-        if leg.program == PROGRAM_TARGET_ROLL or all_axes:
-            a = sequencer_step(sw, s.frame[0], el.computer_step_frames)
-            if a == 0 or (a > 0 and all_axes):
-                err = target_step(a, s.counters[a] * pw, s.word23, s.word24, s.cpu)
-                store(s.registers, a, err, el.register_bits, el.register_lsb_arcsec)
-        # --- DACs 28-30 and optical errors -> control amplifiers 31-33 -------
-        if leg.program == PROGRAM_MODE1:
-            coarse_sun(p.sun, sun_b, coarse, s.rng)
-            sun_acquisition(p.mode1, p.sun.linear_range_arcsec, fine, coarse, comp, pos, rate)
+        _sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
+        sense(p.sun, p.tracker, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
+              s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, sun_b, fine, trk, gyro)
+        sum_and_count(el, p.vfc, dt, gates, gyro, s.drift_counters, s.counters,
+                      s.vfc_residue_pulses, s.overflow, comp, line)
+        compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
+                s.word24, sw, s.cpu, s.registers)
+        if program == PROGRAM_MODE1:
+            acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
         else:
-            pos[0] = sw[12] * trk[0] \
-                + sw[9] * dac(s.registers[0], el.register_bits, el.register_lsb_arcsec)
-            pos[1] = sw[13] * trk[1] + sw[14] * fine[0] \
-                + sw[10] * dac(s.registers[1], el.register_bits, el.register_lsb_arcsec)
-            pos[2] = sw[15] * fine[1] \
-                + sw[11] * dac(s.registers[2], el.register_bits, el.register_lsb_arcsec)
-            for a in range(3):
-                rate[a] = line[a]
-        if dithering:
-            dither_command(p.dither, t_leg, dith, ff)
-            for a in range(3):
-                pos[a] += dith[a]
-        for a in range(3):
-            integrate = leg.program != PROGRAM_MODE1 and not (a == 0 and sw[18]) \
-                and not (a == 2 and sw[19])
-            volts[a] = control_amp(p.control, a, pos[a], rate[a], s.amp_integral_arcsec,
-                                   integrate, dt)
-            if dithering:  # feed-forward through the actuator path
-                volts[a] += ff[a]
-        # --- PWPF modulators 34-36 -> jets 39-41 ------------------------------
-        for a in range(3):
-            pwpf_step(p.pwpf, a, volts[a], s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames)
-        tank_ok = jets(p.jets, s.pwpf_out, dt, s.propellant_kg, torque)
-        # --- plant ----------------------------------------------------------
-        rk4_step(p.plant, s.x, torque, dt, s.dtheta_rad)
-        s.time_s[0] += dt
-        s.frame[0] += 1
+            route(el, p.routing.position_routes, position_gain, s.registers, fine, trk, line,
+                  sources, pos, rate)
+        control(p.control, p.dither, gates, program, dithering, t_leg, dt, pos, rate,
+                s.amp_integral_arcsec, dith, ff, volts)
+        tank_ok = actuate(p.pwpf, p.jets, dt, volts, s.pwpf_filter_v, s.pwpf_out,
+                          s.pwpf_on_frames, s.propellant_kg, torque)
+        advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame, s.excursion_ref_q,
+                s.max_excursion_rad)
         t_leg += dt
-        if s.excursion_ref_q[0] != 0.0 or s.excursion_ref_q[1] != 0.0 \
-                or s.excursion_ref_q[2] != 0.0 or s.excursion_ref_q[3] != 0.0:
-            e = _rotation_angle(s.excursion_ref_q, s.x)
-            s.max_excursion_rad[0] = max(s.max_excursion_rad[0], e)
-        # --- telemetry -------------------------------------------------------
-        if p.telemetry_every > 0 and s.frame[0] % p.telemetry_every == 0 \
-                and tlm_rows[0] < tlm.shape[0]:
-            _record(tlm[tlm_rows[0]], s, leg, fine, trk, volts)
-            tlm_rows[0] += 1
-        if dithering and s.frame[0] % p.dither_sample_frames == 0 \
-                and rec_rows[0] < rec.shape[0]:
-            r = rec[rec_rows[0]]
-            r[0] = t_leg
-            for a in range(3):
-                r[1 + a] = s.counters[a] * pw
-            # Rotations made, from the optics: the Sun gives pitch and yaw; the
-            # tracker's yaw output mixes roll with yaw, because the star sits off
-            # the boresight in the tracker pitch direction: for small angles
-            # yaw_out = -roll + yaw tan(pitch_out), so roll = -yaw_out + yaw tan(pitch_out).
-            r[5] = -fine[0]
-            r[6] = -fine[1]
-            r[4] = -trk[0] + r[6] * np.tan(trk[1] / 206264.80624709636)
-            rec_rows[0] += 1
-        # --- master sequencer 20's watch -------------------------------------
-        if not tank_ok:
-            return EXIT_PROPELLANT, t_leg
-        sun_in_use = sw[14] == 1 or sw[15] == 1
-        star_in_use = sw[12] == 1 or sw[13] == 1
-        sun_gone = sun_gone + dt if (sun_in_use and fine[2] < 0.5) else 0.0
-        star_gone = star_gone + dt if (star_in_use and trk[2] < 0.5) else 0.0
-        if sun_gone > sq.sensor_loss_s:
-            return EXIT_SUN_LOST, t_leg
-        if star_gone > sq.sensor_loss_s:
-            return EXIT_STAR_LOST, t_leg
-        sig[SIG_SUN_PITCH] = fine[0] if fine[2] > 0.5 else 1e9
-        sig[SIG_SUN_YAW] = fine[1] if fine[2] > 0.5 else 1e9
-        sig[SIG_TRACKER_YAW] = trk[0] if trk[2] > 0.5 else 1e9
-        sig[SIG_TRACKER_PITCH] = trk[1] if trk[2] > 0.5 else 1e9
-        sig[SIG_ERROR_ROLL] = s.cpu[3]
-        sig[SIG_ERROR_PITCH] = s.cpu[4]
-        sig[SIG_ERROR_YAW] = s.cpu[5]
-        if leg.watch == WATCH_ELAPSED:
-            if t_leg >= leg.hold_s - 0.5 * dt:
-                return EXIT_DONE, t_leg
-        elif leg.watch == WATCH_HANDOVER:
-            if t_leg > leg.blank_s and abs(sig[leg.handover_signal]) < sq.handover_arcsec:
-                return EXIT_DONE, t_leg
-        else:
-            ok = True
-            for k in range(N_SIGNALS):
-                if (leg.settle_mask >> k) & 1 and abs(sig[k]) >= sq.settle_threshold_arcsec:
-                    ok = False
-            timer = timer + dt if ok else 0.0
-            if timer >= leg.hold_s - 0.5 * dt:
-                return EXIT_DONE, t_leg
+        record_telemetry(tlm, tlm_rows, p.telemetry_every, s, leg.mode_code, fine, trk, volts)
+        if dithering:
+            record_dither(rec, rec_rows, p.dither_sample_frames, t_leg, s.frame[0], s.counters,
+                          p.vfc.pulse_weight_arcsec, fine, trk)
+        code, timer, sun_gone, star_gone = watch(p.sequencer, leg, sun_in_use, star_in_use,
+                                                 tank_ok, fine, trk, s.cpu, sig, dt, t_leg,
+                                                 timer, sun_gone, star_gone)
+        if code != EXIT_NONE:
+            return code, t_leg
         if s.time_s[0] >= leg.pause_at_s - 0.5 * dt and frame_in_leg + 1 < n_max:
             s.leg_clock[CLOCK_T_LEG] = t_leg
             s.leg_clock[CLOCK_SETTLE] = timer
@@ -277,7 +184,211 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, sig):
     return EXIT_TIMEOUT, t_leg
 
 
-@njit
+@njit_stage
+def _sun_inertial(sun0_inertial, sun_rate_inertial, t_s, out):
+    """Unit vector to the Sun at mission time ``t_s`` (linear in time, renormalised)."""
+    n = 0.0
+    for i in range(3):
+        out[i] = sun0_inertial[i] + sun_rate_inertial[i] * t_s
+        n += out[i] * out[i]
+    n = np.sqrt(n)
+    for i in range(3):
+        out[i] /= n
+
+
+@njit_stage
+def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias,
+          bias_rw_arcsec_s, rng, sun_b, fine, trk, gyro):
+    """Sun sensor 104 -> ``fine``, star tracker 105 -> ``trk``, gyros 1-3 -> ``gyro``.
+
+    ``fine`` is (pitch, yaw [arcsec], present), ``trk`` (yaw, pitch [arcsec],
+    present), ``gyro`` the measured rates [arcsec/s] over the last frame's
+    body-angle increment ``dtheta_rad``; ``sun_b`` keeps the Sun's body
+    direction for the Mode 1 controller. ``step_bias`` steps the gyros' rate
+    random walk ``bias_rw_arcsec_s``.
+    """
+    rotate_to_body(x, sun_inertial, sun_b)
+    sun_sensor(sun_p, sun_b, fine, rng)
+    star_tracker(tracker_p, x, trk, rng)
+    gyro_output(gyro_p, dtheta_rad, dt_s, bias_rw_arcsec_s, gyro, step_bias, rng)
+
+
+@njit_stage
+def wire_leg(routing, el, bank, rate_sign, gates, position_gain):
+    """Read the on/off switches through the wiring table, once a leg.
+
+    The master sequencer operates these switches between legs only (within a
+    leg computer sequencer 21 moves just the selectors S7/S8), so the loop
+    reads them once a leg. ``gates`` (N_GATES, 3) gets, per axis, 1.0 for a
+    closed switch and 0.0 for an open one (GATE_* rows), and the rate command
+    of the axis's module 120/128 in the direction ``rate_sign`` [arcsec/s]
+    (COMMAND_ARCSEC_S, 0 where the axis has none); ``position_gain`` the same
+    1.0/0.0 for each row of ``routing.position_routes``.
+    """
+    for a in range(3):
+        gates[GATE_DRIFT, a] = bank[routing.drift_switch[a]]
+        gates[GATE_DRIFT_COUNT, a] = bank[routing.drift_count_switch[a]]
+        k = routing.rate_command_switch[a]
+        gates[GATE_COMMAND, a] = bank[k] if k != NONE else 0.0
+        gates[COMMAND_ARCSEC_S, a] = 0.0 if k == NONE else rate_command(
+            el.rate_command_arcsec_s, rate_sign[routing.rate_command_module[a]])
+        k = routing.rate_mode_switch[a]
+        gates[GATE_RATE_MODE, a] = bank[k] if k != NONE else 0.0
+    for r in range(routing.position_routes.shape[0]):
+        position_gain[r] = bank[routing.position_routes[r, 0]]
+
+
+@njit_stage
+def sum_and_count(el, vfc_p, dt_s, gates, gyro, drift_counters, counters, vfc_residue_pulses,
+                  overflow, comp, line):
+    """Summing amplifiers 4-6, converters 8/10/12, counters 14/16/18 and 13/15/17.
+
+    Each amplifier takes its gyro rate ``gyro`` [arcsec/s], less its drift
+    DAC 7/9/11 (fed by ``drift_counters``) through S1-S3, and on roll and yaw
+    the rate command of module 120/128 through S16/S17 (``gates`` of
+    :func:`wire_leg`). Its drift-compensated output ``comp`` drives the
+    converter, whose pulses up/down counters 14/16/18 count, and drift
+    counters 13/15/17 through S4-S6; ``line`` is the loop rate of lines 130/131.
+    """
+    for a in range(3):
+        drift = dac(drift_counters[a], el.drift_dac_bits, el.drift_lsb_arcsec_s)
+        comp[a], line[a] = summing_amp(gyro[a], drift, gates[GATE_DRIFT, a],
+                                       gates[COMMAND_ARCSEC_S, a], gates[GATE_COMMAND, a])
+    for a in range(3):
+        n = vfc(vfc_p, a, comp[a], dt_s, vfc_residue_pulses)
+        count(counters, a, n, el.counter_bits, el.overflow_mode, overflow, a)
+        if gates[GATE_DRIFT_COUNT, a]:
+            count(drift_counters, a, n, el.drift_counter_bits, el.overflow_mode, overflow, 3 + a)
+
+
+@njit_stage
+def compute(el, pulse_weight_arcsec, program, frame, counters, word23, word24, bank, cpu,
+            registers):
+    """Computer 111: sequencer 21 steps S7/S8, CPU 22 writes registers 25-27.
+
+    Mode 6-1 (PROGRAM_TARGET_ROLL) services the roll axis only; Mode 6-2
+    (PROGRAM_TARGET, and the dither held on target) all three. Other programs
+    leave the computer idle.
+    """
+    all_axes = program == PROGRAM_TARGET or program == PROGRAM_TARGET_DITHER
+    if program == PROGRAM_TARGET_ROLL or all_axes:
+        a = sequencer_step(bank, frame, el.computer_step_frames)
+        if a == 0 or (a > 0 and all_axes):
+            err = target_step(a, counters[a] * pulse_weight_arcsec, word23, word24, cpu)
+            store(registers, a, err, el.register_bits, el.register_lsb_arcsec)
+
+
+@njit_stage
+def acquire_sun(sun_p, mode1_p, sun_b, fine, gyro_arcsec_s, rng, coarse, pos, rate):
+    """Mode 1: the sun-acquisition controller drives control amplifiers 31-33.
+
+    It reads the coarse Sun (into ``coarse``), the fine sun sensor 104
+    ``fine`` and the drift-compensated gyro rates [arcsec/s]; no switch of
+    the bank is involved.
+    """
+    coarse_sun(sun_p, sun_b, coarse, rng)
+    sun_acquisition(mode1_p, sun_p.linear_range_arcsec, fine, coarse, gyro_arcsec_s, pos, rate)
+
+
+@njit_stage
+def route(el, routes, position_gain, registers, fine, trk, line, sources, pos, rate):
+    """The inputs of control amplifiers 31-33: ``pos`` [arcsec], ``rate`` [arcsec/s].
+
+    Positions: the optical outputs ``fine`` and ``trk`` and DACs 28-30 (fed
+    by storage registers 25-27) through S9-S15, gathered in ``sources`` in
+    the order of :data:`allsky.hardware.wiring.POSITION_SOURCES` and summed by
+    :func:`route_positions`. Rates: the summing amplifiers' lines 130/131.
+    """
+    sources[SRC_TRACKER_YAW] = trk[0]
+    sources[SRC_TRACKER_PITCH] = trk[1]
+    sources[SRC_SUN_PITCH] = fine[0]
+    sources[SRC_SUN_YAW] = fine[1]
+    for a in range(3):
+        sources[SRC_DAC + a] = dac(registers[a], el.register_bits, el.register_lsb_arcsec)
+    route_positions(routes, position_gain, sources, pos)
+    for a in range(3):
+        rate[a] = line[a]
+
+
+@njit_stage
+def route_positions(routes, gain, sources, pos):
+    """Sum the switched ``sources`` into the amplifiers' position inputs ``pos``.
+
+    ``routes`` are the wiring table's rows (switch, source index, axis),
+    grouped by axis, and ``gain`` is 1.0 where the row's switch is closed,
+    0.0 where it is open (:func:`wire_leg`): an open switch adds a zero. The
+    first input of an axis is taken as it is, not added to 0.0, so that the
+    sums, -0.0 included, round exactly as the written-out expressions
+    ``S12 * tracker_yaw + S9 * dac28`` do.
+    """
+    pos[0] = 0.0  # an amplifier without position inputs
+    pos[1] = 0.0
+    pos[2] = 0.0
+    if routes.shape[0] == 0:
+        return
+    # Indices as unsigned integers: numba then leaves out its negative-index
+    # wrap-around, which cost about 4 % of the frame time here.
+    axis = np.uint64(routes[0, 2])
+    acc = gain[0] * sources[np.uint64(routes[0, 1])]
+    for r in range(1, routes.shape[0]):
+        row_axis = np.uint64(routes[r, 2])
+        term = gain[r] * sources[np.uint64(routes[r, 1])]
+        if row_axis == axis:
+            acc += term
+        else:  # the previous amplifier's sum is complete
+            pos[axis] = acc
+            axis = row_axis
+            acc = term
+    pos[axis] = acc
+
+
+@njit_stage
+def control(control_p, dither_p, gates, program, dithering, t_leg_s, dt_s, pos, rate,
+            integral_arcsec, dith, ff, volts):
+    """Control amplifiers 31-33: their output ``volts`` [V].
+
+    An amplifier whose rate-mode switch (S18, S19; ``gates`` of
+    :func:`wire_leg`) is closed follows the rate command: its position
+    ``integral_arcsec`` is held at zero, as it is under the Mode 1 controller.
+    While ``dithering``, the dither angle ``dith`` is added to the position
+    inputs and its feed-forward ``ff`` to the outputs.
+    """
+    if dithering:
+        dither_command(dither_p, t_leg_s, dith, ff)
+        for a in range(3):
+            pos[a] += dith[a]
+    for a in range(3):
+        integrate = program != PROGRAM_MODE1 and not gates[GATE_RATE_MODE, a]
+        volts[a] = control_amp(control_p, a, pos[a], rate[a], integral_arcsec, integrate, dt_s)
+        if dithering:  # feed-forward through the actuator path
+            volts[a] += ff[a]
+
+
+@njit_stage
+def actuate(pwpf_p, jets_p, dt_s, volts, filter_v, valve, on_frames, propellant_kg, torque):
+    """PWPF modulators 34-36 and jets 39-41: ``torque`` [N m].
+
+    Returns False once the tank is dry.
+    """
+    for a in range(3):
+        pwpf_step(pwpf_p, a, volts[a], filter_v, valve, on_frames)
+    return jets(jets_p, valve, dt_s, propellant_kg, torque)
+
+
+@njit_stage
+def advance(plant_p, dt_s, torque, x, dtheta_rad, time_s, frame, excursion_ref_q,
+            max_excursion_rad):
+    """The rigid-body plant over one frame, the mission clock, the largest excursion."""
+    rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
+    time_s[0] += dt_s
+    frame[0] += 1
+    if excursion_ref_q[0] != 0.0 or excursion_ref_q[1] != 0.0 \
+            or excursion_ref_q[2] != 0.0 or excursion_ref_q[3] != 0.0:
+        e = _rotation_angle(excursion_ref_q, x)
+        max_excursion_rad[0] = max(max_excursion_rad[0], e)
+
+
+@njit_stage
 def _rotation_angle(qa, qb):
     """Angle [rad] of the rotation taking attitude ``qa`` to ``qb`` (atan2 form)."""
     w = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3]
@@ -285,39 +396,3 @@ def _rotation_angle(qa, qb):
     y = qa[0] * qb[2] + qa[1] * qb[3] - qa[2] * qb[0] - qa[3] * qb[1]
     z = qa[0] * qb[3] - qa[1] * qb[2] + qa[2] * qb[1] - qa[3] * qb[0]
     return 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), abs(w))
-
-
-@njit
-def _record(row, s, leg, fine, trk, volts):
-    row[0] = s.time_s[0]
-    row[1] = leg.mode_code
-    for i in range(7):
-        row[2 + i] = s.x[i]
-    row[9] = fine[0]
-    row[10] = fine[1]
-    row[11] = fine[2]
-    row[12] = trk[0]
-    row[13] = trk[1]
-    row[14] = trk[2]
-    for i in range(3):
-        row[15 + i] = s.counters[i]
-        row[18 + i] = s.drift_counters[i]
-        row[21 + i] = s.registers[i]
-        row[24 + i] = s.pwpf_out[i]
-        row[27 + i] = volts[i]
-        row[30 + i] = s.cpu[3 + i]
-    row[33] = s.propellant_kg[0]
-    m = 0
-    for k in range(1, 20):
-        if k != 7 and k != 8 and s.switches[k]:
-            m |= 1 << (k - 1)
-    row[34] = m
-    row[35] = s.switches[7]
-    of = 0
-    for i in range(6):
-        if s.overflow[i]:
-            of |= 1 << i
-    row[36] = of
-    row[37] = s.cpu[0]
-    row[38] = s.cpu[1]
-    row[39] = s.cpu[2]

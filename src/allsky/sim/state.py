@@ -21,6 +21,7 @@ from allsky.hardware.sun_acquisition import SunAcquisitionParams
 from allsky.hardware.sun_sensor import SunSensorParams
 from allsky.hardware.switch_bank import new_bank
 from allsky.hardware.vfc import VfcParams
+from allsky.hardware.wiring import Routing
 from allsky.sequencer.dither import DitherParams
 from allsky.sequencer.legs import N_CLOCK
 from allsky.vehicle.plant import RigidBodyParams
@@ -49,7 +50,10 @@ class SequencerParams(NamedTuple):
 
 
 class Params(NamedTuple):
-    """Everything the frame loop reads; built once per mission by :mod:`allsky.sim.mission`."""
+    """Everything the frame loop reads; built once per mission.
+
+    Built by :func:`allsky.sim.mission.build_params` from the scenario.
+    """
 
     frame_s: float  #: [s]
     telemetry_every: int  #: [frames] per telemetry row (0 = none)
@@ -68,6 +72,7 @@ class Params(NamedTuple):
     sequencer: SequencerParams
     dither: DitherParams
     dither_sample_frames: int  #: [frames] per sample of the dither record
+    routing: Routing  #: the switch wiring as index arrays (allsky.hardware.wiring.ROUTING)
 
 
 class State(NamedTuple):

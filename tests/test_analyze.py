@@ -14,6 +14,7 @@ Control*, 2nd ed., sec. 7.4):
   continuous formulas as the step shrinks.
 """
 
+import copy
 import json
 import math
 
@@ -25,6 +26,7 @@ from hypothesis import strategies as st
 from allsky.apps import analyze as analyze_app
 from allsky.apps import plots
 from allsky.apps.cli import main
+from allsky.config.scenario import load_scenario
 from allsky.hardware import pwpf
 from allsky.studies import analysis
 
@@ -195,6 +197,61 @@ def test_analysis_figure_has_bode_and_static_curve_panels(default_cfg, default_r
     assert "position roll   PM 14.5°" in phase.texts[0].get_text()
     labels = [t.get_text() for t in duty.get_legend().get_texts()]
     assert labels[0] == "analytic (continuous time)" and len(labels) == 4
+
+
+@pytest.fixture(scope="module")
+def default_responses(default_cfg):
+    return analysis.frequency_responses(analysis.scenario_loops(default_cfg),
+                                        np.logspace(-2, 2, 100))
+
+
+def test_analysis_figure_keeps_every_axis_visible(default_result, default_responses):
+    """Pitch and yaw position loops nearly coincide: distinct looks, pitch drawn over yaw."""
+    _, m_pitch, _ = default_responses["position pitch"]
+    _, m_yaw, _ = default_responses["position yaw"]
+    assert np.max(np.abs(20 * np.log10(m_pitch / m_yaw))) < 0.5  # [dB]: one curve to the eye
+    fig = plots.analysis(default_result, default_responses)
+    mag = fig.axes[0]
+    lines = {line.get_label(): line for line in mag.lines if not line.get_label().startswith("_")}
+    looks = {(ln.get_linestyle(), ln.get_marker(), ln.get_linewidth()) for ln in lines.values()}
+    assert len(looks) == len(lines) == 5
+    pitch, yaw = lines["position pitch"], lines["position yaw"]
+    assert pitch.get_zorder() > yaw.get_zorder()  # on top
+    assert pitch.get_linewidth() < yaw.get_linewidth()  # yaw shows as a band around it
+    assert {ln.get_marker() for ln in lines.values()} == {"o", "^", "s"}
+    assert not any("UNSTABLE" in t.get_text() for t in mag.texts)
+    assert "UNSTABLE" not in fig.get_suptitle()
+
+
+def test_analysis_figure_flags_an_unstable_loop(default_result, default_responses):
+    result = copy.deepcopy(default_result)
+    roll = result["margins"]["position"]["roll"]
+    roll.update(gain_margin_db=-74.0, phase_margin_deg=-20.0, stable=False)
+    fig = plots.analysis(result, default_responses)
+    mag, phase, _ = fig.axes
+    (flag,) = [t for t in mag.texts if "UNSTABLE" in t.get_text()]
+    assert flag.get_text() == "UNSTABLE position roll: GM -74.0 dB, PM -20.0°"
+    assert flag.get_color() == "red"
+    assert "UNSTABLE" in fig.get_suptitle()
+    # |L| at the phase crossover is -GM = +74 dB: a red cross there, inside the axes.
+    (cross,) = [ln for ln in mag.lines if ln.get_marker() == "X"]
+    assert cross.get_xdata()[0] == roll["phase_crossover_rad_s"]
+    assert cross.get_ydata()[0] == 74.0 and cross.get_color() == "red"
+    assert mag.get_ylim()[1] > 74.0
+    (on_phase,) = [ln for ln in phase.lines if ln.get_marker() == "X"]
+    assert on_phase.get_xydata().tolist() == [[roll["phase_crossover_rad_s"], -180.0]]
+
+
+def test_a_loop_made_unstable_by_a_slow_frame_is_flagged(default_cfg, default_result,
+                                                       default_responses):
+    """A 50 ms frame adds 0.05 s of delay: every loop loses its margins and its stability."""
+    cfg = load_scenario(overrides=["mission.frame_s=0.05", "jets.min_on_time_s=0.05"])
+    margins = analysis.loop_margins(**analysis.scenario_loop_arguments(cfg))
+    assert not any(m["stable"] for kind in margins.values() for m in kind.values())
+    fig = plots.analysis({**default_result, "margins": margins}, default_responses)
+    (flag,) = [t for t in fig.axes[0].texts if "UNSTABLE" in t.get_text()]
+    assert len(flag.get_text().splitlines()) == 5
+    assert [name for name, _ in plots.unstable_loops(margins)] == list(default_responses)
 
 
 def _strict(text):

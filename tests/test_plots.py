@@ -12,7 +12,7 @@ import struct
 import numpy as np
 import pytest
 
-from allsky.apps import plots
+from allsky.apps import plots, telemetry_files
 from allsky.apps.cli import main
 from allsky.sim import mission, telemetry
 
@@ -31,8 +31,8 @@ def files(tmp_path_factory, flown):
     d = tmp_path_factory.mktemp("flown")
     table, summary = flown
     (d / "summary.json").write_text(json.dumps(summary))
-    telemetry.write(d / "tlm.parquet", table)
-    telemetry.write(d / "tlm.csv", table)
+    telemetry_files.write(d / "tlm.parquet", table)
+    telemetry_files.write(d / "tlm.csv", table)
     return d
 
 
@@ -79,6 +79,123 @@ def test_attitude_errors_has_three_axes_with_units_and_mode_names(flown):
     t, cpu_roll = fig.axes[0].lines[1].get_data()
     assert np.all(np.isnan(cpu_roll[t < flown[1]["modes"][5]["start_s"] - 0.5]))
     assert np.isfinite(cpu_roll[-1])
+
+
+@pytest.fixture(scope="module")
+def dithered(default_cfg):
+    """Telemetry and summary of the default vehicle flying the dither plan."""
+    m = mission.Mission(default_cfg, plan=mission.DITHER_PLAN)
+    summary = m.run()
+    assert summary["status"] == "complete", summary["abort_reason"]
+    return m.telemetry(), summary
+
+
+def test_attitude_errors_marks_the_true_final_pointing_error(flown):
+    table, summary = flown
+    truth = summary["target"]["pointing_error_arcsec"]
+    fig = plots.attitude_errors(table, summary)
+    assert titles(fig)[:3] == ["Roll error", "Pitch error", "Yaw error"]
+    ax = fig.axes[3]
+    assert ax.get_title(loc="left").startswith("Pointing error")
+    assert ax.get_ylabel() == "pointing error [arcsec]" and ax.get_yscale() == "log"
+    # The marker sits at the end of the record, at the summary's value.
+    (star,) = [line for line in ax.lines if line.get_label().startswith("true final")]
+    assert star.get_xdata()[0] == table[-1, telemetry.INDEX["time"]]
+    assert star.get_ydata()[0] == truth
+    assert f"true final pointing error {truth:.1f}″" in texts(ax)
+    # The telemetry cannot give it: CPU 22's own estimate at the end is another number.
+    _, believed = ax.lines[0].get_data()
+    assert abs(believed[-1] - truth) > 1.0
+    assert fig.axes[-1].get_xlabel() == "mission time [s]"
+
+
+def test_attitude_errors_without_a_final_pointing_error_has_no_pointing_row(flown):
+    table, summary = flown
+    aborted = {**summary, "target": {**summary["target"], "pointing_error_arcsec": None}}
+    for s in (None, aborted):
+        assert titles(plots.attitude_errors(table, s)) == ["Roll error", "Pitch error",
+                                                          "Yaw error"]
+
+
+def test_write_plots_passes_the_summary_to_the_attitude_figure(tmp_path, flown, monkeypatch):
+    seen = []
+    real = plots.attitude_errors
+
+    def spy(table, summary=None):
+        seen.append(summary)
+        return real(table, summary)
+
+    monkeypatch.setattr(plots, "USES_SUMMARY", (spy,))
+    monkeypatch.setitem(plots.TELEMETRY_FIGURES, "attitude_errors", ("attitude_errors.png", spy))
+    plots.write_plots(flown[0], tmp_path, flown[1])
+    assert seen == [flown[1]]
+
+
+def test_dither_hold_is_drawn_on_a_linear_scale(dithered, default_cfg):
+    table, summary = dithered
+    (hold,) = [r for r in summary["modes"] if r["mode"] == "dither"]
+    fig = plots.attitude_errors(table)
+    assert len(fig.axes) == 4  # roll, pitch, yaw, and the dither hold
+    ax = fig.axes[3]
+    assert ax.get_yscale() == "linear" and "linear" in ax.get_title(loc="left")
+    dt = table[1, 0] - table[0, 0]
+    assert ax.get_xlim() == pytest.approx((hold["start_s"], hold["end_s"]), abs=1.01 * dt)
+    # Equal steps of error are equal steps on the page (symlog would bend them at 10").
+    px = ax.transData.transform([(hold["start_s"], y) for y in (-20.0, 0.0, 20.0)])[:, 1]
+    assert px[1] - px[0] == pytest.approx(px[2] - px[1])
+    # The drawn yaw trace is the sun sensor's, and holds the commanded sinusoid:
+    # amplitude A = 100 urad = 20.6" at 25.6 s (docs/comparison.md: seen at 1.03 A).
+    (yaw,) = [line for line in ax.lines if line.get_label().startswith("yaw")]
+    t, y = yaw.get_data()
+    keep = (table[:, 0] >= t[0]) & (table[:, 0] <= t[-1])
+    assert np.array_equal(y, table[keep, telemetry.INDEX["sun_yaw"]])
+    rec = t > hold["start_s"] + default_cfg.dither.lead_in_s
+    w = 2.0 * np.pi / default_cfg.dither.period_s[2]
+    basis = np.column_stack([np.sin(w * t[rec]), np.cos(w * t[rec]), np.ones(rec.sum())])
+    coef, *_ = np.linalg.lstsq(basis, y[rec], rcond=None)
+    amplitude_arcsec = default_cfg.dither.amplitude_urad[2] * 1e-6 * plots.RAD2ARCSEC
+    assert np.hypot(*coef[:2]) == pytest.approx(amplitude_arcsec, rel=0.1)
+
+
+def test_legacy_mission_has_no_dither_row(flown):
+    assert plots.dither_span(flown[0]) is None
+    assert all(ax.get_yscale() == "symlog" for ax in plots.attitude_errors(flown[0]).axes)
+
+
+def test_switch_timing_shows_the_selector_share_on_each_contact(flown, default_cfg):
+    table, summary = flown
+    fig = plots.switch_timing(table)
+    ax = fig.axes[0]
+    stairs = {p.get_label(): p.get_data() for p in ax.patches if p.get_label().startswith("S7")}
+    assert list(stairs) == ["S7/S8 on roll", "S7/S8 on pitch", "S7/S8 on yaw"]
+    height = 0.7
+    shares = np.stack([(d.values - d.baseline) / height for d in stairs.values()], axis=1)
+    edges = stairs["S7/S8 on roll"].edges
+    assert np.allclose(shares.sum(axis=1), 1.0)  # stacked, every window full
+    modes = {r["mode"]: (r["start_s"], r["end_s"]) for r in summary["modes"]}
+
+    def within(mode):
+        t0, t1 = modes[mode]
+        return (edges[:-1] >= t0 + 1.0) & (edges[1:] <= t1 - 1.0)
+
+    # Mode 5 counts the yaw turn: S7/S8 rests on yaw.
+    assert np.allclose(shares[within("5")], [0.0, 0.0, 1.0])
+    # Mode 6-2: computer sequencer 21 steps every computer_step_frames frames over the
+    # three axes, so each contact holds a third of the time.
+    assert default_cfg.electronics.computer_step_frames == 1
+    assert np.allclose(shares[within("6-2")], 1.0 / 3.0)
+    labels = [t.get_text() for t in ax.get_yticklabels()]
+    assert labels[6].startswith("S7/S8 selected axis,\nshare per")
+    assert "share of telemetry samples on each contact" in fig.legends[0].get_title().get_text()
+
+
+def test_selector_shares_count_samples_per_window():
+    table = np.zeros((12, len(telemetry.COLUMNS)))
+    table[:, telemetry.INDEX["time"]] = np.arange(12) * 0.1
+    table[:, telemetry.INDEX["s7_s8"]] = [0, 1, 2, 0, 1, 2, 2, 2, 2, 2, 2, 2]
+    edges, shares = plots.selector_shares(table, windows=2)
+    assert edges == pytest.approx([0.0, 0.6, 1.2])  # six samples of 0.1 s each
+    assert np.allclose(shares, [[1 / 3, 1 / 3, 1 / 3], [0.0, 0.0, 1.0]])
 
 
 def test_switch_timing_has_a_trace_per_switch(flown):

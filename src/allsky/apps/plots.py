@@ -10,8 +10,10 @@ Agg, so nothing needs a display and no global pyplot state is touched.
 file                   content
 =====================  ==========================================================
 attitude_errors.png    roll, pitch, yaw errors [arcsec] as the sensors and CPU 22
-                       see them, modes shaded
-switches.png           switch timing diagram S1-S19 (S7/S8: selected axis)
+                       see them, modes shaded; the true final pointing error
+                       (with the summary); a dither hold on a linear scale
+switches.png           switch timing diagram S1-S19 (S7/S8: share of samples on
+                       each axis)
 counters.png           up/down counters 14/16/18 and drift counters 13/15/17
                        [pulses]
 jets.png               valve commands of modulators 34-36 (jets 39-41) and
@@ -29,9 +31,11 @@ from typing import NamedTuple
 import numpy as np
 from matplotlib.figure import Figure
 
-from allsky.config.scenario import ConfigError
+from allsky.apps.telemetry_files import TelemetryError, read
+from allsky.config import ConfigError
 from allsky.hardware import switch_bank, wiring
-from allsky.sim.telemetry import INDEX, TelemetryError, read, switch_closed
+from allsky.sequencer.modes import MODE_CODE
+from allsky.sim.telemetry import INDEX, switch_closed
 
 AXES = ("roll", "pitch", "yaw")
 AXIS_COLOURS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
@@ -44,11 +48,6 @@ PPM = 1e6
 SYMLOG_LINTHRESH_ARCSEC = 10.0
 #: [pt] Title padding above axes that carry the row of mode names.
 TITLE_PAD_PT = 14.0
-# Mode codes written in the telemetry's mode column (mission.MODE_CODE), by name.
-# Kept here as data rather than imported so that plotting never imports the
-# simulator; tests/test_plots.py checks they agree.
-MODE_CODE = {"1": 1.0, "2": 2.0, "3": 3.0, "4": 4.0, "5": 5.0, "6-1": 6.1, "6-2": 6.2,
-             "dither": 7.0}
 _MODE_COLOURS = ("#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#76b7b2",
                  "#edc948", "#9c755f")
 
@@ -75,7 +74,7 @@ def mode_name(code: float) -> str:
 
 
 def mode_spans(table: np.ndarray) -> list:
-    """``[(name, t_start_s, t_end_s), ...]``: the runs of equal mode code, in time order."""
+    """Runs of equal mode code in time order: ``[(name, t_start_s, t_end_s), ...]``."""
     if len(table) == 0:
         return []
     t = table[:, INDEX["time"]]
@@ -116,21 +115,17 @@ def _masked(values, keep):
     return out
 
 
-def attitude_errors(table: np.ndarray) -> Figure:
-    """Roll, pitch and yaw errors against time, as the sensors and CPU 22 report them.
+def _cpu_modes(code):
+    """True where CPU 22 computes attitude errors: Modes 6-1 and 6-2."""
+    return (np.abs(code - MODE_CODE["6-1"]) < 1e-6) | (np.abs(code - MODE_CODE["6-2"]) < 1e-6)
 
-    Roll: star tracker yaw output (a roll moves the star across the slit) and
-    CPU 22's roll error; pitch: sun sensor pitch, tracker pitch, CPU pitch
-    error; yaw: sun sensor yaw and CPU yaw error. Sensor outputs are drawn
-    only while the Sun or star is present, CPU errors only in Modes 6-1/6-2.
-    Symmetric-log scale: linear within +-10 arcsec.
-    """
-    t = _col(table, "time")
+
+def _sensor_signals(table):
+    """Per axis: [(label, telemetry column, where it is drawn, colour)] of the attitude figure."""
     sun = _col(table, "sun_present") > 0.5
     star = _col(table, "star_present") > 0.5
-    code = _col(table, "mode")
-    cpu = (np.abs(code - MODE_CODE["6-1"]) < 1e-6) | (np.abs(code - MODE_CODE["6-2"]) < 1e-6)
-    signals = {
+    cpu = _cpu_modes(_col(table, "mode"))
+    return {
         "roll": [("star tracker yaw 105", "tracker_yaw", star, "tab:purple"),
                  ("CPU 22 roll error", "error_roll", cpu, "black")],
         "pitch": [("sun sensor pitch 104", "sun_pitch", sun, "tab:red"),
@@ -139,9 +134,63 @@ def attitude_errors(table: np.ndarray) -> Figure:
         "yaw": [("sun sensor yaw 104", "sun_yaw", sun, "tab:red"),
                 ("CPU 22 yaw error", "error_yaw", cpu, "black")],
     }
+
+
+#: The signals of the linear dither panel: (axis, label, telemetry column). The tracker's
+#: yaw output moves with roll (the star crosses the slit), as in the roll panel above.
+DITHER_SIGNALS = (("roll", "roll: star tracker yaw 105", "tracker_yaw"),
+                  ("pitch", "pitch: sun sensor pitch 104 (not dithered)", "sun_pitch"),
+                  ("yaw", "yaw: sun sensor yaw 104", "sun_yaw"))
+
+
+def dither_span(table: np.ndarray):
+    """``(t_start_s, t_end_s)`` of the dither hold (mode ``"dither"``), or None."""
+    holds = [(t0, t1) for name, t0, t1 in mode_spans(table) if name == "dither"]
+    return (holds[0][0], holds[-1][1]) if holds else None
+
+
+def final_pointing_error_arcsec(summary):
+    """The true final pointing error [arcsec] of a mission summary, or None.
+
+    It is the angle between the body roll axis and the target at the end of
+    the mission, computed by the simulator from the true attitude; the
+    telemetry alone cannot give it (the sensors and CPU 22 see only their
+    own errors).
+    """
+    if summary is None:
+        return None
+    return (summary.get("target") or {}).get("pointing_error_arcsec")
+
+
+def attitude_errors(table: np.ndarray, summary=None) -> Figure:
+    """Roll, pitch and yaw errors against time, as the sensors and CPU 22 report them.
+
+    Roll: star tracker yaw output (a roll moves the star across the slit) and
+    CPU 22's roll error; pitch: sun sensor pitch, tracker pitch, CPU pitch
+    error; yaw: sun sensor yaw and CPU yaw error. Sensor outputs are drawn
+    only while the Sun or star is present, CPU errors only in Modes 6-1/6-2.
+    Symmetric-log scale: linear within +-10 arcsec.
+
+    With a ``summary`` that holds the true final pointing error, a row
+    "Pointing error" draws CPU 22's own estimate sqrt(pitch^2 + yaw^2) in
+    Mode 6 and marks the truth at the end of the record. When the telemetry
+    holds a dither hold, a last row shows the hold on a linear scale, where
+    the sinusoids keep their shape (symlog bends them at +-10 arcsec).
+    """
+    t = _col(table, "time")
+    signals = _sensor_signals(table)
+    pointing_arcsec = final_pointing_error_arcsec(summary)
+    span = dither_span(table)
+    rows = 3 + (pointing_arcsec is not None) + (span is not None)
+    ratios = [1.0, 1.0, 1.0] + [0.8] * (pointing_arcsec is not None) + [1.1] * (span is not None)
+    fig = Figure(figsize=(FIGSIZE_IN[0], FIGSIZE_IN[1] + 1.9 * (rows - 3)), layout="constrained")
+    grid = fig.add_gridspec(rows, 1, height_ratios=ratios)
+    fig.suptitle("Attitude errors by axis (modes shaded)", fontsize=12)
     spans = mode_spans(table)
-    fig, axes = _new_figure(3, "Attitude errors by axis (modes shaded)")
-    for i, (ax, axis) in enumerate(zip(axes, AXES)):
+    timeline = []  # the rows that share the mission-time axis
+    for i, axis in enumerate(AXES):
+        ax = fig.add_subplot(grid[i, 0], sharex=timeline[0] if timeline else None)
+        timeline.append(ax)
         _shade_modes(ax, spans, label=i == 0)
         for label, name, keep, colour in signals[axis]:
             ax.plot(t, _masked(_col(table, name), keep), lw=0.8, color=colour, label=label)
@@ -151,15 +200,94 @@ def attitude_errors(table: np.ndarray) -> Figure:
                      pad=TITLE_PAD_PT if i == 0 else None)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    axes[-1].set_xlabel("mission time [s]")
+    if pointing_arcsec is not None:
+        ax = fig.add_subplot(grid[3, 0], sharex=timeline[0])
+        timeline.append(ax)
+        _pointing_panel(ax, table, spans, float(pointing_arcsec))
+    for ax in timeline[:-1]:
+        ax.tick_params(labelbottom=False)
+    timeline[-1].set_xlabel("mission time [s]")
+    if span is not None:
+        _dither_panel(fig.add_subplot(grid[rows - 1, 0]), table, span)
     return fig
+
+
+def _pointing_panel(ax, table, spans, pointing_arcsec):
+    """CPU 22's pitch/yaw error magnitude in Mode 6, and the true final pointing error."""
+    t = _col(table, "time")
+    _shade_modes(ax, spans, label=False)
+    cpu = _cpu_modes(_col(table, "mode"))
+    believed = np.hypot(_col(table, "error_pitch"), _col(table, "error_yaw"))
+    ax.plot(t, _masked(believed, cpu & (believed > 0.0)), lw=0.8, color="black",
+            label="CPU 22 √(pitch² + yaw²) error")
+    ax.plot([t[-1]], [pointing_arcsec], marker="*", ms=13, ls="none", color="tab:red",
+            mec="black", mew=0.5, zorder=5,
+            label="true final pointing error\n(roll axis to target, summary)")
+    ax.annotate(f"true final pointing error {pointing_arcsec:.1f}″", (t[-1], pointing_arcsec),
+                xytext=(-8, 8), textcoords="offset points", ha="right", va="bottom",
+                fontsize=9, color="tab:red", fontweight="bold")
+    ax.set_yscale("log")
+    ax.set_ylabel("pointing error [arcsec]")
+    ax.set_title("Pointing error: CPU 22's estimate, and the truth at the end", fontsize=10,
+                 loc="left")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+
+
+def _dither_panel(ax, table, span):
+    """The optics through the dither hold on a linear scale."""
+    t0, t1 = span
+    t = _col(table, "time")
+    keep = (t >= t0) & (t <= t1)
+    for axis, label, name in DITHER_SIGNALS:
+        ax.plot(t[keep], _col(table, name)[keep], lw=0.7, color=AXIS_COLOURS[axis], label=label)
+    ax.set_xlim(t0, t1)
+    ax.set_yscale("linear")
+    ax.set_ylabel("optical error [arcsec]")
+    ax.set_xlabel("mission time [s]")
+    ax.set_title(f"Dither hold, {t0:.0f}-{t1:.0f} s, linear scale (sinusoids undistorted)",
+                 fontsize=10, loc="left")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+
+
+#: Colour of the on/off switch traces: neutral, so that the S7/S8 row's axis colours stand out.
+SWITCH_COLOUR = "0.3"
+#: Windows the S7/S8 trace is cut into: the share of samples on each contact is drawn
+#: per window, since a single sample per telemetry interval cannot show a selector that
+#: steps every frame or few.
+SELECTOR_WINDOWS = 300
+
+
+def selector_shares(table: np.ndarray, windows=SELECTOR_WINDOWS):
+    """Share of telemetry samples on each S7/S8 contact, per window of samples.
+
+    Returns ``(edges_s, shares)``: window edges [s] (``n + 1``; each sample
+    stands for the interval up to the next, the last for one interval) and an
+    ``(n, 3)`` array of the fraction of the window's samples with S7/S8 on
+    roll, pitch, yaw (each row sums to 1). A window is a whole multiple of
+    three samples, so that a selector stepping once per sample is counted
+    evenly; its length is the record over ``windows``.
+    """
+    t = _col(table, "time")
+    axis = np.rint(_col(table, "s7_s8")).astype(int)
+    per = 3 * max(1, len(t) // (3 * windows))
+    starts = np.arange(0, len(t), per)
+    counts = np.stack([np.add.reduceat((axis == k).astype(float), starts) for k in range(3)],
+                      axis=1)
+    shares = counts / counts.sum(axis=1, keepdims=True)
+    # The last sample stands for one more telemetry interval.
+    edges = np.r_[t[starts], t[-1] + (t[-1] - t[-2] if len(t) > 1 else 0.0)]
+    return edges, shares
 
 
 def switch_timing(table: np.ndarray) -> Figure:
     """Switch timing diagram: S1-S19 as logic-analyser traces, high when closed.
 
-    S7/S8 are the coupled selectors of computer sequencer 21; their trace
-    steps between three levels, the selected axis (roll, pitch, yaw).
+    S7/S8 are the coupled selectors of computer sequencer 21. In Mode 6 they
+    step every frame or few, faster than the telemetry samples them, so
+    their row shows per window of samples the share on each contact,
+    stacked roll (bottom), pitch, yaw (top) (:func:`selector_shares`).
     """
     t = _col(table, "time")
     labels = _switch_labels()
@@ -173,20 +301,29 @@ def switch_timing(table: np.ndarray) -> Figure:
     for row, k in enumerate(rows):
         base = len(rows) - 1 - row  # S1 at the top
         if k in switch_bank.SELECTORS:
-            level = _col(table, "s7_s8") / 2.0 * height
-            ax.step(t, base + level, where="post", lw=0.8, color="tab:gray")
-            ticklabels.append("S7/S8 selected axis (0 roll, 1 pitch, 2 yaw)")
+            edges, shares = selector_shares(table)
+            window_s = float(np.median(np.diff(edges)))
+            bottom = np.zeros(len(shares))
+            for i, axis in enumerate(AXES):
+                ax.stairs(base + (bottom + shares[:, i]) * height, edges,
+                          baseline=base + bottom * height, fill=True, lw=0,
+                          color=AXIS_COLOURS[axis], alpha=0.8, label=f"S7/S8 on {axis}")
+                bottom = bottom + shares[:, i]
+            ticklabels.append(f"S7/S8 selected axis,\nshare per {window_s:.2g} s")
         else:
             closed = switch_closed(table, k).astype(float)
-            ax.fill_between(t, base, base + closed * height, step="post", color="tab:blue",
-                            alpha=0.6, lw=0)
-            ax.step(t, base + closed * height, where="post", lw=0.8, color="tab:blue")
+            ax.fill_between(t, base, base + closed * height, step="post", color=SWITCH_COLOUR,
+                            alpha=0.45, lw=0)
+            ax.step(t, base + closed * height, where="post", lw=0.8, color=SWITCH_COLOUR)
             ticklabels.append(f"S{k}  {labels.get(k, '')}")
         ticks.append(base + 0.5 * height)
     ax.set_yticks(ticks, ticklabels, fontsize=8)
     ax.set_ylim(-0.3, len(rows))
     ax.set_xlabel("mission time [s]")
     ax.grid(True, axis="x", alpha=0.3)
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=8,
+               title="S7/S8 row: share of telemetry samples on each contact "
+                     "(stacked roll, pitch, yaw)", title_fontsize=8)
     return fig
 
 
@@ -213,7 +350,7 @@ def counters(table: np.ndarray) -> Figure:
 
 
 def jets(table: np.ndarray) -> Figure:
-    """Valve commands of modulators 34/35/36 (jets 39/40/41) per axis, and propellant [kg].
+    """Valve commands of modulators 34-36 (jets 39-41) per axis, and propellant [kg].
 
     Valve commands are telemetry samples (one every telemetry interval), so
     pulses shorter than the interval may not show; the propellant curve
@@ -250,7 +387,9 @@ def jets(table: np.ndarray) -> Figure:
 
 
 def calibration(summary: dict) -> Figure:
-    """Stored calibration against the truth: drift, scale factor, cross-coupling, with errors.
+    """Stored calibration against the truth, with the errors.
+
+    Drift, scale factor and cross-coupling, one panel each.
 
     ``summary`` is :meth:`allsky.sim.mission.Mission.summary` (``allsky run --json``).
     Raises ``ValueError`` when the mission stored no calibration.
@@ -293,8 +432,61 @@ def calibration(summary: dict) -> Figure:
     return fig
 
 
+#: Bode curve looks per axis, so that the three axes stay visible where their curves
+#: coincide (pitch and yaw differ by hundredths of a dB): yaw a wide pale band at the
+#: bottom, roll and pitch thin lines above it with their own markers, pitch on top.
+BODE_LOOKS = {
+    "roll": {"lw": 1.3, "marker": "o", "ms": 4, "mfc": "none", "markevery": (0.0, 0.12),
+             "zorder": 3},
+    "pitch": {"lw": 1.0, "marker": "^", "ms": 4, "markevery": (0.04, 0.12), "zorder": 4},
+    "yaw": {"lw": 4.0, "alpha": 0.45, "marker": "s", "ms": 4, "markevery": (0.08, 0.12),
+            "zorder": 2},
+}
+UNSTABLE_COLOUR = "red"
+
+
+def unstable_loops(margins: dict) -> list:
+    """The loops to flag, ``[(loop name, margins), ...]``.
+
+    A loop is flagged when its closed loop is unstable (``stable`` false) or
+    its gain or phase margin is negative.
+    """
+    out = []
+    for kind in ("position", "rate"):
+        for axis, m in margins.get(kind, {}).items():
+            if (m.get("stable") is False or m["gain_margin_db"] < 0.0
+                    or m["phase_margin_deg"] < 0.0):
+                out.append((f"{kind} {axis}", m))
+    return out
+
+
+def _flag_unstable(fig, mag, phase, margins):
+    """Red "UNSTABLE" with the margins, and red crosses at the phase crossovers."""
+    flagged = unstable_loops(margins)
+    if not flagged:
+        return
+    lines = []
+    for name, m in flagged:
+        verdict = "NEGATIVE MARGIN (closed loop stable)" if m.get("stable") is True \
+            else "UNSTABLE"
+        lines.append(f"{verdict} {name}: GM {m['gain_margin_db']:.1f} dB, "
+                     f"PM {m['phase_margin_deg']:.1f}°")
+        w_pc = m.get("phase_crossover_rad_s", math.nan)
+        if math.isfinite(w_pc) and math.isfinite(m["gain_margin_db"]):
+            # |L| at the phase crossover is -GM dB: above 0 dB when the margin is negative.
+            mag.plot([w_pc], [-m["gain_margin_db"]], "X", color=UNSTABLE_COLOUR, ms=10,
+                     mec="black", mew=0.5, zorder=6)
+            phase.plot([w_pc], [-180.0], "X", color=UNSTABLE_COLOUR, ms=10, mec="black",
+                       mew=0.5, zorder=6)
+    mag.text(0.98, 0.97, "\n".join(lines), transform=mag.transAxes, ha="right", va="top",
+             fontsize=9, fontweight="bold", color=UNSTABLE_COLOUR,
+             bbox={"facecolor": "white", "edgecolor": UNSTABLE_COLOUR, "alpha": 0.9})
+    fig.suptitle(fig.get_suptitle() + " — UNSTABLE LOOP", fontsize=12,
+                 color=UNSTABLE_COLOUR)
+
+
 def analysis(result: dict, frequency_responses: dict) -> Figure:
-    """``allsky analyze``: Bode plots with the margins, and the PWPF static characteristic.
+    """``allsky analyze``: Bode plots with margins, and the PWPF static characteristic.
 
     Parameters
     ----------
@@ -314,12 +506,12 @@ def analysis(result: dict, frequency_responses: dict) -> Figure:
     styles = {"position": "-", "rate": "--"}
     for name, (w, m, ph) in frequency_responses.items():
         kind, axis = name.split()
-        colour = AXIS_COLOURS[axis]
-        mag.semilogx(w, 20.0 * np.log10(m), styles[kind], color=colour, lw=1.2, label=name)
-        phase.semilogx(w, ph, styles[kind], color=colour, lw=1.2, label=name)
+        look = dict(ls=styles[kind], color=AXIS_COLOURS[axis], label=name, **BODE_LOOKS[axis])
+        mag.semilogx(w, 20.0 * np.log10(m), **look)
+        phase.semilogx(w, ph, **look)
         mm = result["margins"][kind][axis]
-        phase.plot(mm["crossover_rad_s"], -180.0 + mm["phase_margin_deg"], "o", color=colour,
-                   ms=4)
+        phase.plot(mm["crossover_rad_s"], -180.0 + mm["phase_margin_deg"], "o",
+                   color=AXIS_COLOURS[axis], ms=4, zorder=5)
     mag.axhline(0.0, color="black", lw=0.6)
     phase.axhline(-180.0, color="black", lw=0.6)
     mag.set_ylabel("|L(jω)| [dB]")
@@ -334,6 +526,7 @@ def analysis(result: dict, frequency_responses: dict) -> Figure:
     phase.text(0.01, 0.02, "\n".join(lines), transform=phase.transAxes, fontsize=7,
                va="bottom", family="monospace",
                bbox={"facecolor": "white", "alpha": 0.8, "lw": 0})
+    _flag_unstable(fig, mag, phase, result["margins"])
     phase.set_title("Phase (dots: gain crossover, height above −180° = phase margin)",
                     fontsize=10, loc="left")
     phase.set_ylim(-360.0, -60.0)
@@ -375,6 +568,8 @@ TELEMETRY_FIGURES = {
     "counters": ("counters.png", counters),
     "jets": ("jets.png", jets),
 }
+#: Telemetry figures that also draw from the mission summary when it is given.
+USES_SUMMARY = (attitude_errors,)
 CALIBRATION_FILE = "calibration.png"
 
 
@@ -387,9 +582,9 @@ class PlotSet(NamedTuple):
 
 def save(fig: Figure, path) -> Path:
     """Write a figure as PNG at :data:`DPI`."""
-    path = Path(path)
-    fig.savefig(path, dpi=DPI)
-    return path
+    from allsky.apps.output import write_atomic  # whole or not at all
+
+    return write_atomic(path, writer=lambda tmp: fig.savefig(tmp, dpi=DPI))
 
 
 def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> PlotSet:
@@ -403,7 +598,8 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
         Directory for the files.
     summary : dict, optional
         The mission summary; without it (or without a stored calibration) the
-        calibration figure is skipped.
+        calibration figure is skipped, and the attitude figure lacks the true
+        final pointing error.
     progress : bool
         Show a progress line on stderr while drawing (when it is a terminal).
 
@@ -418,7 +614,8 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
     from tqdm import tqdm
 
     files, skipped = [], {}
-    jobs = [(name, lambda draw=draw: draw(table)) for name, draw in TELEMETRY_FIGURES.values()]
+    jobs = [(name, lambda draw=draw: draw(table, summary) if draw in USES_SUMMARY
+             else draw(table)) for name, draw in TELEMETRY_FIGURES.values()]
     if summary is None:
         skipped[CALIBRATION_FILE] = "no mission summary (give --summary SUMMARY.json)"
     elif summary.get("calibration") is None:
@@ -454,5 +651,6 @@ def run_from_cli(cfg, args) -> int:
         if not isinstance(summary, dict) or not {"calibration", "truth"} <= set(summary):
             raise ConfigError(None, rule=f"summary {args.summary!r} is not an allsky mission "
                                          "summary (allsky run --json)")
-    print(format_written(write_plots(table, args.out, summary, progress=True)))
+    print(format_written(write_plots(table, args.out, summary,
+                                     progress=not getattr(args, "quiet", False))))
     return 0

@@ -21,6 +21,7 @@ import numpy as np
 from allsky import units
 from allsky.gauss import standard_normal
 from allsky.jit import njit
+from allsky.units import RAD2ARCSEC
 
 #: [s] interval between steps of the rate random walk
 RRW_STEP_S = 1.0
@@ -41,7 +42,7 @@ def make_params(drift_deg_h, scale_factor_error_ppm, misalignment_arcsec, arw_de
     """Build :class:`GyroParams` from scenario units."""
     m = np.array(misalignment_arcsec, dtype=float) * units.ARCSEC2RAD
     np.fill_diagonal(m, 0.0)
-    sf = np.array(scale_factor_error_ppm, dtype=float) * units.PPM
+    sf = np.array(scale_factor_error_ppm, dtype=float) * units.PPM2FRACTION
     s = np.diag(1.0 + sf) @ (np.eye(3) + m)
     return GyroParams(
         sensitivity=s,
@@ -64,7 +65,7 @@ def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_b
     saves three random draws per frame.
     """
     s = p.sensitivity
-    k = 206264.80624709636 / dt_s
+    k = RAD2ARCSEC / dt_s
     sig_arw = p.arw_arcsec_rt_s / np.sqrt(dt_s)
     sig_rrw = p.rrw_arcsec_s_rt_s * np.sqrt(RRW_STEP_S)
     for i in range(3):

@@ -20,8 +20,7 @@ import numpy as np
 
 from allsky.gauss import standard_normal
 from allsky.jit import njit
-
-RAD2ARCSEC = 206264.80624709636
+from allsky.units import RAD2ARCSEC
 
 
 class StarTrackerParams(NamedTuple):

@@ -15,6 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky.jit import njit
+from allsky.units import RAD2ARCSEC
 
 
 class SunAcquisitionParams(NamedTuple):
@@ -41,7 +42,7 @@ def sun_acquisition(p, linear_range_arcsec, fine, coarse_body, gyro_arcsec_s, po
     ez = coarse_body[1]
     n = np.sqrt(ey * ey + ez * ez)
     angle = np.arctan2(n, coarse_body[0])
-    cmd = min(p.slew_gain_per_s * angle * 206264.80624709636, p.slew_rate_max_arcsec_s)
+    cmd = min(p.slew_gain_per_s * angle * RAD2ARCSEC, p.slew_rate_max_arcsec_s)
     if n > 1e-12:
         ey /= n
         ez /= n

@@ -27,6 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky.jit import njit
+from allsky.units import RAD2ARCSEC
 
 
 class DitherParams(NamedTuple):
@@ -45,7 +46,7 @@ def dither_command(p, t_s, angle_arcsec, ff_volts):
     for i in range(3):
         s = np.sin(p.omega_rad_s[i] * t_s)
         angle_arcsec[i] = p.amplitude_arcsec[i] * s
-        ff_volts[i] = -p.amplitude_arcsec[i] * p.omega_rad_s[i] ** 2 * s / 206264.80624709636
+        ff_volts[i] = -p.amplitude_arcsec[i] * p.omega_rad_s[i] ** 2 * s / RAD2ARCSEC
     a0, a1, a2 = ff_volts[0], ff_volts[1], ff_volts[2]
     for i in range(3):
         torque = p.ff_inertia_kg_m2[i, 0] * a0 + p.ff_inertia_kg_m2[i, 1] * a1 \

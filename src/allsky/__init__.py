@@ -30,7 +30,17 @@ _EXPORTS = {
     "compare": "allsky.studies.compare",
 }
 
-__all__ = ["__version__", *_EXPORTS]
+__all__ = [
+    "DITHER_PLAN",
+    "LEGACY_PLAN",
+    "ConfigError",
+    "Mission",
+    "__version__",
+    "compare",
+    "load_scenario",
+    "run_mission",
+    "scenario_from_dict",
+]
 
 
 def __getattr__(name):

@@ -28,6 +28,7 @@ from importlib import resources
 from pathlib import Path
 
 from allsky import config
+from allsky.apps import architecture
 from allsky.apps import diagram_layout as layout
 from allsky.hardware import blocks, switch_bank, wiring
 from allsky.sequencer import modes
@@ -359,7 +360,8 @@ def _switch_rows() -> list:
 PAGES = {"configuration.md": config_reference, "cli.md": cli_reference,
          "blocks.md": blocks_reference}
 #: Generated sections inside hand-written pages: page -> {section name: generator}.
-SECTIONS = {"theory_of_operation.md": {"modes": mode_reference, "wiring": wiring_reference}}
+SECTIONS = {"theory_of_operation.md": {"modes": mode_reference, "wiring": wiring_reference},
+            "architecture.md": {"layers": architecture.layers_table}}
 
 
 def fill_sections(text: str, sections: dict) -> str:
@@ -389,6 +391,9 @@ def write(docs_dir) -> list:
     (docs_dir / "img").mkdir(exist_ok=True)
     path = docs_dir / "img" / "block_diagram.png"
     block_diagram(path)
+    paths.append(path)
+    path = docs_dir / "img" / "layers.png"
+    architecture.layers_figure(path)
     paths.append(path)
     return paths
 

@@ -1,0 +1,67 @@
+"""The packages are layers: imports go down only, and no modules import each other in a loop.
+
+Read from the source with ``ast`` (nothing is imported), counting imports
+inside functions too: a lazy import is still a dependency. The order is
+:data:`allsky.layers.LAYERS`, the one ``docs/architecture.md`` draws.
+"""
+
+import pytest
+
+from allsky import layers
+from allsky.layers import RANK, SRC, import_graph, imports_of, package_of
+
+GRAPH = import_graph()
+
+
+def test_every_package_has_a_layer():
+    packages = {p.name for p in SRC.iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    assert packages == set(RANK) - {""}
+    assert sorted(RANK.values()) == list(range(len(layers.LAYERS)))
+
+
+@pytest.mark.parametrize("module", sorted(GRAPH))
+def test_imports_go_down(module):
+    here = package_of(module)
+    upward = [dep for dep in sorted(GRAPH[module])
+              if package_of(dep) != here and RANK[package_of(dep)] >= RANK[here]]
+    assert not upward, f"{module} ({here or 'foundation'}) imports up or sideways: {upward}"
+
+
+def test_no_import_cycles():
+    """Depth-first search for a loop in the module graph (package faces excluded)."""
+    faces = {m for m in GRAPH if m.count(".") == 1 and (SRC / m.split(".")[1]).is_dir()}
+    graph = {m: {d for d in deps if d in GRAPH and d not in faces and d != m}
+             for m, deps in GRAPH.items() if m not in faces}
+    state, stack, cycles = {}, [], []
+
+    def visit(m):
+        state[m] = "open"
+        stack.append(m)
+        for d in sorted(graph.get(m, ())):
+            if state.get(d) == "open":
+                cycles.append(stack[stack.index(d):] + [d])
+            elif d not in state:
+                visit(d)
+        stack.pop()
+        state[m] = "done"
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m)
+    assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles)
+
+
+def test_the_checker_sees_lazy_and_dotted_imports(tmp_path):
+    f = tmp_path / "x.py"
+    f.write_text("import allsky.units\n\ndef f():\n    from allsky.apps import cli\n")
+    assert imports_of(f) == {"allsky.apps.cli", "allsky.units"}
+    assert package_of("allsky.hardware.gyro") == "hardware"
+    assert package_of("allsky.units") == "" and package_of("allsky.__main__") == "apps"
+
+
+def test_package_exports_match_the_lazy_table():
+    import allsky
+
+    assert set(allsky.__all__) == {"__version__", *allsky._EXPORTS}
+    for name in allsky._EXPORTS:
+        assert getattr(allsky, name) is not None

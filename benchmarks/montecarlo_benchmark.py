@@ -46,6 +46,7 @@ def _rss_mb():
 
 def _runner_parts_ms(cfg, out, n=200):
     """Cost of each thing the runner does around a mission [ms]."""
+    from allsky.apps import campaign
     from allsky.config import dispersions
     from allsky.sim.mission import run_mission
     from allsky.studies import montecarlo
@@ -60,7 +61,7 @@ def _runner_parts_ms(cfg, out, n=200):
     for _ in range(n):
         row = montecarlo.row_from_summary(0, 1, {}, m.summary())
     parts["summary and row"] = (time.perf_counter() - t0) / n * 1e3
-    results = montecarlo._Results(Path(f"{out}parts.csv"), montecarlo.columns(cfg))
+    results = campaign.ResultsFile(Path(f"{out}parts.csv"), montecarlo.columns(cfg))
     t0 = time.perf_counter()
     for _ in range(n):
         results.write(row)
@@ -71,9 +72,9 @@ def _runner_parts_ms(cfg, out, n=200):
 
 def child(mode, runs, out):
     """One measurement, in this (fresh) process; prints a JSON line."""
+    from allsky.apps.campaign import run_recorded
     from allsky.config.scenario import load_scenario
     from allsky.sim.mission import run_mission
-    from allsky.studies.montecarlo import run_campaign
 
     cfg = load_scenario()
     res = {"mode": mode, "runs": runs}
@@ -91,13 +92,13 @@ def child(mode, runs, out):
                 run_mission(load_scenario(overrides=[f"mission.seed={s}"]), telemetry=False)
             single.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            run_campaign(cfg, runs=runs, workers=1, out=f"{out}{k}")
+            run_recorded(cfg, runs=runs, workers=1, out=f"{out}{k}")
             campaign.append(time.perf_counter() - t0)
         res["single_s"], res["campaign_s"] = min(single), min(campaign)
         res["parts_ms"] = _runner_parts_ms(cfg, out)
     elif mode in ("local1", "local2"):
         t0 = time.perf_counter()
-        r = run_campaign(cfg, runs=runs, workers=int(mode[-1]), out=out)
+        r = run_recorded(cfg, runs=runs, workers=int(mode[-1]), out=out)
         res["campaign_s"] = time.perf_counter() - t0
         res["complete"] = r["summary"]["complete"]
     elif mode == "dask":
@@ -114,10 +115,10 @@ def child(mode, runs, out):
                              host="127.0.0.1", dashboard_address=None) as cluster:
             res["cluster_start_s"] = time.perf_counter() - t0
             t0 = time.perf_counter()
-            run_campaign(cfg, runs=4, scheduler=cluster.scheduler_address)  # load the code
+            run_recorded(cfg, runs=4, scheduler=cluster.scheduler_address)  # load the code
             res["warmup_s"] = time.perf_counter() - t0
             t0 = time.perf_counter()
-            r = run_campaign(cfg, runs=runs, scheduler=cluster.scheduler_address, out=out)
+            r = run_recorded(cfg, runs=runs, scheduler=cluster.scheduler_address, out=out)
             res["campaign_s"] = time.perf_counter() - t0
             res["complete"] = r["summary"]["complete"]
             with Client(cluster) as client:

@@ -2,6 +2,7 @@
 
 import pytest
 
+from allsky.apps import states
 from allsky.config.scenario import load_scenario
 from allsky.sequencer.master_sequencer import MODES
 from allsky.sim.mission import Mission
@@ -22,9 +23,9 @@ def saved_states(tmp_path_factory, default_cfg):
     m = Mission(default_cfg)
     paths = {}
     for name in MODES:
-        paths[name] = m.save(d / f"before_{name}.npz")
+        paths[name] = states.save(m, d / f"before_{name}.npz")
         m.run_mode()
     assert m.status == "complete", m.abort_reason
-    paths["end"] = m.save(d / "end.npz")
+    paths["end"] = states.save(m, d / "end.npz")
     paths["mission"] = m
     return paths

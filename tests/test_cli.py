@@ -60,3 +60,14 @@ def test_compare_writes_table_json_and_plot(tmp_path, capsys):
 
 def test_compare_rejects_bad_runs(capsys):
     assert main(["compare", "--runs", "0"]) == 2
+
+
+def test_console_script_entry_point_resolves():
+    """The ``allsky`` command of pyproject.toml names a function that exists."""
+    import importlib
+    import tomllib
+    from pathlib import Path
+
+    meta = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    module, func = meta["project"]["scripts"]["allsky"].split(":")
+    assert callable(getattr(importlib.import_module(module), func))

@@ -17,7 +17,8 @@ from hypothesis import strategies as st
 
 import allsky.apps.report
 from allsky.apps.cli import main
-from allsky.config.scenario import DEFAULT_SCENARIO_PATH, Scenario, load_scenario, toml_dumps
+from allsky.config import DEFAULT_SCENARIO_PATH, Scenario, load_scenario
+from allsky.config.toml_io import toml_dumps
 
 DEFAULT_TEXT = DEFAULT_SCENARIO_PATH.read_text()
 DEFAULT = tomllib.loads(DEFAULT_TEXT)
@@ -64,6 +65,16 @@ def test_config_check_ok(capsys, tmp_path):
     ("", ["--set", "gyro.arw_deg_rt_h=-1"], "gyro.arw_deg_rt_h = -1.0: must be >= 0"),
     ("[gyro]\ndrift_deg_hr = [0, 0, 0]\n", [], "gyro.drift_deg_hr: unknown key; nearest"),
     ("[mission]\nseed = 1\n[gyro\n", [], "TOML syntax error"),
+    # once accepted: a frame that never ends, or crashes the compiled loop
+    ("", ["--set", "mission.frame_s=1e-12"], "mission.frame_s = 1e-12: must be >= 0.0001"),
+    ("", ["--set", "mission.frame_s=1e-300"], "mission.frame_s = 1e-300: must be >= 0.0001"),
+    # once accepted: the ephemeris refused the Sun an hour after the start
+    ("", ["--set", "mission.date_utc=2100-12-31T23:00:00Z"],
+     "mission.date_utc = 2100-12-31T23:00:00+00:00: must be <= 2100-12-31T22:44:59.999999Z"),
+    ("", ["--set", "mission.seed=" + "7" * 100_000],
+     "digits): must be in [0, 4294967295] (2**32 - 1: 32-bit seeds)"),
+    ("[mission]\nseed = " + "7" * 100_000 + "\n", [],
+     "digits): must be in [0, 4294967295] (2**32 - 1: 32-bit seeds)"),
 ])
 def test_config_check_bad_input_exit_2(capsys, tmp_path, text, override, message):
     p = tmp_path / "s.toml"
@@ -78,6 +89,16 @@ def test_config_check_bad_input_exit_2(capsys, tmp_path, text, override, message
 def test_config_check_missing_file(capsys, tmp_path):
     code, _, err = run_main(capsys, ["config", "check", str(tmp_path / "none.toml")])
     assert code == 2 and err == f"allsky: error: scenario file not found: {tmp_path}/none.toml\n"
+
+
+def test_missing_disperse_file_is_named_as_such(capsys, tmp_path):
+    code, _, err = run_main(capsys, ["run", "--disperse", str(tmp_path / "none.toml")])
+    assert code == 2 and err == f"allsky: error: --disperse file not found: {tmp_path}/none.toml\n"
+    (tmp_path / "dir.toml").mkdir()
+    code, _, err = run_main(capsys, ["montecarlo", "--runs", "1", "--disperse",
+                                     str(tmp_path / "dir.toml")])
+    assert code == 2 and err == (f"allsky: error: cannot read --disperse file {tmp_path}/dir.toml: "
+                                 "a directory, not a file\n")
 
 
 @pytest.mark.parametrize("argv", [["config", "check"], ["config"], [], ["frobnicate"],

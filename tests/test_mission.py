@@ -1,7 +1,7 @@
 """End-to-end missions: accuracy over gyro error sets, what calibration buys,
 reproducibility, aborts.
 
-Bounds are the issue's acceptance figures: drift within 0.1 deg/h of truth,
+Bounds are the acceptance figures: drift within 0.1 deg/h of truth,
 scale factors within 150 ppm, cross-coupling within 2.4e-5 (5 arcsec), final
 pointing within 60 arcsec, and at least 10x worse without the calibration.
 """
@@ -105,8 +105,8 @@ def test_short_timeout_aborts_instead_of_hanging():
 def test_plain_python_gives_the_same_numbers(saved_states, tmp_path):
     """NUMBA_DISABLE_JIT=1 runs the blocks as plain Python: Mode 3 must agree bit for bit."""
     code = (
-        "import sys, numpy as np; from allsky.sim.mission import Mission;"
-        "m = Mission.load(sys.argv[1]); m.run_mode();"
+        "import sys, numpy as np; from allsky.apps import states;"
+        "m = states.load(sys.argv[1]); m.run_mode();"
         "np.savez(sys.argv[2], **m.state._asdict())"
     )
     out = {}

@@ -1,4 +1,5 @@
-"""Monte Carlo campaigns (allsky.studies.montecarlo) and dispersions (allsky.config.dispersions).
+"""Monte Carlo campaigns (allsky.studies.montecarlo), their durable record
+(allsky.apps.campaign) and dispersions (allsky.config.dispersions).
 
 Draws against their declared distributions; the same rows with 1 or 2
 worker processes and on a Dask cluster; a campaign killed part way and
@@ -19,19 +20,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from allsky.apps.campaign import MANIFEST, RESULTS, read_rows, run_recorded
 from allsky.apps.cli import main
-from allsky.config import dispersions
-from allsky.config.scenario import ConfigError, load_scenario
+from allsky.config import ConfigError, dispersions, load_scenario
 from allsky.studies import montecarlo
-from allsky.studies.montecarlo import (
-    MANIFEST,
-    RESULTS,
-    columns,
-    read_rows,
-    row_from_summary,
-    run_campaign,
-    summarize,
-)
+from allsky.studies.montecarlo import columns, row_from_summary, run_campaign, summarize
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 #: A spec touching every kind of entry that still flies in a few seconds.
@@ -67,7 +60,7 @@ def spec_cfg(spec_path):
 def reference(tmp_path_factory, spec_cfg):
     """The campaign flown in this process (1 worker), recorded in a directory."""
     out = tmp_path_factory.mktemp("mc") / "ref"
-    result = run_campaign(spec_cfg, runs=RUNS, workers=1, out=out)
+    result = run_recorded(spec_cfg, runs=RUNS, workers=1, out=out)
     assert result["flown"] == RUNS and not result["interrupted"]
     return out, result
 
@@ -239,6 +232,13 @@ def test_default_scenario_has_no_dispersions():
     ('target = { dist = "choice", stars = ["Sirus"] }', "dispersions.target.stars",
      "nearest: Sirius"),
     ('target = { dist = "choice", stars = [] }', "dispersions.target.stars", "non-empty"),
+    # the default date is 27067.4 days before the last start of its 4500 s mission
+    ('mission.date_utc = { dist = "uniform", half_width_days = 1e6 }',
+     "dispersions.mission.date_utc.half_width_days", "must be <= 27067.4: the drawn dates"),
+    ('mission.date_utc = { dist = "uniform", half_width_days = 1e10 }',
+     "dispersions.mission.date_utc.half_width_days", "must be <= 27067.4"),
+    ('mission.date_utc = { dist = "uniform", low = 2100-01-01, high = 2100-12-31T23:00:00Z }',
+     "dispersions.mission.date_utc.high", "must be <= 2100-12-31T22:44:59.999999Z"),
 ])
 def test_bad_spec_exit_2_naming_the_key(tmp_path, capsys, entry, key, words):
     spec = write(tmp_path / "bad.toml", f"[dispersions]\n{entry}\n")
@@ -266,6 +266,25 @@ def test_a_draw_breaking_a_rule(capsys):
     assert err.startswith("allsky: error: jets.thrust_n = ") and "mission.seed = 1" in err
 
 
+def test_every_date_of_an_accepted_span_flies():
+    """The widest half-width accepted: every draw is a date the ephemeris serves to the end."""
+    cfg = dispersed("mission.date_utc", '{ dist = "uniform", half_width_days = 27067 }')
+    dates = [dispersions.disperse(cfg, seed)[0].mission.date_utc for seed in range(300)]
+    assert max(dates) > datetime(2100, 1, 1, tzinfo=UTC) > datetime(1900, 1, 1, tzinfo=UTC)
+
+
+def test_a_draw_that_cannot_be_made_gives_an_invalid_row():
+    """A spec no loader accepts (a Scenario built without validation) still gives a row."""
+    from allsky.config import Scenario
+
+    ok = load_scenario(overrides=["mission.seed=100"])
+    sections = {name: dict(getattr(ok, name)._values) for name in ok._sections}
+    sections["dispersions"] = {"mission.date_utc": {"dist": "uniform", "half_width_days": 1e6}}
+    row = montecarlo.fly_one(Scenario(sections), 3, 103)
+    assert (row["run"], row["seed"], row["status"]) == (3, 103, "invalid")
+    assert "past the calendar" in row["abort_reason"] and row["mission.date_utc"] is None
+
+
 # -- identical rows whatever flies them --------------------------------------------------
 
 def test_reference_campaign_rows(reference, spec_cfg):
@@ -280,8 +299,20 @@ def test_reference_campaign_rows(reference, spec_cfg):
 
 
 def test_two_workers_give_the_same_rows(reference, spec_cfg, tmp_path):
-    run_campaign(spec_cfg, runs=RUNS, workers=2, out=tmp_path / "w2")
+    run_recorded(spec_cfg, runs=RUNS, workers=2, out=tmp_path / "w2")
     assert read_rows(tmp_path / "w2") == reference[1]["rows"]
+
+
+def test_rows_go_to_the_callback_as_they_finish_and_done_runs_are_not_flown(reference,
+                                                                            spec_cfg):
+    """A campaign given rows already flown flies only the others, handing each to ``on_row``."""
+    ref = reference[1]["rows"]
+    seen, progress = [], []
+    result = run_campaign(spec_cfg, runs=RUNS, workers=1, done=ref[:2], on_row=seen.append,
+                          on_progress=lambda done, total: progress.append((done, total)))
+    assert seen == ref[2:] and result["flown"] == RUNS - 2
+    assert progress == [(2, RUNS), (3, RUNS), (4, RUNS)]
+    assert result["rows"] == ref and result["summary"] == reference[1]["summary"]
 
 
 def test_dask_cluster_gives_the_same_rows(reference, spec_cfg):
@@ -350,13 +381,25 @@ def test_killed_campaign_resumed_equals_the_uninterrupted_one(reference, spec_pa
     assert "Monte Carlo campaign: 4 of 4 runs recorded" in capsys.readouterr().out
 
 
-def test_ctrl_c_saves_what_finished_and_exits_130(spec_path, tmp_path):
+def test_ctrl_c_saves_what_finished_and_exits_130(spec_path, tmp_path, monkeypatch, capsys):
+    """SIGINT sent the moment the first row is on disk, with 200 runs to go: always 130."""
+    from allsky.apps import campaign
+
+    write = campaign.ResultsFile.write
+    sent = []
+
+    def write_then_interrupt(self, row):
+        write(self, row)
+        if not sent:
+            sent.append(row["run"])
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(campaign.ResultsFile, "write", write_then_interrupt)
     out = tmp_path / "sigint"
-    proc = _cli("--runs", "200", "--workers", "2", "--out", str(out))
-    _wait_rows(out, 1, proc)
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
+    code = main(["montecarlo", "--disperse", str(spec_path), "--runs", "200", "--workers", "2",
+                 "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 130, err
     assert "Traceback" not in err and f"continue with --resume --out {out}" in err
     rows = read_rows(out)
     assert 1 <= len(rows) < 200 and all(r["status"] == "complete" for r in rows)
@@ -385,6 +428,112 @@ def test_resume_needs_a_campaign(tmp_path, capsys):
     assert "--runs N is needed" in capsys.readouterr().err
     assert main(["montecarlo", "--runs", "2", "--set", f"mission.seed={2**32 - 1}"]) == 2
     assert "pass the largest mission.seed (4294967295)" in capsys.readouterr().err
+
+
+# -- a damaged campaign record is refused, in one line naming the file and the line ------------
+
+@pytest.fixture()
+def copied(reference, tmp_path):
+    """A copy of the reference campaign directory, and the arguments that resume it."""
+    import shutil
+
+    out = tmp_path / "copy"
+    shutil.copytree(reference[0], out)
+    return out
+
+
+def _resume(capsys, out, spec_path):
+    code = main(["montecarlo", "--disperse", str(spec_path), "--set", "mission.seed=100",
+                 "--out", str(out), "--resume", "--workers", "1", "--quiet"])
+    out_text, err = capsys.readouterr()
+    return code, out_text, err
+
+
+def _refused(capsys, out, spec_path, words):
+    """Exit 2 with one line naming the option, the file and ``words``."""
+    code, _, err = _resume(capsys, out, spec_path)
+    assert code == 2 and err.startswith("allsky: error: --resume: ") and err.count("\n") == 1, err
+    assert words in err, err
+    return err
+
+
+@pytest.mark.parametrize("runs", ['"twelve"', "[]", "-3", "0", "true", "1.5", "4294967197"])
+def test_resume_refuses_a_manifest_with_bad_runs(capsys, copied, spec_path, runs):
+    m = copied / MANIFEST
+    data = json.loads(m.read_text())
+    m.write_text(json.dumps({**data, "runs": json.loads(runs)}))
+    _refused(capsys, copied, spec_path, f"{m}: runs = {runs} is not a number of runs "
+                                        "(1..4294967196 from base_seed 100)")
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"{", "not JSON (Expecting property name"),
+    (b"\xff{}", "not UTF-8 text (byte 0xff at offset 0)"),
+    (b"[1, 2]", "not an allsky campaign manifest (format 1)"),
+    (b"", "not JSON"),
+])
+def test_resume_refuses_a_manifest_that_is_not_one(capsys, copied, spec_path, content, words):
+    (copied / MANIFEST).write_bytes(content)
+    _refused(capsys, copied, spec_path, f"{copied / MANIFEST}: {words}")
+
+
+def _lines(out):
+    return (out / RESULTS).read_bytes().splitlines(keepends=True)
+
+
+def _with_cell(line: bytes, col: str, text: str, cols) -> bytes:
+    cells = line.rstrip(b"\n").split(b",")
+    cells[cols.index(col)] = text.encode()
+    return b",".join(cells) + b"\n"
+
+
+def test_resume_refuses_results_without_a_header(capsys, copied, spec_path):
+    """Rows once went on being appended without a header, and the next resume crashed."""
+    path = copied / RESULTS
+    rows = _lines(copied)[1:]
+    path.write_bytes(b"")
+    _refused(capsys, copied, spec_path, f"{path}: empty, no header line")
+    assert path.read_bytes() == b""  # nothing appended to it
+    path.write_bytes(b"".join(rows))
+    _refused(capsys, copied, spec_path, f"{path}: line 1, the header: column 1 is '0', this "
+                                        "campaign's is 'run'")
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda line, cols: line[:5] + b"\xff" + line[5:], "line 3: not UTF-8 text (byte 0xff)"),
+    (lambda line, cols: _with_cell(line, "pointing_error_arcsec", "abc", cols),
+     "line 3, column 'pointing_error_arcsec': 'abc' is not a number"),
+    (lambda line, cols: _with_cell(line, "run", "1.0", cols),
+     "line 3, column 'run': '1.0' is not an integer"),
+    (lambda line, cols: _with_cell(line, "run", "-1", cols),
+     "line 3: run -1 of a campaign of 4 runs (0..3)"),
+    (lambda line, cols: _with_cell(_with_cell(line, "run", "13", cols), "seed", "113", cols),
+     "line 3: run 13 of a campaign of 4 runs (0..3)"),
+    (lambda line, cols: _with_cell(line, "seed", "7", cols),
+     "line 3: run 1 with seed 7; the campaign flies seed 101"),
+    (lambda line, cols: _with_cell(line, "status", "done", cols),
+     "line 3: status 'done' is not one of complete, aborted, invalid, error"),
+    (lambda line, cols: line.rstrip(b"\n") + b",1\n", "line 3 has"),
+])
+def test_resume_refuses_a_damaged_row(capsys, copied, spec_path, spec_cfg, edit, words):
+    lines = _lines(copied)
+    lines[2] = edit(lines[2], columns(spec_cfg))
+    (copied / RESULTS).write_bytes(b"".join(lines))
+    _refused(capsys, copied, spec_path, f"{copied / RESULTS}: {words}")
+
+
+def test_resume_drops_exact_duplicates_and_refuses_conflicting_rows(capsys, copied, spec_path,
+                                                                   spec_cfg, reference):
+    lines = _lines(copied)
+    (copied / RESULTS).write_bytes(b"".join([*lines, lines[1], lines[3]]))
+    code, _, err = _resume(capsys, copied, spec_path)
+    assert code == 0 and err == (f"allsky: {copied / RESULTS}: 2 lines repeating another line "
+                                 "for the same run left out\n")
+    assert read_rows(copied) == reference[1]["rows"]
+    changed = _with_cell(lines[1], "pointing_error_arcsec", "0.5", columns(spec_cfg))
+    (copied / RESULTS).write_bytes(b"".join([*lines, changed]))
+    _refused(capsys, copied, spec_path, f"{copied / RESULTS}: lines 2 and 6 record run 0 "
+                                        "differently")
 
 
 # -- outputs ---------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from allsky import units
-from allsky.apps import cli, step
+from allsky.apps import cli, states, step
 from allsky.sim.mission import Mission
 
 #: Switches closed at the end of each mode (SPEC section 4's switch actions).
@@ -78,7 +78,7 @@ def test_stepping_does_not_change_the_flight(default_cfg, saved_states):
 
 def test_snapshot_reads_the_hardware(saved_states):
     """Values at the end of Mode 5 against the state arrays they come from."""
-    m = Mission.load(saved_states["6-1"], telemetry=False)
+    m = states.load(saved_states["6-1"], telemetry=False)
     m._mode = "5"
     snap = step.snapshot(m, "every", "test")
     s, el = m.state, m.params.electronics
@@ -102,7 +102,7 @@ def test_snapshot_reads_the_hardware(saved_states):
 
 
 def test_looking_does_not_draw_from_the_noise_generator(saved_states):
-    m = Mission.load(saved_states["4"], telemetry=False)
+    m = states.load(saved_states["4"], telemetry=False)
     m._mode = "3"
     before = m.state.rng.copy()
     step.snapshot(m, "every", "test")
@@ -194,7 +194,7 @@ def test_pauses_every_n_seconds_do_not_change_the_flight(default_cfg, saved_stat
     for s in inside:
         k = round(s["time_s"] / 97.0)
         assert s["time_s"] == pytest.approx(97.0 * k, abs=0.011)
-        assert s["reason"].startswith("under way: ")
+        assert s["reason"].startswith("waiting for: ")
     for name in m.state._fields:
         if name != "leg_clock":  # the progress of the last leg when it was paused
             np.testing.assert_array_equal(getattr(m.state, name), getattr(straight.state, name))
@@ -211,11 +211,11 @@ def test_every_and_until_print_inside_stops_only_from_that_mode(capsys):
 
 
 def test_step_telemetry_as_parquet_holds_the_flight_so_far(tmp_path, capsys):
-    from allsky.sim import telemetry
+    from allsky.apps import telemetry_files
 
     path = tmp_path / "t.parquet"
     assert cli.main(["step", "--no-pause", "--until", "2", "--telemetry", str(path)]) == 0
-    table, _ = telemetry.read(path)
+    table, _ = telemetry_files.read(path)
     t_end = float(stops_in(capsys.readouterr().out)[-1][1])
     assert table[-1, 0] == pytest.approx(t_end, abs=0.1)
     assert set(table[:, 1]) == {1.0, 2.0}  # mode codes of Modes 1 and 2 only

@@ -1,11 +1,12 @@
-"""Telemetry columns, their documentation, and the CSV and Parquet files.
+"""Telemetry columns (allsky.sim.telemetry), their page and the CSV and Parquet files (apps).
 
 Truth: the column list in docs/telemetry.md is generated from
 ``telemetry.COLUMNS`` and must equal what the code generates; the recorder
-writes the columns in :func:`allsky.sim.frame_loop._record`'s order, ``N_TLM`` of
-them; a file read back equals the table written, bit for bit.
+(:mod:`allsky.sim.recorder`) puts every value in the column its name says;
+a file read back equals the table written, bit for bit.
 """
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -13,10 +14,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+from allsky.apps import telemetry_files
 from allsky.apps.cli import main
 from allsky.hardware import switch_bank
-from allsky.sim import frame_loop, telemetry
+from allsky.sim import recorder, telemetry
 from allsky.sim.mission import MODE_CODE
+from allsky.sim.state import new_state
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -35,11 +38,51 @@ def bits(a):
 # -- the columns and their documentation -------------------------------------------------
 
 def test_columns_match_the_recorder():
-    assert len(telemetry.COLUMNS) == frame_loop.N_TLM
+    assert telemetry.COLUMNS is recorder.COLUMNS and telemetry.INDEX is recorder.INDEX
+    assert recorder.N_TLM == len(telemetry.COLUMNS)
     names = [c.name for c in telemetry.COLUMNS]
     assert len(set(names)) == len(names)
     for c in telemetry.COLUMNS:
         assert c.unit and c.meaning, c
+
+
+def test_the_recorder_writes_every_value_under_its_name():
+    s = new_state(np.array([0.5, 0.5, -0.5, 0.5]), [1e-3, -2e-3, 3e-3], 3.25)
+    s.time_s[0] = 12.5
+    s.counters[:] = [14, 16, 18]
+    s.drift_counters[:] = [13, 15, 17]
+    s.registers[:] = [25, 26, 27]
+    s.pwpf_out[:] = [1, 0, -1]
+    s.cpu[:6] = [101.0, 102.0, 103.0, 104.0, 105.0, 106.0]
+    switch_bank.operate(s.switches, close=(1, 14, 15, 16, 18))
+    switch_bank.select(s.switches, 2)
+    s.overflow[:] = [0, 1, 0, 0, 0, 1]
+    s.frame[0] = 20
+    tlm, rows = np.full((2, recorder.N_TLM), np.nan), np.zeros(1, dtype=np.int64)
+    fine, trk, volts = np.array([9.0, 10.0, 1.0]), np.array([12.0, 13.0, 0.0]), np.array(
+        [-0.5, 0.25, 2.0])
+    recorder.record_telemetry(tlm, rows, 7, s, 6.2, fine, trk, volts)  # frame 20: not a 7th
+    assert rows[0] == 0
+    recorder.record_telemetry(tlm, rows, 10, s, 6.2, fine, trk, volts)
+    assert rows[0] == 1
+    row = dict(zip((c.name for c in telemetry.COLUMNS), tlm[0]))
+    expect = {
+        "time": 12.5, "mode": 6.2, "q_w": 0.5, "q_x": 0.5, "q_y": -0.5, "q_z": 0.5,
+        "rate_x": 1e-3, "rate_y": -2e-3, "rate_z": 3e-3,
+        "sun_pitch": 9.0, "sun_yaw": 10.0, "sun_present": 1.0,
+        "tracker_yaw": 12.0, "tracker_pitch": 13.0, "star_present": 0.0,
+        "counter14": 14, "counter16": 16, "counter18": 18,
+        "drift_counter13": 13, "drift_counter15": 15, "drift_counter17": 17,
+        "register25": 25, "register26": 26, "register27": 27,
+        "valve_roll": 1, "valve_pitch": 0, "valve_yaw": -1,
+        "amp31": -0.5, "amp32": 0.25, "amp33": 2.0,
+        "error_roll": 104.0, "error_pitch": 105.0, "error_yaw": 106.0,
+        "propellant": 3.25, "switches": switch_bank.bitmask(s.switches), "s7_s8": 2,
+        "overflow": 0b100010,
+        "corrected_roll": 101.0, "corrected_yaw": 102.0, "intermediate_pitch": 103.0,
+    }
+    assert row == expect
+    assert np.isnan(tlm[1]).all()
 
 
 def test_header_carries_the_units():
@@ -50,20 +93,20 @@ def test_header_carries_the_units():
 
 def test_committed_column_list_is_what_the_code_generates():
     committed = (DOCS / "telemetry.md").read_text()
-    assert committed == telemetry.markdown(), (
+    assert committed == telemetry_files.markdown(), (
         "docs/telemetry.md is out of date: run "
-        "`python -m allsky.sim.telemetry --markdown > docs/telemetry.md`")
+        "`python -m allsky.apps.telemetry_files --markdown > docs/telemetry.md`")
 
 
 def test_column_list_names_every_column_with_unit_and_meaning():
-    page = telemetry.markdown()
+    page = telemetry_files.markdown()
     for i, (c, h) in enumerate(zip(telemetry.COLUMNS, telemetry.header())):
         assert f"| {i} | `{h}` | {c.unit} | {c.meaning} |" in page
 
 
 def test_module_prints_the_column_list(capsys):
-    assert telemetry.main(["--markdown"]) == 0
-    assert capsys.readouterr().out == telemetry.markdown()
+    assert telemetry_files.main(["--markdown"]) == 0
+    assert capsys.readouterr().out == telemetry_files.markdown()
 
 
 def test_mission_values_are_what_the_columns_say(table):
@@ -93,8 +136,8 @@ def test_mission_values_are_what_the_columns_say(table):
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet", ".CSV"])
 def test_mission_telemetry_round_trips_exactly(tmp_path, table, suffix):
-    path = telemetry.write(tmp_path / f"t{suffix}", table)
-    back, names = telemetry.read(path)
+    path = telemetry_files.write(tmp_path / f"t{suffix}", table)
+    back, names = telemetry_files.read(path)
     assert names == telemetry.header()
     assert back.shape == table.shape
     assert np.array_equal(bits(back), bits(table))
@@ -108,19 +151,20 @@ def test_awkward_values_round_trip_exactly(tmp_path, suffix):
     t[0, :5] = [-0.0, 5e-324, 1.7976931348623157e308, 2.0 ** 53 + 2, 0.1]
     t[1, 0] = np.nan
     t[2, 0] = -np.inf
-    back, _ = telemetry.read(telemetry.write(tmp_path / f"a{suffix}", t))
+    back, _ = telemetry_files.read(telemetry_files.write(tmp_path / f"a{suffix}", t),
+                                   check=False)
     assert np.array_equal(bits(back), bits(t))
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_empty_table_round_trips(tmp_path, suffix):
-    back, _ = telemetry.read(telemetry.write(tmp_path / f"e{suffix}",
+    back, _ = telemetry_files.read(telemetry_files.write(tmp_path / f"e{suffix}",
                                              np.empty((0, len(telemetry.COLUMNS)))))
     assert back.shape == (0, len(telemetry.COLUMNS))
 
 
 def test_parquet_columns_are_float64_with_units_in_names(tmp_path, table):
-    t = pq.read_table(telemetry.write(tmp_path / "t.parquet", table[:50]))
+    t = pq.read_table(telemetry_files.write(tmp_path / "t.parquet", table[:50]))
     assert t.column_names == telemetry.header()
     assert all(f.type == pa.float64() for f in t.schema)
 
@@ -128,12 +172,12 @@ def test_parquet_columns_are_float64_with_units_in_names(tmp_path, table):
 @pytest.mark.parametrize("name", ["t.txt", "t.json", "t", "t.csv.gz", "t.parq"])
 def test_other_suffixes_are_refused_by_name(tmp_path, name):
     suffix = Path(name).suffix
-    with pytest.raises(telemetry.TelemetryError, match="use .csv or .parquet") as e:
-        telemetry.write(tmp_path / name, np.zeros((1, len(telemetry.COLUMNS))))
+    with pytest.raises(telemetry_files.TelemetryError, match="use .csv or .parquet") as e:
+        telemetry_files.write(tmp_path / name, np.zeros((1, len(telemetry.COLUMNS))))
     assert (repr(suffix) if suffix else "no suffix") in str(e.value)
     assert not (tmp_path / name).exists()
-    with pytest.raises(telemetry.TelemetryError, match="use .csv or .parquet"):
-        telemetry.read(tmp_path / name)
+    with pytest.raises(telemetry_files.TelemetryError, match="use .csv or .parquet"):
+        telemetry_files.read(tmp_path / name)
 
 
 def _drop_csv_column(src, dst, name):
@@ -143,55 +187,155 @@ def _drop_csv_column(src, dst, name):
 
 
 def test_csv_without_a_documented_column_is_refused_naming_it(tmp_path, table):
-    src = telemetry.write(tmp_path / "full.csv", table[:20])
+    src = telemetry_files.write(tmp_path / "full.csv", table[:20])
     _drop_csv_column(src, tmp_path / "cut.csv", "counter16 [pulses]")
-    with pytest.raises(telemetry.TelemetryError, match=r"missing column 'counter16 \[pulses\]'"):
-        telemetry.read(tmp_path / "cut.csv")
+    with pytest.raises(telemetry_files.TelemetryError, match=r"missing column 'counter16 \[pulses\]'"):
+        telemetry_files.read(tmp_path / "cut.csv")
 
 
 def test_parquet_without_a_documented_column_is_refused_naming_it(tmp_path, table):
-    t = pq.read_table(telemetry.write(tmp_path / "full.parquet", table[:20]))
+    t = pq.read_table(telemetry_files.write(tmp_path / "full.parquet", table[:20]))
     pq.write_table(t.drop_columns(["propellant [kg]"]), tmp_path / "cut.parquet")
-    with pytest.raises(telemetry.TelemetryError, match=r"missing column 'propellant \[kg\]'"):
-        telemetry.read(tmp_path / "cut.parquet")
+    with pytest.raises(telemetry_files.TelemetryError, match=r"missing column 'propellant \[kg\]'"):
+        telemetry_files.read(tmp_path / "cut.parquet")
 
 
 def test_renamed_unit_is_a_missing_column(tmp_path, table):
-    t = pq.read_table(telemetry.write(tmp_path / "full.parquet", table[:5]))
+    t = pq.read_table(telemetry_files.write(tmp_path / "full.parquet", table[:5]))
     names = ["time [ms]" if n == "time [s]" else n for n in t.column_names]
     pq.write_table(t.rename_columns(names), tmp_path / "ms.parquet")
-    with pytest.raises(telemetry.TelemetryError, match=r"missing column 'time \[s\]'"):
-        telemetry.read(tmp_path / "ms.parquet")
+    with pytest.raises(telemetry_files.TelemetryError, match=r"missing column 'time \[s\]'"):
+        telemetry_files.read(tmp_path / "ms.parquet")
 
 
 def test_extra_column_is_refused_naming_it(tmp_path, table):
-    t = pq.read_table(telemetry.write(tmp_path / "full.parquet", table[:5]))
+    t = pq.read_table(telemetry_files.write(tmp_path / "full.parquet", table[:5]))
     t = t.append_column("temperature [K]", pa.array(np.zeros(5)))
     pq.write_table(t, tmp_path / "extra.parquet")
-    with pytest.raises(telemetry.TelemetryError, match=r"unexpected column 'temperature \[K\]'"):
-        telemetry.read(tmp_path / "extra.parquet")
+    with pytest.raises(telemetry_files.TelemetryError, match=r"unexpected column 'temperature \[K\]'"):
+        telemetry_files.read(tmp_path / "extra.parquet")
 
 
 def test_columns_in_another_order_are_put_back_in_order(tmp_path, table):
-    t = pq.read_table(telemetry.write(tmp_path / "full.parquet", table[:30]))
+    t = pq.read_table(telemetry_files.write(tmp_path / "full.parquet", table[:30]))
     pq.write_table(t.select(list(reversed(t.column_names))), tmp_path / "rev.parquet")
-    back, _ = telemetry.read(tmp_path / "rev.parquet")
+    back, _ = telemetry_files.read(tmp_path / "rev.parquet")
     assert np.array_equal(bits(back), bits(table[:30]))
 
 
 def test_not_a_parquet_file_is_refused(tmp_path):
-    (tmp_path / "x.parquet").write_text("time [s]\n1.0\n")
-    with pytest.raises(telemetry.TelemetryError, match="not a Parquet file"):
-        telemetry.read(tmp_path / "x.parquet")
+    (tmp_path / "x.parquet").write_bytes(b"PAR1 and then nothing of the format PAR1")
+    with pytest.raises(telemetry_files.TelemetryError, match="not a readable Parquet file"):
+        telemetry_files.read(tmp_path / "x.parquet")
+    (tmp_path / "x.parquet").write_bytes(b"\x00\x01 binary")
+    with pytest.raises(telemetry_files.TelemetryError, match="not a Parquet file$"):
+        telemetry_files.read(tmp_path / "x.parquet")
 
 
 def test_csv_with_text_values_is_refused(tmp_path, table):
-    src = telemetry.write(tmp_path / "t.csv", table[:3])
+    src = telemetry_files.write(tmp_path / "t.csv", table[:3])
     lines = src.read_text().splitlines()
     lines[2] = "abc" + lines[2][lines[2].index(","):]
     src.write_text("\n".join(lines) + "\n")
-    with pytest.raises(telemetry.TelemetryError, match="not a table of numbers"):
-        telemetry.read(src)
+    with pytest.raises(telemetry_files.TelemetryError,
+                       match=r"row 2 \(line 3\), column 'time \[s\]': 'abc' is not a number"):
+        telemetry_files.read(src)
+
+
+# -- a file no mission wrote is refused, naming the file, the first bad row and column -----
+
+def _edited_csv(tmp_path, table, edit, name="t.csv"):
+    t = table[:40].copy()
+    edit(t)
+    return telemetry_files.write(tmp_path / name, t)
+
+
+def _set(col, value, row=5):
+    def edit(t):
+        t[row, telemetry.INDEX[col]] = value
+    return edit
+
+
+def _shuffled(t):
+    t[:] = t[np.random.default_rng(1).permutation(len(t))]
+
+
+@pytest.mark.parametrize("edit, words", [
+    (_set("rate_y", np.nan), "row 6 (line 7), column 'rate_y [rad/s]': nan is not a finite number"),
+    (_set("amp31", -np.inf), "row 6 (line 7), column 'amp31 [V]': -inf is not a finite number"),
+    (_set("time", 0.3), "row 6 (line 7), column 'time [s]': 0.3 does not follow 0.5"),
+    (_set("time", -0.1, 0), "row 1 (line 2), column 'time [s]': -0.1: mission time is >= 0"),
+    (_shuffled, "column 'time [s]': "),
+    (_set("mode", 9.0), ("row 6 (line 7), column 'mode [-]': 9.0 is not a mode code (1, 2, 3, 4, "
+                        "5, 6.1, 6.2, 7)")),
+    (_set("mode", 6.15), "6.15 is not a mode code"),
+    (_set("q_w", 1e308), "row 6 (line 7), column 'q_w [-]': quaternion [1e+308, "),
+    (_set("q_x", 0.01), "is not of unit norm (within 1e-06)"),
+    (_set("counter16", 2.5), ("row 6 (line 7), column 'counter16 [pulses]': 2.5 is not an "
+                             "integer")),
+    (_set("valve_yaw", 2.0), "column 'valve_yaw [-]': 2.0 is not one of -1, 0, 1"),
+    (_set("star_present", 0.5), "column 'star_present [-]': 0.5 is not one of 0, 1"),
+    (_set("s7_s8", 3.0), "column 's7_s8 [axis]': 3.0 is not one of 0, 1, 2"),
+    (_set("switches", 2.0 ** 19), ("column 'switches [bitmask S1..S19]': 524288.0 is not one of "
+                                  "0..524287")),
+    (_set("overflow", 64.0), "64.0 is not one of 0..63"),
+])
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_values_no_mission_writes_are_refused(tmp_path, capsys, table, edit, words, suffix):
+    path = _edited_csv(tmp_path, table, edit, f"t{suffix}")
+    if suffix == ".parquet":
+        words = re.sub(r" \(line \d+\)", "", words)
+    with pytest.raises(telemetry_files.TelemetryError) as e:
+        telemetry_files.read(path)
+    assert str(e.value).startswith(f"telemetry file {str(path)!r}: ") and words in str(e.value)
+    assert main(["plot", str(path), "--out", str(tmp_path / "fig")]) == 2
+    assert capsys.readouterr().err == f"allsky: error: {e.value}\n"
+    assert not (tmp_path / "fig").exists()  # refused before drawing
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p, t: p.write_bytes(b"time [s]\n\xff\xfe\n"), "line 2: not UTF-8 text (byte 0xff)"),
+    (lambda p, t: telemetry_files.write_parquet(p, t[:5]), ("a Parquet file, not CSV: name it "
+                                                           ".parquet")),
+    (lambda p, t: p.mkdir(), "cannot read it: a directory, not a file"),
+    (lambda p, t: None, "cannot read it: no such file"),
+    (lambda p, t: p.write_text('time [s]\n"unclosed\n'), ("missing column 'mode [-]' (and 38 "
+                                                           "more); see docs/telemetry.md")),
+])
+def test_files_that_are_not_csv_telemetry_are_refused(tmp_path, capsys, table, make, words):
+    path = tmp_path / "t.csv"
+    make(path, table)
+    assert main(["plot", str(path)]) == 2
+    assert capsys.readouterr().err == f"allsky: error: telemetry file {str(path)!r}: {words}\n"
+
+
+def test_csv_renamed_parquet_is_named_as_csv(tmp_path, capsys, table):
+    path = telemetry_files.write_csv(tmp_path / "t.parquet", table[:5])
+    assert main(["plot", str(path)]) == 2
+    assert capsys.readouterr().err == (f"allsky: error: telemetry file {str(path)!r}: a CSV file, "
+                                       "not Parquet: name it .csv\n")
+
+
+def test_parquet_with_text_or_empty_cells_is_refused(tmp_path, table):
+    t = pq.read_table(telemetry_files.write(tmp_path / "full.parquet", table[:5]))
+    k = t.column_names.index("amp32 [V]")
+    pq.write_table(t.set_column(k, "amp32 [V]", pa.array(["x"] * 5)), tmp_path / "text.parquet")
+    with pytest.raises(telemetry_files.TelemetryError, match=r"column 'amp32 \[V\]' holds "
+                                                             "string, not numbers"):
+        telemetry_files.read(tmp_path / "text.parquet")
+    cells = pa.array([1.0, None, 3.0, 4.0, 5.0], type=pa.float64())
+    pq.write_table(t.set_column(k, "amp32 [V]", cells), tmp_path / "null.parquet")
+    with pytest.raises(telemetry_files.TelemetryError, match=r"row 2, column 'amp32 \[V\]': "
+                                                             "empty"):
+        telemetry_files.read(tmp_path / "null.parquet")
+
+
+def test_a_csv_row_of_the_wrong_width_is_refused(tmp_path, table):
+    path = telemetry_files.write(tmp_path / "t.csv", table[:4])
+    path.write_text(path.read_text() + "1.0,2.0\n")
+    with pytest.raises(telemetry_files.TelemetryError, match=r"row 5 \(line 6\): 2 fields, the "
+                                                             "header has 40"):
+        telemetry_files.read(path)
 
 
 # -- the command line ---------------------------------------------------------------------
@@ -199,7 +343,7 @@ def test_csv_with_text_values_is_refused(tmp_path, table):
 def test_run_writes_parquet_telemetry(tmp_path, capsys, table):
     path = tmp_path / "tlm.parquet"
     assert main(["run", "--telemetry", str(path)]) == 0
-    back, _ = telemetry.read(path)
+    back, _ = telemetry_files.read(path)
     # Same scenario and seed: the same telemetry as the mission flown by the fixture.
     assert np.array_equal(bits(back), bits(table))
 

@@ -6,7 +6,6 @@ presents them.
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -73,16 +72,28 @@ def _finite_or_none(value):
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky analyze``: print the tables; write --json and the --plot PNG."""
+    """``allsky analyze``: print the tables; write --json and the --plot PNG.
+
+    ``--json -`` writes the JSON alone to stdout, instead of the tables.
+    """
+    from allsky.apps.output import check_output, write_atomic
+
+    check_output("--json", args.json)
+    check_output("--plot", args.plot)
+    to_stdout = args.json == "-"
+    say = (lambda *a, **k: None) if to_stdout else print
     result = analyze(cfg)
-    print(format_analysis(result))
-    if args.json:
-        Path(args.json).write_text(json.dumps(_finite_or_none(result), indent=2) + "\n")
+    say(format_analysis(result))
+    body = json.dumps(_finite_or_none(result), indent=2) + "\n"
+    if to_stdout:
+        print(body, end="")
+    elif args.json:
+        say(f"wrote {write_atomic(args.json, body, option='--json')}")
     if args.plot:
         from allsky.apps import plots
 
         # Up to the frame's Nyquist frequency pi / frame_s: beyond it the loop is not defined.
         w = np.logspace(-2, math.log10(math.pi / cfg.mission.frame_s), 400)
         fig = plots.analysis(result, frequency_responses(scenario_loops(cfg), w))
-        print(f"plot: {plots.save(fig, args.plot)}")
+        say(f"plot: {plots.save(fig, args.plot)}")
     return 0

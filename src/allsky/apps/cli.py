@@ -10,27 +10,70 @@ Commands::
     allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers K | --scheduler ADDRESS]
                       [--out DIR] [--resume] [--set KEY=VALUE ...] [--json PATH] [--quiet]
 
-Exit codes: 0 success; 1 a mission that ended aborted; 2 a usage or
-configuration error, reported as one line ``allsky: error: ...`` on stderr
-(never a traceback).
+Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
+2 a usage, input or output error, or a lost Dask cluster, reported as one
+line ``allsky: error: ...`` on stderr; 3 an internal error, reported as one
+line with a crash report file holding the traceback; 130 interrupted
+(Ctrl-C or SIGTERM), after writing what the finished work promised, in one
+line ``allsky: interrupted; ...``. Never a bare traceback.
 """
 
 import argparse
 import os
+import signal
 import sys
+import tempfile
+import time
+import traceback
 
 from allsky import __version__
-from allsky.config.scenario import ConfigError, load_scenario
-from allsky.sim.telemetry import TelemetryError
+from allsky.apps.output import Interrupted, OutputError
+from allsky.apps.telemetry_files import TelemetryError
+from allsky.config import ConfigError, load_scenario
+
+#: The exit codes of every command.
+EXIT_CODES = {
+    0: "success",
+    1: "a mission ended aborted",
+    2: "usage, input or output error (one line 'allsky: error: ...'), or the Dask cluster lost",
+    3: "internal error (one line, the traceback in a crash report file)",
+    130: "interrupted by Ctrl-C or SIGTERM (what finished is written; one line says what)",
+}
+EXIT_ABORTED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 130
+#: The options that mean the same on every command that has them.
+COMMON_FLAGS = {
+    "--json PATH": "write the result as JSON; '-' writes it to stdout and nothing else goes "
+                   "there",
+    "--quiet": "no progress line (progress goes to stderr, and only when it is a terminal)",
+    "--workers N": "worker processes, at most one per run and per core (a larger request is "
+                   "lowered, with a note on stderr)",
+    "--set KEY=VALUE": "override a scenario key (dotted path, TOML value); repeatable",
+    "--version": "print the version, before or after the command",
+}
+
+
+def exit_codes_text() -> str:
+    """The exit codes and the common flags, as the help's epilog shows them."""
+    lines = ["exit codes:"] + [f"  {k:<4} {v}" for k, v in EXIT_CODES.items()]
+    lines += ["", "flags common to the commands:"]
+    lines += [f"  {k:<16} {v}" for k, v in COMMON_FLAGS.items()]
+    return "\n".join(lines)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with errors as one line ``allsky: error: ...`` and exit code 2."""
+
+    def error(self, message):
+        self.exit(EXIT_USAGE, f"allsky: error: {self.prog}: {message}; usage: {self.prog} "
+                              "--help\n")
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="allsky", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Emulator of the 1970s all-sky pointing attitude control system "
                     "(US patent 4,012,018).",
-        epilog="exit codes: 0 success; 1 a mission ended aborted; 2 usage or configuration "
-               "error\n\n"
+        epilog=exit_codes_text() + "\n\n"
                "examples:\n"
                "  allsky run                     # fly the default mission, print the report\n"
                "  allsky step                    # the same, stopping at each mode boundary\n"
@@ -94,7 +137,8 @@ def _parser() -> argparse.ArgumentParser:
     step.add_argument("--from", dest="from_state", metavar="STATE",
                       help="resume a mission saved at a mode boundary (.npz from --save-dir)")
     step.add_argument("--every", type=_positive_float, metavar="SECONDS",
-                      help="also stop every SECONDS of mission time inside modes")
+                      help="also stop every SECONDS of mission time inside modes (at least "
+                           "0.1 s and 10 frames)")
     step.add_argument("--until", metavar="MODE",
                       help="show no stop before MODE (1 2 3 4 5 6-1 6-2, or dither; inside it "
                            "only the --every stops) and end the session at its end")
@@ -108,7 +152,8 @@ def _parser() -> argparse.ArgumentParser:
                       help="save the mission state at every mode boundary "
                            "(after_mode_<MODE>.npz)")
     step.add_argument("--json", metavar="PATH",
-                      help="write the stops and the mission summary as JSON")
+                      help="write the stops and the mission summary as JSON ('-': to stdout; "
+                           "the stops are then shown on stderr)")
     step.add_argument("--telemetry", metavar="PATH",
                       help="write the telemetry so far (.csv or .parquet)")
 
@@ -127,9 +172,11 @@ def _parser() -> argparse.ArgumentParser:
     scenario_args(cmp_)
     cmp_.add_argument("--runs", type=_positive_int, default=1, metavar="N",
                       help="repeat over N seeds (from mission.seed on) and give statistics")
-    cmp_.add_argument("--workers", type=_positive_int, default=2, metavar="W",
-                      help="worker processes for --runs (default 2: both cores)")
-    cmp_.add_argument("--json", metavar="PATH", help="write the comparison as JSON")
+    cmp_.add_argument("--workers", type=_positive_int, metavar="W",
+                      help="worker processes for --runs (default: one per core; at most "
+                           "one per run and per core)")
+    cmp_.add_argument("--json", metavar="PATH",
+                      help="write the comparison as JSON ('-': to stdout, instead of the table)")
     cmp_.add_argument("--plot", metavar="PNG",
                       help="write scale-factor error against calibration time (PNG)")
 
@@ -162,8 +209,9 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky analyze --set pwpf.time_constant_s=0.05 --plot loops.png\n"
                "  allsky analyze my_scenario.toml --json analysis.json")
     scenario_args(analyze)
-    analyze.add_argument("--json", metavar="PATH", help="write the margins and the PWPF "
-                                                       "characteristic as JSON")
+    analyze.add_argument("--json", metavar="PATH",
+                         help="write the margins and the PWPF characteristic as JSON ('-': to "
+                              "stdout, instead of the tables)")
     analyze.add_argument("--plot", metavar="PNG",
                          help="write Bode plots with the margins and the static curve (PNG)")
 
@@ -216,7 +264,36 @@ def _parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n"
                "  allsky config check my_scenario.toml     # 'ok: ...' or one error line, exit 2")
-    scenario_args(check, required=True)
+    scenario_args(check)
+
+    stars = sub.add_parser(
+        "stars", help="the star catalog, and the stars the tracker's magnitude window passes",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="List the catalog stars with their magnitudes and J2000 positions on the "
+                    "mission date, marking those inside star_tracker.magnitude_window and the "
+                    "one the tracker locks (the brightest inside it).",
+        epilog="examples:\n"
+               "  allsky stars\n"
+               "  allsky stars --window                       # only the stars in the window\n"
+               "  allsky stars --date 2030-06-01T00:00:00Z --json -")
+    scenario_args(stars)
+    stars.add_argument("--window", action="store_true",
+                       help="list only the stars inside the tracker's magnitude window")
+    stars.add_argument("--date", metavar="UTC",
+                       help="the date (TOML datetime, e.g. 2026-03-20T12:00:00Z; default: "
+                            "mission.date_utc)")
+    stars.add_argument("--json", metavar="PATH",
+                       help="write the list as JSON ('-': to stdout, instead of the table)")
+
+    # The same flags on every command (EXIT_CODES and COMMON_FLAGS in the epilog).
+    leaves = [sp for name, sp in sub.choices.items() if name != "config"]
+    leaves += list(csub.choices.values())
+    for sp in leaves:
+        sp.add_argument("--version", action="version", version=f"allsky {__version__}")
+        if not any("--quiet" in a.option_strings for a in sp._actions):
+            sp.add_argument("--quiet", action="store_true",
+                            help="no progress line (it is also off when stderr is not a "
+                                 "terminal)")
     return p
 
 
@@ -243,47 +320,98 @@ def _positive_int(text):
 def _run(cfg, args) -> int:
     # Imported here so that `allsky config` never pays for compiling the simulator.
     if args.command == "compare":
-        from allsky.studies.compare import run_from_cli
+        from allsky.apps.compare import run_from_cli
     elif args.command == "step":
         from allsky.apps.step import run_from_cli
     elif args.command == "montecarlo":
-        from allsky.studies.montecarlo import run_from_cli
+        from allsky.apps.campaign import run_from_cli
     elif args.command == "plot":
         from allsky.apps.plots import run_from_cli
     elif args.command == "analyze":
         from allsky.apps.analyze import run_from_cli
+    elif args.command == "stars":
+        from allsky.apps.stars import run_from_cli
     else:
         from allsky.apps.report import run_from_cli
 
     return run_from_cli(cfg, args)
 
 
-def main(argv=None) -> int:
-    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+def _config(cfg, args) -> int:
+    if args.config_command == "show":
+        print(cfg.to_toml(), end="")
+    else:
+        what = args.scenario or "the packaged default"
+        sets = f" with {len(args.overrides)} --set" if args.overrides else ""
+        print(f"ok: {what}{sets}")
+    return 0
+
+
+def _raise_interrupt(signum, frame):
+    """SIGTERM handled as Ctrl-C: the command writes what finished and exits 130."""
+    raise KeyboardInterrupt
+
+
+def crash_report(exc) -> str:
+    """Write the traceback of an unexpected exception to a file; return its path."""
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    path = os.path.join(tempfile.gettempdir(), f"allsky-crash-{stamp}-{os.getpid()}.txt")
+    text = (f"allsky {__version__}\nargv: {sys.argv}\npython: {sys.version}\n\n"
+            + "".join(traceback.format_exception(exc)))
     try:
-        args = _parser().parse_args(argv)
-    except SystemExit as e:  # --help, --version, or a usage error (argparse printed it)
-        return 0 if e.code is None else e.code if isinstance(e.code, int) else 2
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+    except OSError:
+        return "(no crash report: the temporary directory cannot be written)"
+    return path
+
+
+def main(argv=None) -> int:
+    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit code.
+
+    See :data:`EXIT_CODES`.
+    """
+    try:
+        parser = _parser()
+        args = parser.parse_args(argv)
+        if args.command == "config" and args.config_command == "check" and not (
+                args.scenario or args.overrides):
+            parser.error("config check: give a scenario FILE, --set KEY=VALUE, or both")
+    except SystemExit as e:  # --help, --version, or a usage error (printed as one line)
+        return 0 if e.code is None else e.code if isinstance(e.code, int) else EXIT_USAGE
+    restore = None
+    try:
+        restore = signal.signal(signal.SIGTERM, _raise_interrupt)
+    except ValueError:  # not the main thread: leave SIGTERM alone
+        pass
     try:
         # `allsky plot` reads a telemetry file and needs no scenario.
         cfg = None if args.command == "plot" else load_scenario(
             args.scenario, args.overrides, getattr(args, "disperse", None))
         if args.command == "config":
-            if args.config_command == "show":
-                print(cfg.to_toml(), end="")
-            else:
-                print(f"ok: {args.scenario}")
-            return 0
+            return _config(cfg, args)
         return _run(cfg, args)
-    except ConfigError as e:
+    except (ConfigError, TelemetryError, OutputError) as e:
         print(f"allsky: error: {e}", file=sys.stderr)
-        return 2
-    except TelemetryError as e:  # a telemetry file of the wrong suffix or columns
-        print(f"allsky: error: {e}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    except Interrupted as e:
+        print(f"allsky: interrupted; {e}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except KeyboardInterrupt:
+        print("allsky: interrupted; nothing half-written (files are written whole or not "
+              "at all)", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except BrokenPipeError:  # the reader went away (allsky ... | head): not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except OSError as e:  # an output path that cannot be written
-        print(f"allsky: error: {e}", file=sys.stderr)
-        return 2
+        name = f" {e.filename}" if e.filename else ""
+        print(f"allsky: error: cannot write{name}: {e.strerror or e}", file=sys.stderr)
+        return EXIT_USAGE
+    except Exception as e:  # noqa: BLE001 - one line and a crash report, never a traceback
+        print(f"allsky: internal error: {type(e).__name__}: {e} (details in "
+              f"{crash_report(e)})", file=sys.stderr)
+        return EXIT_INTERNAL
+    finally:
+        if restore is not None:
+            signal.signal(signal.SIGTERM, restore)

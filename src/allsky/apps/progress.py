@@ -3,20 +3,43 @@
 The line (tqdm, on stderr) counts modes and shows the mode under way and the
 mission time; it is refreshed every ``PROGRESS_EVERY_S`` of mission time by
 pausing the frame loop, which does not change the flight (legs resume
-exactly). It is silent when asked to be, or when stderr is not a terminal.
+exactly), and after each slice of the frame loop
+(:data:`allsky.sim.mission.SLICE_FRAMES`), so that it moves even when a
+frame is very short. It is silent when asked to be, or when stderr is not a
+terminal. The first line says the frame loop is being compiled only when it
+is (:func:`frame_loop_needs_compiling`).
 """
 
 import sys
 
 from tqdm import tqdm
 
+from allsky.sequencer.modes import MODE_TITLE
+
 PROGRESS_EVERY_S = 20.0  #: [s] of mission time between refreshes
+
+
+def frame_loop_needs_compiling() -> bool:
+    """Whether the first leg flown in this process will compile the frame loop.
+
+    False when the loop is already compiled in this process, runs as plain
+    Python (``NUMBA_DISABLE_JIT=1``), or numba's on-disk cache holds an entry
+    for the current source (its index file, read the way numba reads it:
+    an index of another source or numba version counts as empty).
+    """
+    from allsky.sim import frame_loop
+
+    run_leg = frame_loop.run_leg
+    if not hasattr(run_leg, "signatures") or run_leg.signatures:
+        return False
+    try:
+        return not run_leg._cache._cache_file._load_index()
+    except Exception:  # noqa: BLE001 - numba internals moved: assume a compile, say so
+        return True
 
 
 def fly(m, quiet=False, stream=None):
     """Fly the remaining modes of mission ``m`` with a progress line; return its summary."""
-    from allsky.sim.mission import MODE_TITLE
-
     stream = stream or sys.stderr
     disable = True if quiet else (None if stream is sys.stderr else False)
     with tqdm(total=len(m.plan), initial=m.next_mode, unit="mode", file=stream,
@@ -32,9 +55,9 @@ def fly(m, quiet=False, stream=None):
                                     f"t = {m.state.time_s[0]:.0f} s{note}")
 
         m.pause_every_s = PROGRESS_EVERY_S
-        m.on_pause = lambda mm, what: describe()
+        m.on_pause = m.on_slice = lambda mm, what: describe()
         try:
-            first = True
+            first = frame_loop_needs_compiling()
             while not m.finished:
                 describe(first_use=first)
                 first = False
@@ -42,5 +65,5 @@ def fly(m, quiet=False, stream=None):
                 bar.update(1)
         finally:
             m.pause_every_s = None
-            m.on_pause = None
+            m.on_pause = m.on_slice = None
     return m.summary()

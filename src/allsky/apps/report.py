@@ -1,16 +1,19 @@
 """The readable mission report and the ``allsky run`` entry point."""
 
 import json
-from pathlib import Path
+import sys
 
-from allsky.sim import telemetry
+from allsky.apps import telemetry_files
+from allsky.sim.results import calibration_errors
+from allsky.units import RAD2ARCSEC
 
-PPM = 1e6
-RAD2ARCSEC = 206264.80624709636
 
+def format_report(summary: dict, tracker_star=None) -> str:
+    """A plain-text report of a mission summary (:meth:`allsky.sim.mission.Mission.summary`).
 
-def format_report(summary: dict) -> str:
-    """A plain-text report of a mission summary (:meth:`allsky.sim.mission.Mission.summary`)."""
+    ``tracker_star`` (:class:`allsky.vehicle.sky.Star`), when given, is named
+    as the star the tracker locked.
+    """
     status = summary["status"]
     if status == "running":
         status = "not finished (stopped before the end)"
@@ -24,19 +27,28 @@ def format_report(summary: dict) -> str:
     cal, truth = summary["calibration"], summary["truth"]
     if cal is not None:
         lines += ["", "Calibration (stored)      measured        truth        error"]
+        err = calibration_errors(cal, truth)
         for ax in ("roll", "pitch", "yaw"):
             m, t = cal["drift_deg_h"][ax], truth["drift_deg_h"][ax]
-            lines.append(f"  drift {ax:<6} [deg/h] {m:>12.4f} {t:>12.4f} {m - t:>+12.4f}")
+            e = err["drift_deg_h"][ax]
+            lines.append(f"  drift {ax:<6} [deg/h] {m:>12.4f} {t:>12.4f} {e:>+12.4f}")
         for ax in ("roll", "yaw"):
             m, t = cal["scale_factor"][ax], truth["scale_factor"][ax]
-            lines.append(f"  scale factor {ax:<4}    {m:>12.7f} {t:>12.7f} {PPM * (m - t):>+9.1f} ppm")
+            e = err["scale_factor_ppm"][ax]
+            lines.append(f"  scale factor {ax:<4}    {m:>12.7f} {t:>12.7f} {e:>+9.1f} ppm")
         for k, t in truth["cross_coupling"].items():
-            m = cal["cross_coupling"][k]
+            m, e = cal["cross_coupling"][k], err["cross_coupling_arcsec"][k]
             lines.append(f"  {k:<16}[arcsec] {m * RAD2ARCSEC:>9.2f} {t * RAD2ARCSEC:>12.2f}"
-                         f" {(m - t) * RAD2ARCSEC:>+12.2f}")
+                         f" {e:>+12.2f}")
     tgt = summary["target"]
-    name = tgt.get("star") or f"RA {tgt.get('ra_deg')} deg, Dec {tgt.get('dec_deg')} deg"
+    name = tgt.get("star") or (f"RA {tgt['ra_deg'] / 15.0:.3f} h, "
+                               f"Dec {tgt['dec_deg']:+.2f} deg")
     lines += ["", f"Target: {name}"]
+    if tracker_star is not None:
+        lines.append(f"  tracker star {tracker_star.name} (magnitude "
+                     f"{tracker_star.magnitude:+.2f}, RA {tracker_star.ra_deg / 15.0:.3f} h, "
+                     f"Dec {tracker_star.dec_deg:+.2f} deg): the brightest in the magnitude "
+                     "window")
     if tgt["programmed_roll_deg"] is not None:
         lines.append(f"  programmed roll {tgt['programmed_roll_deg']:+.4f} deg, "
                      f"yaw {tgt['programmed_yaw_deg']:+.4f} deg")
@@ -51,8 +63,50 @@ def format_report(summary: dict) -> str:
     return "\n".join(lines)
 
 
+def tracker_star(cfg):
+    """The star the tracker locks: the brightest in its magnitude window, or None."""
+    from allsky.vehicle import sky
+
+    lo, hi = cfg.star_tracker.magnitude_window
+    stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
+    return stars[0] if stars else None
+
+
+def where_stopped(m) -> str:
+    """Where an interrupted or stopped mission is: mission time and mode."""
+    mode = m.current_mode or (m.plan[m.next_mode] if not m.finished else None)
+    return f"t = {m.state.time_s[0]:.1f} s" + (f", in Mode {mode}" if mode else "")
+
+
+def write_outputs(outputs) -> tuple[list, list]:
+    """Write each ``(what, write)`` of ``outputs``; go on past a failure.
+
+    Returns
+    -------
+    (list of str, list of OutputError)
+        What was written, and the writes that failed.
+    """
+    from allsky.apps.output import OutputError
+
+    written, failed = [], []
+    for what, write in outputs:
+        try:
+            write()
+            written.append(what)
+        except OutputError as e:
+            failed.append(e)
+    return written, failed
+
+
 def run_from_cli(cfg, args) -> int:
-    """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots."""
+    """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots.
+
+    Every output path is checked before flying. Interrupted (Ctrl-C, SIGTERM),
+    the report, ``--json`` and ``--telemetry`` of the part flown are still
+    written and :class:`~allsky.apps.output.Interrupted` says so; a file that
+    cannot be written does not stop the others.
+    """
+    from allsky.apps.output import Interrupted, OutputError, check_output, write_atomic
     from allsky.apps.progress import fly
     from allsky.config.dispersions import disperse, format_drawn
     from allsky.sim.mission import Mission
@@ -60,28 +114,57 @@ def run_from_cli(cfg, args) -> int:
     json_path = getattr(args, "json", None)
     to_stdout = json_path == "-"  # machine output: the JSON alone on stdout
     say = (lambda *a, **k: None) if to_stdout else print
+    tlm_path = getattr(args, "telemetry", None)
+    plots_dir = getattr(args, "plots", None)
+    quiet = getattr(args, "quiet", False) or to_stdout
+    check_output("--json", json_path)  # before flying: no mission lost to a typo
+    check_output("--telemetry", tlm_path)
+    if tlm_path:
+        telemetry_files.file_format(tlm_path)
+    check_output("--plots", plots_dir, directory=True)
     cfg, drawn = disperse(cfg)  # the scenario's [dispersions], drawn for its mission.seed
     if drawn:
         say(format_drawn(cfg.mission.seed, drawn) + "\n")
-    tlm_path = getattr(args, "telemetry", None)
-    plots_dir = getattr(args, "plots", None)
-    if tlm_path:
-        telemetry.file_format(tlm_path)  # refuse a bad suffix before flying
     m = Mission(cfg, telemetry=bool(tlm_path or plots_dir))
-    summary = fly(m, quiet=getattr(args, "quiet", False) or to_stdout)
+    interrupted = False
+    try:
+        summary = fly(m, quiet=quiet)
+    except KeyboardInterrupt:
+        interrupted = True
+        summary = m.summary()
     if drawn:
         summary["dispersions"] = drawn
-    say(format_report(summary))
+    say(format_report(summary, tracker_star(cfg)))
+    outputs = []
     if to_stdout:
         print(json.dumps(summary, indent=2))
     elif json_path:
-        Path(json_path).write_text(json.dumps(summary, indent=2) + "\n")
+        outputs.append((f"JSON summary {json_path}", lambda: write_atomic(
+            json_path, json.dumps(summary, indent=2) + "\n", option="--json")))
     if tlm_path:
-        telemetry.write(tlm_path, m.telemetry())
+        outputs.append((f"telemetry {tlm_path}", lambda: telemetry_files.write(
+            tlm_path, m.telemetry(), option="--telemetry")))
+    written, failed = write_outputs(outputs)
+    for what in written:
+        say(f"wrote {what}" + (" (the part flown)" if interrupted else ""))
+    if interrupted:
+        saved = ", ".join(["the report"] * (not to_stdout) + written) or "nothing"
+        failures = "".join(f"; {e}" for e in failed)
+        raise Interrupted(f"mission stopped at {where_stopped(m)}; written: {saved}"
+                          f"{' (figures not drawn)' if plots_dir else ''}{failures}")
     if plots_dir:
         from allsky.apps import plots
 
-        say(plots.format_written(plots.write_plots(
-            m.telemetry(), plots_dir, summary,
-            progress=not (getattr(args, "quiet", False) or to_stdout))))
+        try:
+            say(plots.format_written(plots.write_plots(m.telemetry(), plots_dir, summary,
+                                                       progress=not quiet)))
+        except OSError as e:
+            failed.append(OutputError("--plots", plots_dir, str(e.strerror or e)))
+        except KeyboardInterrupt:
+            raise Interrupted(f"while drawing the figures; written: {', '.join(written)}; "
+                              "figures already in the directory are complete") from None
+    if failed:
+        for e in failed:
+            print(f"allsky: error: {e}", file=sys.stderr)
+        return 2
     return 0 if summary["status"] == "complete" else 1

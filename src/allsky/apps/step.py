@@ -26,6 +26,7 @@ from allsky.hardware import switch_bank
 from allsky.hardware.dac import dac
 from allsky.hardware.star_tracker import star_tracker
 from allsky.hardware.sun_sensor import sun_sensor
+from allsky.sequencer.modes import MODE_TITLE, PLANS
 from allsky.vehicle import quaternion
 
 AXES = ("roll", "pitch", "yaw")
@@ -66,10 +67,9 @@ def snapshot(m, kind, reason) -> dict:
     kind : str
         ``"mode end"`` or ``"every"``.
     reason : str
-        Why the stop happened (the mode's exit text, or the leg under way).
+        Why the stop happened (the mode's exit text, or ``waiting for: ...``
+        and the condition the leg under way waits for).
     """
-    from allsky.sim.mission import MODE_TITLE
-
     s, p = m.state, m.params
     el = p.electronics
     pw = float(p.vfc.pulse_weight_arcsec)
@@ -185,6 +185,8 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
     list of dict
         The snapshots shown.
     """
+    from allsky.apps import states
+
     shown = []
 
     def show(snap):
@@ -196,14 +198,15 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
                          f"(remaining: {', '.join(m.plan[m.next_mode:]) or 'none'})")
     def pause(mm, what):
         if until is None or mm.current_mode == until:
-            show(snapshot(mm, "every", f"under way: {what}"))
+            show(snapshot(mm, "every", f"waiting for: {what}"))
 
     m.pause_every_s = every_s
     m.on_pause = pause if every_s else None
     try:
         while not m.finished:
             rec = m.run_mode()
-            saved = m.save(Path(save_dir) / f"after_mode_{rec.mode}.npz") if save_dir else None
+            saved = (states.save(m, Path(save_dir) / f"after_mode_{rec.mode}.npz") if save_dir
+                     else None)
             if until is None or rec.mode == until or m.finished:
                 snap = snapshot(m, "mode end", rec.exit)
                 if saved:
@@ -241,22 +244,36 @@ def _ask():
         return None
 
 
+#: The finest ``--every``: stops closer than this in mission time [s] or in frames
+#: show nothing new and make a session of millions of stops.
+EVERY_MIN_S = 0.1
+EVERY_MIN_FRAMES = 10
+
+
 def run_from_cli(cfg, args) -> int:
-    """``allsky step``: the interactive (or ``--no-pause``) stop-by-stop mission."""
-    from allsky.apps import report
-    from allsky.config.scenario import ConfigError
-    from allsky.sim import telemetry
-    from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
+    """``allsky step``: the interactive (or ``--no-pause``) stop-by-stop mission.
+
+    ``q`` at a prompt, Ctrl-C or SIGTERM end the session; the report,
+    ``--json`` and ``--telemetry`` of the flight so far are written either
+    way (after Ctrl-C, :class:`~allsky.apps.output.Interrupted` says so).
+    """
+    from allsky.apps import report, states, telemetry_files
+    from allsky.apps.output import Interrupted, check_output, write_atomic
+    from allsky.config import ConfigError
+    from allsky.sim.mission import Mission
 
     want_tlm = bool(args.telemetry)
+    check_output("--json", args.json)
+    check_output("--telemetry", args.telemetry)
     if want_tlm:
-        telemetry.file_format(args.telemetry)  # refuse a bad suffix before flying
+        telemetry_files.file_format(args.telemetry)  # refuse a bad suffix before flying
+    check_output("--save-dir", args.save_dir, directory=True)
     if args.from_state:
         if args.scenario or args.overrides or args.plan != "legacy":
             raise ConfigError(None, rule="--from resumes a saved mission with its own "
                               "scenario and plan; drop SCENARIO, --set and --plan")
         try:
-            m = Mission.load(args.from_state, telemetry=want_tlm)
+            m = states.load(args.from_state, telemetry=want_tlm)
         except (ValueError, KeyError, zipfile.BadZipFile) as e:
             raise ConfigError(None, rule=f"--from {args.from_state}: not a saved allsky "
                               f"mission state ({e})") from None
@@ -265,32 +282,64 @@ def run_from_cli(cfg, args) -> int:
                               f"already {m.status}")
     else:
         m = Mission(cfg, telemetry=want_tlm,
-                    plan=DITHER_PLAN if args.plan == "dither" else LEGACY_PLAN)
+                    plan=PLANS[args.plan])
     if args.until is not None and args.until not in m.plan[m.next_mode:]:
         remaining = " ".join(m.plan[m.next_mode:])
         raise ConfigError(None, rule=f"--until {args.until}: not a mode still to fly "
                           f"(remaining: {remaining})")
+    floor_s = max(EVERY_MIN_S, EVERY_MIN_FRAMES * float(m.params.frame_s))
+    if args.every is not None and args.every < floor_s * (1 - 1e-12):
+        raise ConfigError(None, rule=f"--every {args.every:g}: stops must be at least "
+                          f"{EVERY_MIN_S:g} s and {EVERY_MIN_FRAMES} frames apart "
+                          f"(here {floor_s:g} s)")
+    to_stdout = args.json == "-"  # the JSON alone on stdout; the stops go to stderr
+    out = sys.stderr if to_stdout else sys.stdout
     pause = not args.no_pause and sys.stdin.isatty()
     ask = _ask if pause else (lambda: "")
     save_dir = Path(args.save_dir) if args.save_dir else None
     if save_dir:
         save_dir.mkdir(parents=True, exist_ok=True)
-    stops = step_mission(m, _interactive_stop(sys.stdout, ask), every_s=args.every,
-                         until=args.until, save_dir=save_dir)
+    stops = []
+    show = _interactive_stop(out, ask)
+
+    def on_stop(snap):
+        stops.append(snap)
+        show(snap)
+
+    interrupted = False
+    try:
+        step_mission(m, on_stop, every_s=args.every, until=args.until, save_dir=save_dir)
+    except KeyboardInterrupt:
+        interrupted = True
     summary = m.summary()
-    print()
+    print(file=out)
     if not m.finished:
         inside = m.current_mode is not None and (not m.timeline
                                                  or m.timeline[-1].mode != m.current_mode)
         where = (f"inside Mode {m.current_mode}" if inside
                  else f"before Mode {m.plan[m.next_mode]}")
         print(f"Stepping ended at t = {m.state.time_s[0]:.2f} s, {where}; "
-              f"the report covers the flight so far.")
-    print(report.format_report(summary))
-    if args.json:
-        Path(args.json).write_text(json.dumps({"stops": stops, "summary": summary}, indent=2)
-                                   + "\n")
+              f"the report covers the flight so far.", file=out)
+    print(report.format_report(summary, report.tracker_star(m.cfg)), file=out)
+    outputs = []
+    body = json.dumps({"stops": stops, "summary": summary}, indent=2) + "\n"
+    if to_stdout:
+        sys.stdout.write(body)
+    elif args.json:
+        outputs.append((f"stops and summary {args.json}",
+                        lambda: write_atomic(args.json, body, option="--json")))
     if want_tlm:
-        telemetry.write(args.telemetry, m.telemetry())
+        outputs.append((f"telemetry {args.telemetry}", lambda: telemetry_files.write(
+            args.telemetry, m.telemetry(), option="--telemetry")))
+    written, failed = report.write_outputs(outputs)
+    for what in written:
+        print(f"wrote {what}", file=out)
+    if interrupted:
+        saved = ", ".join(["the report"] + written)
+        raise Interrupted(f"stepping stopped at {report.where_stopped(m)}; written: {saved}"
+                          + "".join(f"; {e}" for e in failed))
+    if failed:
+        for e in failed:
+            print(f"allsky: error: {e}", file=sys.stderr)
+        return 2
     return 1 if summary["status"] == "aborted" else 0
-

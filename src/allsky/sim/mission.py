@@ -2,15 +2,14 @@
 
 :class:`Mission` builds the frame loop's parameters from a validated
 scenario, runs the modes one at a time (:meth:`Mission.run_mode`) or all of
-them (:meth:`Mission.run`), and can be saved at any mode boundary and resumed
-(:meth:`Mission.save`, :meth:`Mission.load`). :func:`run_mission` is the
+them (:meth:`Mission.run`), and gives a snapshot at any mode boundary to
+resume from (:meth:`Mission.snapshot`, :meth:`Mission.from_snapshot`; the
+state files are :mod:`allsky.apps.states`). :func:`run_mission` is the
 library function behind ``allsky run``.
 """
 
-import json
 import math
 from datetime import timedelta
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -29,10 +28,10 @@ from allsky.hardware import (
     switch_bank,
     updown_counter,
     vfc,
+    wiring,
 )
-from allsky.sequencer import dither, legs
+from allsky.sequencer import dither, legs, modes
 from allsky.sequencer import master_sequencer as ms
-from allsky.sequencer.dither_mode import mode_dither
 from allsky.sim import frame_loop
 from allsky.sim import state as sim_state
 from allsky.sim.telemetry import COLUMNS
@@ -44,15 +43,18 @@ EXIT_TEXT = {
     legs.EXIT_STAR_LOST: "star lost",
 }
 STATE_FORMAT = 3
-#: The patent's mission, and the comparison mission (dither in place of Modes 4 and 5).
-LEGACY_PLAN = ms.MODES
-DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
-RULES = {**ms.RULES, "dither": mode_dither}
-MODE_CODE = {**ms.MODE_CODE, "dither": 7.0}
-MODE_TITLE = {**ms.MODE_TITLE, "dither": "dither calibration (comparison method)"}
-DITHER_SETTLE_ALLOWANCE_S = 300.0
+# The plans and the mode names, codes and titles live in the mode table
+# (allsky.sequencer.modes); here under the names scripts know.
+LEGACY_PLAN = modes.LEGACY_PLAN
+DITHER_PLAN = modes.DITHER_PLAN
+MODE_CODE = modes.MODE_CODE
+MODE_TITLE = modes.MODE_TITLE
 # [s] expected time from the end of the 6-1 roll to its settling (for the Sun prediction)
 SETTLE_ALLOWANCE_S = 30.0
+#: Frames the compiled loop runs before it returns to Python (a pause that does not change
+#: the flight): 1e5 frames take about 0.05 s at the measured 0.4-0.5 us per frame, so a
+#: Ctrl-C is honoured and the progress line moves well within 0.5 s.
+SLICE_FRAMES = 100_000
 
 
 class ModeRecord(NamedTuple):
@@ -125,6 +127,7 @@ def build_params(cfg) -> sim_state.Params:
             float(cfg.sequencer.sensor_loss_s)),
         dither=dither_params(cfg),
         dither_sample_frames=max(1, round(cfg.dither.sample_s / dt)),
+        routing=wiring.ROUTING,
     )
 
 
@@ -174,7 +177,7 @@ class Mission:
                  plan=LEGACY_PLAN):
         self.cfg = cfg
         self.plan = tuple((history or {}).get("plan", plan))
-        if any(name not in RULES for name in self.plan):
+        if any(name not in modes.BY_NAME for name in self.plan):
             raise ValueError(f"unknown mode in plan {self.plan}")
         self.dither_estimates = None
         self.dither_record = None
@@ -203,8 +206,10 @@ class Mission:
         #: ``pause_every_s`` of mission time inside legs [s]; None = fly straight through.
         self.pause_every_s = None
         self.on_pause = None
+        #: ``on_slice(self, leg_text)`` after each slice of :data:`SLICE_FRAMES` frames or less.
+        self.on_slice = None
 
-    # -- used by the mode rules ------------------------------------------------
+    # -- used by the master sequencer's steps ----------------------------------
     def switch(self, close=(), open_=()):
         """Operate the switch bank (coupled pairs move together)."""
         switch_bank.operate(self.state.switches, close=close, open_=open_)
@@ -241,19 +246,39 @@ class Mission:
         raise ms.ModeAbort(f"Mode {self._mode}: {EXIT_TEXT[code]} while waiting for: {what}")
 
     def _run_leg(self, leg, what, buf, filled, rec, rec_filled):
-        """The frame loop over one leg, pausing for ``on_pause`` if stepping asks for it."""
+        """The frame loop over one leg, in slices, pausing for ``on_pause`` if stepping asks.
+
+        The compiled loop returns to Python at least every :data:`SLICE_FRAMES`
+        frames, so that a signal (Ctrl-C) is honoured and ``on_slice`` (the
+        progress line) hears of the mission time; a paused leg resumes bit for
+        bit, so slicing does not change the flight. If the flight is
+        interrupted (KeyboardInterrupt), the telemetry of the part of the leg
+        flown is kept (:meth:`telemetry`) before the interruption goes on.
+        """
         every = self.pause_every_s
-        while True:
-            if every:
+        dt = float(self.params.frame_s)
+        try:
+            while True:
                 t = float(self.state.time_s[0])
-                # Next multiple of `every` in mission time, rounded to whole frames.
-                pause_at = (math.floor(t / every + 1e-9) + 1) * every
-                leg = leg._replace(pause_at_s=pause_at)
-            code, _ = frame_loop.run_leg(self.params, self.state, leg, buf, filled, rec, rec_filled)
-            if code != legs.EXIT_PAUSE:
-                return code
-            self.on_pause(self, what)
-            leg = leg._replace(resume=1)
+                step_at = math.inf
+                if every:
+                    # Next multiple of `every` in mission time, rounded to whole frames.
+                    step_at = (math.floor(t / every + 1e-9) + 1) * every
+                slice_at = t + SLICE_FRAMES * dt
+                leg = leg._replace(pause_at_s=min(step_at, slice_at))
+                code, _ = frame_loop.run_leg(self.params, self.state, leg, buf, filled, rec,
+                                             rec_filled)
+                if code != legs.EXIT_PAUSE:
+                    return code
+                leg = leg._replace(resume=1)
+                if self.on_slice is not None:
+                    self.on_slice(self, what)
+                if every and float(self.state.time_s[0]) >= step_at - 0.5 * dt:
+                    self.on_pause(self, what)
+        except KeyboardInterrupt:
+            if self.params.telemetry_every and filled[0]:
+                self._tlm.append(buf[: filled[0]].copy())
+            raise
 
     # -- running ---------------------------------------------------------------
     @property
@@ -270,13 +295,11 @@ class Mission:
         if self.finished:
             raise RuntimeError(f"mission already {self.status}")
         name = self.plan[self.next_mode]
-        if name == "6-1" and self.programmed_roll_deg is None:
-            self._program_target()
         self._mode = name
         start = float(self.state.time_s[0])
         self._mode_deadline = start + self.mode_timeout_s(name)
         try:
-            exit_text = RULES[name](self)
+            exit_text = ms.run_mode(self, name)
         except ms.ModeAbort as e:
             exit_text = f"aborted: {e}"
             self.status = "aborted"
@@ -289,11 +312,8 @@ class Mission:
         return rec
 
     def mode_timeout_s(self, name) -> float:
-        """Time allowed to a mode [s]: the scenario's, or for the dither the record plus 300 s."""
-        if name == "dither":
-            d = self.cfg.dither
-            return float(d.lead_in_s + d.record_s + DITHER_SETTLE_ALLOWANCE_S)
-        return float(self.cfg.sequencer.timeout_s[name])
+        """Time allowed to a mode [s] (:func:`allsky.sequencer.modes.timeout_s`)."""
+        return modes.timeout_s(self.cfg, name)
 
     def run(self):
         """Run the remaining modes; returns the summary dictionary."""
@@ -301,8 +321,8 @@ class Mission:
             self.run_mode()
         return self.summary()
 
-    def _program_target(self):
-        """Ground computation of register 24.
+    def program_target(self):
+        """Ground computation of the programmed angles that register 24 will hold.
 
         The Sun holds pitch and yaw through Mode 6-1, so the frame the yaw of
         6-2 starts from is the reference attitude of the Sun *at the end of
@@ -368,10 +388,21 @@ class Mission:
                     self.state.overflow)},
         }
 
-    # -- save / resume -------------------------------------------------------------
-    def save(self, path) -> Path:
-        """Save the mission at the current mode boundary (``.npz``: state arrays + history)."""
-        path = Path(path)
+    # -- snapshot / resume ---------------------------------------------------------
+    def snapshot(self):
+        """The mission at the current mode boundary, as data to keep and resume from.
+
+        :mod:`allsky.apps.states` writes it to a file and reads it back.
+
+        Returns
+        -------
+        history : dict
+            JSON-serialisable: ``format`` (:data:`STATE_FORMAT`), plan, timeline,
+            next mode, leg count, counted angles, status, abort reason,
+            programmed angles and the scenario (:meth:`Scenario.as_dict`).
+        arrays : dict of numpy.ndarray
+            Copies of the state arrays, by :class:`allsky.sim.state.State` field.
+        """
         history = {"format": STATE_FORMAT, "next_mode": self.next_mode, "plan": list(self.plan),
                    "timeline": [list(r) for r in self.timeline], "leg_count": self.leg_count,
                    "counted_arcsec": self.counted_arcsec, "status": self.status,
@@ -379,21 +410,27 @@ class Mission:
                    "programmed_roll_deg": self.programmed_roll_deg,
                    "programmed_yaw_deg": self.programmed_yaw_deg,
                    "scenario": self.cfg.as_dict()}
-        arrays = {f"state_{k}": v for k, v in self.state._asdict().items()}
-        with path.open("wb") as f:
-            np.savez(f, history=np.array(json.dumps(history)), **arrays)
-        return path
+        arrays = {k: v.copy() for k, v in self.state._asdict().items()}
+        return history, arrays
 
     @classmethod
-    def load(cls, path, telemetry=True):
-        """Resume a mission saved by :meth:`save` (its own scenario is restored)."""
+    def from_snapshot(cls, history, arrays, telemetry=True):
+        """Resume a mission from a :meth:`snapshot` (its own scenario is restored).
+
+        Raises
+        ------
+        ValueError
+            A history of another format than :data:`STATE_FORMAT`.
+        KeyError
+            A state array missing from ``arrays``.
+        """
         from allsky.config import scenario_from_dict
 
-        with np.load(Path(path), allow_pickle=False) as z:
-            history = json.loads(str(z["history"]))
-            state = sim_state.State(**{k: z[f"state_{k}"].copy() for k in sim_state.State._fields})
         if history.get("format") != STATE_FORMAT:
-            raise ValueError(f"{path}: not an allsky mission state (format {STATE_FORMAT})")
+            raise ValueError(f"not an allsky mission state (format {STATE_FORMAT})")
+        # Copies, so that one snapshot can be resumed any number of times.
+        state = sim_state.State(**{k: np.array(arrays[k], copy=True)
+                                   for k in sim_state.State._fields})
         cfg = scenario_from_dict(history["scenario"])
         return cls(cfg, telemetry=telemetry, state=state, next_mode=history["next_mode"],
                    history=history)

@@ -1,4 +1,4 @@
-"""``allsky compare``: the patent's calibration (Modes 4-5) against the dither method.
+"""The patent's calibration (Modes 4-5) against the dither method, on the same vehicle.
 
 Both methods fly the same vehicle: same scenario, same gyro errors, same
 seed, hence the same ejection and the same noise through Mode 3. Then the
@@ -10,21 +10,25 @@ attitude the mission wanted (the disruption), the propellant the
 calibration used, and the final pointing error. With several runs
 (seeds), mean, standard deviation and 95th percentile, beside the analytic
 expectation of each method's scale-factor spread (docs/comparison.md).
+
+:func:`compare` returns the figures as data; the table, the figure and
+``allsky compare`` are in :mod:`allsky.apps.compare`.
 """
 
-import json
 import math
+import os
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
 
 from allsky import units
 from allsky.sequencer.dither_mode import analyse
 from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
+from allsky.sim.results import CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES, calibration_errors
+from allsky.units import FRACTION2PPM
 
-AXES = ("roll", "yaw")
-CC_KEYS = ("roll_into_pitch", "roll_into_yaw", "yaw_into_pitch", "yaw_into_roll")
+AXES = SCALE_FACTOR_AXES
+CC_KEYS = CROSS_COUPLING_KEYS
 #: [arcsec] 1-sigma attitude jitter of the optical hold at an instant (the
 #: +-1" PWPF dead band; measured from the Mode 3 drift spread, docs/error_budget.md)
 HOLD_JITTER_ARCSEC = 0.3
@@ -62,12 +66,9 @@ def _metrics(m, t_cal, excursion, prop, durations):
            "mission_propellant_kg": s["propellant_kg"],
            "pointing_error_arcsec": s["target"]["pointing_error_arcsec"]}
     if s["calibration"] is not None:
-        c, t = s["calibration"], s["truth"]
-        out["scale_factor_error_ppm"] = {a: 1e6 * (c["scale_factor"][a] - t["scale_factor"][a])
-                                         for a in AXES}
-        out["cross_coupling_error_arcsec"] = {
-            k: units.RAD2ARCSEC * (c["cross_coupling"][k] - t["cross_coupling"][k])
-            for k in CC_KEYS}
+        err = calibration_errors(s["calibration"], s["truth"])
+        out["scale_factor_error_ppm"] = err["scale_factor_ppm"]
+        out["cross_coupling_error_arcsec"] = err["cross_coupling_arcsec"]
     return out, s
 
 
@@ -91,7 +92,7 @@ def fly_pair(args):
             k: units.RAD2ARCSEC * (est[a]["cross"][b] - tcc[k])
             for k, (a, b) in pairs.items() if a in est}
         dith["scale_factor_error_command_ppm"] = {
-            a: 1e6 * (est[a]["scale_factor_command"] - truth[a]) for a in AXES if a in est}
+            a: FRACTION2PPM * (est[a]["scale_factor_command"] - truth[a]) for a in AXES if a in est}
         dith["tracking_ratio"] = {a: est[a]["tracking_ratio"] for a in est}
         dith["prefix_error_ppm"] = _prefix_errors(m, truth)
     return {"seed": seed, "legacy": legacy, "dither": dith}
@@ -111,14 +112,49 @@ def _prefix_errors(m, truth):
                       p.omega_rad_s, "lsq" if d.detector == "lsq" else "hann"
                       if d.detector == "hann" else "fft")
         key = "scale_factor_optical" if d.estimator == "optical" else "scale_factor_command"
-        out[f"{rec_s:g}"] = {a: 1e6 * (est[a][key] - truth[a]) for a in AXES if a in est}
+        out[f"{rec_s:g}"] = {a: FRACTION2PPM * (est[a][key] - truth[a]) for a in AXES if a in est}
     return out
 
 
+#: What each statistic of a comparison over several runs means (:func:`_stats`; all over
+#: the complete runs). Unlike ``allsky montecarlo``, whose percentiles are of the signed
+#: values, ``p95`` here is of the absolute values; :func:`label_percentiles` adds the
+#: explicit ``p95_abs`` beside it.
+STATISTICS = {
+    "mean": "mean of the signed values",
+    "std": "sample standard deviation of the signed values (ddof 1; 0 for one run)",
+    "p95": "95th percentile of the absolute values |x| (the same number as p95_abs)",
+    "p95_abs": "95th percentile of the absolute values |x|",
+}
+
+
 def _stats(values):
+    """Mean and sample standard deviation of ``values``, and the 95th percentile of |values|."""
     v = np.asarray(values, dtype=float)
     return {"mean": float(v.mean()), "std": float(v.std(ddof=1)) if v.size > 1 else 0.0,
             "p95": float(np.percentile(np.abs(v), 95))}
+
+
+def label_percentiles(result: dict) -> dict:
+    """A copy of a :func:`compare` result whose statistics name their percentile.
+
+    Every statistic (``{"mean", "std", "p95"}``) also carries ``p95_abs``,
+    the same number under a name that says it is a percentile of the
+    absolute values, and ``statistics`` (:data:`STATISTICS`) explains the
+    keys. ``p95`` stays, for scripts that read it. ``allsky compare --json``
+    writes this.
+    """
+    def walk(value):
+        if isinstance(value, dict):
+            out = {k: walk(v) for k, v in value.items()}
+            if set(value) == {"mean", "std", "p95"}:
+                out["p95_abs"] = value["p95"]
+            return out
+        if isinstance(value, list):
+            return [walk(v) for v in value]
+        return value
+
+    return {**walk(result), "statistics": dict(STATISTICS)}
 
 
 def _aggregate(rows, method):
@@ -163,46 +199,82 @@ def predicted(cfg, legacy_time_s=None) -> dict:
     out = {"dither": {}, "legacy": {}}
     n_samples = d.record_s / d.sample_s
     for i, a in ((0, "roll"), (2, "yaw")):
-        amp = d.amplitude_urad[i] * 1e-6 * units.RAD2ARCSEC
+        amp = d.amplitude_urad[i] * units.URAD2RAD * units.RAD2ARCSEC
         if amp == 0:
             continue
         w = 2 * math.pi / d.period_s[i]
         gyro_term = n_arw * math.sqrt(2.0 / d.record_s) / (amp * w)
         opt_term = opt_noise[a] * math.sqrt(2.0 / n_samples) / amp
-        out["dither"][a] = 1e6 * math.hypot(gyro_term, opt_term if d.estimator == "optical"
+        out["dither"][a] = FRACTION2PPM * math.hypot(gyro_term, opt_term if d.estimator == "optical"
                                             else 0.0)
     j, t_d = HOLD_JITTER_ARCSEC, cfg.sequencer.drift_count_s
     sigma_d = math.sqrt(n_arw ** 2 / t_d + 2 * j ** 2 / t_d ** 2)
     for a in AXES:
         # Default: a 360 deg turn at the rate command plus ~20 % for spin-up and settling.
         t_c = (legacy_time_s or {}).get(a, 1.2 * 360.0 / cfg.electronics.rate_command_deg_s)
-        out["legacy"][a] = 1e6 * math.sqrt((sigma_d * t_c) ** 2 + n_arw ** 2 * t_c
+        out["legacy"][a] = FRACTION2PPM * math.sqrt((sigma_d * t_c) ** 2 + n_arw ** 2 * t_c
                                            + 2 * j ** 2) / 1296000.0
     return out
 
 
-def compare(cfg, runs=1, workers=2, progress=False) -> dict:
-    """Fly both methods over ``runs`` seeds (from the scenario's seed on); return the results."""
+def compare(cfg, runs=1, workers=2, on_progress=None) -> dict:
+    """Fly both methods over ``runs`` seeds (from the scenario's seed on); return the results.
+
+    Parameters
+    ----------
+    cfg : Scenario
+        The vehicle both methods fly; seeds ``cfg.mission.seed`` on.
+    runs : int
+        Number of seeds (pairs of missions).
+    workers : int
+        Worker processes when ``runs`` > 1 (1: in this process); never more
+        than ``runs``.
+    on_progress : callable, optional
+        ``on_progress(done, total)`` after each pair, in seed order.
+
+    Returns
+    -------
+    dict
+        ``runs``, ``seeds`` (first, last), ``legacy`` and ``dither`` (one
+        run's metrics, or statistics over the runs),
+        ``predicted_scale_factor_sigma_ppm`` and ``rows`` (per seed). After a
+        Ctrl-C (or SIGTERM) with pairs finished: those pairs, ``runs`` their
+        number, ``interrupted`` True and ``runs_requested``; with none
+        finished, the KeyboardInterrupt goes on.
+    """
+    from allsky.studies.montecarlo import interrupts_held, stop_pool, worker_process_setup
+
     data = cfg.as_dict()
     seeds = [int(cfg.mission.seed) + k for k in range(runs)]
     jobs = [(data, s) for s in seeds]
-    if runs == 1 or workers <= 1:
+    workers = max(1, min(int(workers), runs))  # no idle processes
+    if workers == 1:
         it = map(fly_pair, jobs)
         pool = None
     else:
-        pool = ProcessPoolExecutor(workers)
+        pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
+                                   initargs=(os.getpid(),))
         it = pool.map(fly_pair, jobs)
-    if progress:
-        from tqdm import tqdm
-
-        it = tqdm(it, total=runs, desc="missions", unit="pair")
+    rows, interrupted = [], False
     try:
-        rows = list(it)
+        for row in it:
+            rows.append(row)
+            if on_progress is not None:
+                on_progress(len(rows), runs)
+    except KeyboardInterrupt:
+        if not rows:
+            raise
+        interrupted = True
     finally:
         if pool is not None:
-            pool.shutdown()
-    result = {"runs": runs, "seeds": [seeds[0], seeds[-1]]}
-    if runs == 1:
+            with interrupts_held():
+                stop_pool(pool, interrupted or len(rows) < runs)
+    done = len(rows)
+    result = {"runs": done, "seeds": [seeds[0], seeds[done - 1]]}
+    if interrupted:
+        result["interrupted"] = True
+        result["runs_requested"] = runs
+    if done == 1:
         result["legacy"], result["dither"] = rows[0]["legacy"], rows[0]["dither"]
     else:
         result["legacy"], result["dither"] = _aggregate(rows, "legacy"), _aggregate(rows,
@@ -219,103 +291,3 @@ def _legacy_times(rows):
         return None
     return {"roll": float(np.mean([t["4"] for t in ok])),
             "yaw": float(np.mean([t["5"] for t in ok]))}
-
-
-def _fmt(v, spec=".1f"):
-    if isinstance(v, dict):
-        return f"{v['mean']:{spec}} ± {v['std']:{spec}} (p95 {v['p95']:{spec}})"
-    return "-" if v is None else f"{v:{spec}}"
-
-
-def format_compare(result) -> str:
-    """Side-by-side table of a comparison."""
-    leg, dit = result["legacy"], result["dither"]
-    pred = result["predicted_scale_factor_sigma_ppm"]
-    n = result["runs"]
-    head = (f"Calibration methods compared on the same vehicle ({n} run{'s' if n > 1 else ''},"
-            f" seeds {result['seeds'][0]}-{result['seeds'][1]})")
-    rows = [head, "", f"  {'figure':<34}{'legacy (Modes 4-5)':>34}{'dither':>34}"]
-
-    def line(name, a, b, spec=".1f"):
-        rows.append(f"  {name:<34}{_fmt(a, spec):>34}{_fmt(b, spec):>34}")
-
-    for ax in AXES:
-        line(f"scale-factor error {ax} [ppm]", leg.get("scale_factor_error_ppm", {}).get(ax),
-             dit.get("scale_factor_error_ppm", {}).get(ax))
-    for ax in AXES:
-        line(f"  predicted 1-sigma {ax} [ppm]", pred["legacy"].get(ax), pred["dither"].get(ax))
-        if n > 1:
-            line(f"  measured 1-sigma {ax} [ppm]",
-                 leg.get("scale_factor_error_ppm", {}).get(ax, {}).get("std"),
-                 dit.get("scale_factor_error_ppm", {}).get(ax, {}).get("std"))
-    for k in CC_KEYS:
-        line(f"{k} error [arcsec]", leg.get("cross_coupling_error_arcsec", {}).get(k),
-             dit.get("cross_coupling_error_arcsec", {}).get(k), ".2f")
-    line("calibration time [s]", leg.get("time_s"), dit.get("time_s"))
-    line("largest excursion [arcsec]", leg.get("max_excursion_arcsec"),
-         dit.get("max_excursion_arcsec"))
-    line("calibration propellant [kg]", leg.get("propellant_kg"), dit.get("propellant_kg"), ".3f")
-    line("final pointing error [arcsec]", leg.get("pointing_error_arcsec"),
-         dit.get("pointing_error_arcsec"))
-    if "tracking_ratio" in dit:
-        for ax, v in dit["tracking_ratio"].items():
-            rows.append(f"  dither tracking {ax}: optical amplitude / commanded = "
-                        f"{_fmt(v, '.4f')}")
-    if n > 1:
-        for method in ("legacy", "dither"):
-            r = result[method]
-            if r.get("complete", 0) < n:
-                rows.append(f"  {method}: {n - r.get('complete', 0)} of {n} missions aborted")
-    return "\n".join(rows)
-
-
-def plot(result, path) -> Path:
-    """PNG: scale-factor error against calibration time for both methods."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
-    rows = [r for r in result["rows"] if r["legacy"]["status"] == "complete"]
-    for a, mk in (("roll", "o"), ("yaw", "s")):
-        t = [r["legacy"]["time_s"] for r in rows]
-        e = [abs(r["legacy"]["scale_factor_error_ppm"][a]) for r in rows]
-        ax.scatter(t, e, marker=mk, s=14, alpha=0.5, label=f"legacy |error| {a}")
-    drows = [r for r in result["rows"] if r["dither"]["status"] == "complete"
-             and "prefix_error_ppm" in r["dither"]]
-    if drows:
-        lead = drows[0]["dither"]["time_s"] - float(max(drows[0]["dither"]["prefix_error_ppm"],
-                                                        key=float))
-        for a, mk in (("roll", "o"), ("yaw", "s")):
-            ts = sorted(drows[0]["dither"]["prefix_error_ppm"], key=float)
-            if a not in drows[0]["dither"]["prefix_error_ppm"][ts[0]]:
-                continue
-            rms = [np.sqrt(np.mean([r["dither"]["prefix_error_ppm"][t][a] ** 2 for r in drows]))
-                   for t in ts]
-            ax.plot([float(t) + lead for t in ts], rms, marker=mk, label=f"dither RMS error {a}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("calibration time [s]")
-    ax.set_ylabel("scale-factor error [ppm]")
-    ax.set_title("Gyro scale-factor calibration: 360° turns vs dither")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
-def run_from_cli(cfg, args) -> int:
-    """``allsky compare``: print the table, write --json and the plot."""
-    runs = int(args.runs)
-    result = compare(cfg, runs=runs, workers=int(args.workers), progress=runs > 1)
-    print(format_compare(result))
-    if args.json:
-        out = {k: v for k, v in result.items() if k != "rows"}
-        Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
-    if args.plot:
-        print(f"plot: {plot(result, args.plot)}")
-    return 0

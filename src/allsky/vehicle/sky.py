@@ -308,3 +308,42 @@ def star_direction_inertial(name: str, date_utc: datetime | None = None) -> np.n
     """
     s = star(name, date_utc)
     return radec_to_unit(s.ra_deg, s.dec_deg)
+
+
+def catalog(date_utc: datetime | None = None, magnitude_window=None) -> list[dict]:
+    """The catalog stars at a date, brightest first, with the tracker's view of each.
+
+    Parameters
+    ----------
+    date_utc : datetime or None
+        Date for the positions, as in :func:`star`.
+    magnitude_window : (float, float), optional
+        The star tracker's magnitude window (brightest, faintest), inclusive.
+
+    Returns
+    -------
+    list of dict
+        ``name``, ``magnitude``, ``ra_deg``, ``dec_deg`` (J2000 at the date),
+        ``in_window`` (inside ``magnitude_window``; None without one) and
+        ``locked`` (the brightest inside the window: the star the tracker
+        locks and the targeting assumes). Variant names of one star are
+        listed once.
+    """
+    seen, out = set(), []
+    for name in star_names():
+        s = star(name, date_utc)
+        key = (round(s.ra_deg, 6), round(s.dec_deg, 6), s.magnitude)
+        if key in seen:  # Adara/Adhara, Alcaid/Alkaid: one star
+            continue
+        seen.add(key)
+        inside = (None if magnitude_window is None else
+                  bool(magnitude_window[0] <= s.magnitude <= magnitude_window[1]))
+        out.append({"name": s.name, "magnitude": float(s.magnitude),
+                    "ra_deg": float(s.ra_deg), "dec_deg": float(s.dec_deg),
+                    "in_window": inside, "locked": False})
+    out.sort(key=lambda r: (r["magnitude"], r["name"]))
+    if magnitude_window is not None:
+        locked = [r for r in out if r["in_window"]]
+        if locked:
+            locked[0]["locked"] = True
+    return out

@@ -216,3 +216,30 @@ def test_config_check_never_raises(capsys, tmp_path, text):
         assert err.startswith("allsky: error:") and err.count("\n") == 1 and out == ""
     else:
         assert out == f"ok: {p}\n" and err == ""
+
+
+def test_config_show_comments_every_key_and_loads_back(capsys, tmp_path):
+    """Each key of `config show` has its meaning, unit and accepted values above it."""
+    import tomllib
+
+    from allsky.config import RULES, load_scenario
+
+    assert main(["config", "show", "--set", "mission.seed=9"]) == 0
+    text = capsys.readouterr().out
+    lines = text.splitlines()
+    shown = 0
+    table = None
+    for i, line in enumerate(lines):
+        if line.startswith("["):
+            table = line.strip("[]")
+        elif "=" in line and not line.startswith("#") and table:
+            key = f"{table}.{line.split('=')[0].strip()}"
+            if key in RULES:
+                shown += 1
+                assert lines[i - 1].startswith("# ") and "accepts: " in lines[i - 1], key
+    assert shown >= 40
+    assert "# fixed simulation frame (100 Hz) [s]; accepts: a number" in text
+    path = tmp_path / "shown.toml"
+    path.write_text(text)
+    assert tomllib.loads(text)["mission"]["seed"] == 9
+    assert load_scenario(path) == load_scenario(overrides=["mission.seed=9"])

@@ -21,6 +21,8 @@ READERS = {
                              "load_scenario(path) reads it because loading it is the job",
     "allsky.config.schema": "the packaged default scenario (package data) that every "
                             "scenario is merged over",
+    "allsky.config.meanings": "the packaged default scenario again, for its comments: they "
+                              "are the keys' meanings that config show and the docs print",
     "allsky.layers": "the package's own source, parsed for its imports (the layer order "
                      "that tests/test_layers.py holds and docs/architecture.md draws)",
 }

@@ -49,5 +49,3 @@ def test_routing_arrays_follow_the_table():
 def test_labels_name_the_switch_and_destination():
     assert wiring.label(12) == "S12 tracker yaw -> 31"
     assert wiring.label(1) == "S1 7 -> 4"
-    assert wiring.switches_into("32", "position") == tuple(
-        wiring.BY_NUMBER[k] for k in (10, 13, 14))

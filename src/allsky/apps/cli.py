@@ -339,7 +339,7 @@ def _run(cfg, args) -> int:
 
 def _config(cfg, args) -> int:
     if args.config_command == "show":
-        print(cfg.to_toml(), end="")
+        print(cfg.to_toml(annotate=True), end="")
     else:
         what = args.scenario or "the packaged default"
         sets = f" with {len(args.overrides)} --set" if args.overrides else ""

@@ -46,6 +46,7 @@ from datetime import datetime
 from types import MappingProxyType
 
 from allsky.config import dispersion_table
+from allsky.config.meanings import describe
 from allsky.config.rules import ConfigError, type_name
 from allsky.config.schema import (
     CROSS_RULES,
@@ -94,7 +95,10 @@ def _replace_target_form(base: dict, incoming: dict) -> None:
 
 
 def parse_override(item: str) -> dict:
-    """``"a.b=VALUE"`` -> ``{"a": {"b": value}}``; VALUE in TOML syntax, else a plain string."""
+    """Parse an override ``"a.b=VALUE"`` into ``{"a": {"b": value}}``.
+
+    VALUE is read in TOML syntax, else kept as a plain string.
+    """
     if not isinstance(item, str) or "=" not in item:
         raise ConfigError(None, item, f"override {item!r} must be KEY=VALUE, "
                           "e.g. gyro.arw_deg_rt_h=0.002")
@@ -169,7 +173,9 @@ class Section:
 
 
 class Scenario:
-    """A validated, frozen scenario: ``cfg.section.key`` (build it with :func:`load_scenario`).
+    """A validated, frozen scenario, read as ``cfg.section.key``.
+
+    Build it with :func:`load_scenario`.
 
     Vectors are tuples of floats, matrices tuples of tuples, ``mission.date_utc``
     a UTC datetime, ``sequencer.timeout_s`` a read-only mapping mode -> seconds.
@@ -225,16 +231,27 @@ class Scenario:
         return out
 
     def as_dict(self) -> dict:
-        """Plain nested dict of lists, floats and strings (the date as ``YYYY-MM-DDTHH:MM:SSZ``).
+        """Plain nested dict of lists, floats and strings.
+
+        The date is written as ``YYYY-MM-DDTHH:MM:SSZ``.
 
         :func:`scenario_from_dict` turns it back into an equal Scenario.
         """
         return self._export(date_as_text=True)
 
-    def to_toml(self) -> str:
-        """The fully resolved scenario as TOML text that loads back to an equal Scenario."""
+    def to_toml(self, annotate: bool = False) -> str:
+        """The fully resolved scenario as TOML text that loads back to an equal Scenario.
+
+        With ``annotate``, each key has a comment line above it: its meaning,
+        unit and accepted values (:func:`allsky.config.meanings.describe`).
+        """
         header = "# allsky scenario, fully resolved (every key, validated)\n\n"
-        return header + toml_dumps(self._export(date_as_text=False))
+        doc = self._export(date_as_text=False)
+        notes = None
+        if annotate:
+            notes = {f"{t}.{k}": describe(f"{t}.{k}") for t, table in doc.items()
+                     if isinstance(table, Mapping) for k in table if f"{t}.{k}" in RULES}
+        return header + toml_dumps(doc, notes)
 
 
 # ---------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""TOML in and out: reading with one-line errors, values in TOML syntax, a small writer.
+"""TOML in and out: reading with one-line errors, values in TOML syntax, writing.
 
 Reading wraps :mod:`tomllib`: a missing or unreadable file and a syntax
 error (with its line and column) become :class:`~allsky.config.rules.ConfigError`
@@ -68,7 +68,7 @@ def os_reason(e: OSError) -> str:
 
 
 def read_toml(path, what="scenario file") -> dict:
-    """The parsed TOML file at ``path``; ConfigError if it is missing, unreadable or bad.
+    """The parsed TOML file at ``path``; ConfigError if missing, unreadable or bad.
 
     ``what`` names the file in the messages (``"scenario file"``, ``"--disperse file"``).
     """
@@ -103,7 +103,10 @@ def parse_toml(text: str, source: str) -> dict:
 
 
 def parse_value(text: str):
-    """One value in TOML syntax (``[1, 2]``, ``"Vega"``); text that is not TOML, stripped."""
+    """One value in TOML syntax (``[1, 2]``, ``"Vega"``).
+
+    Text that is not TOML is returned stripped.
+    """
     try:
         parsed = _loads(f"v = {text}")
     except (ValueError, RecursionError):  # TOMLDecodeError is a ValueError
@@ -188,7 +191,10 @@ def _toml_string(s: str) -> str:
 
 
 def toml_value(v) -> str:
-    """One value as TOML text (a UTC date-time as ``...Z``, a mapping as an inline table)."""
+    """One value as TOML text.
+
+    A UTC date-time is written as ``...Z``, a mapping as an inline table.
+    """
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, int):
@@ -216,8 +222,15 @@ def toml_value(v) -> str:
     raise TypeError(f"no TOML form for {type(v).__name__}")
 
 
-def toml_dumps(doc: Mapping) -> str:
-    """TOML text for a dict of tables (and top-level scalars); ``tomllib.loads`` reads it back."""
+def toml_dumps(doc: Mapping, comments: Mapping | None = None) -> str:
+    """TOML text for a dict of tables and top-level scalars.
+
+    ``tomllib.loads`` reads it back.
+
+    ``comments`` maps ``"table.key"`` to a line written as a ``#`` comment
+    above that key.
+    """
+    comments = comments or {}
     lines = [f"{_toml_key(k)} = {toml_value(v)}" for k, v in doc.items()
              if not isinstance(v, Mapping)]
     for name, table in doc.items():
@@ -225,5 +238,9 @@ def toml_dumps(doc: Mapping) -> str:
             if lines:
                 lines.append("")
             lines.append(f"[{_toml_key(name)}]")
-            lines += [f"{_toml_key(k)} = {toml_value(v)}" for k, v in table.items()]
+            for k, v in table.items():
+                note = comments.get(f"{name}.{k}")
+                if note:
+                    lines.append(f"# {note}")
+                lines.append(f"{_toml_key(k)} = {toml_value(v)}")
     return "\n".join(lines) + "\n"

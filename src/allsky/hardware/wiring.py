@@ -185,12 +185,6 @@ ROUTING = Routing(
 )
 
 
-def switches_into(destination: str, port: str | None = None) -> tuple:
-    """The switches whose destination is block ``destination`` (optionally one port)."""
-    return tuple(s for s in SWITCHES
-                 if s.destination == destination and (port is None or s.port == port))
-
-
 def label(number: int) -> str:
     """Short label of switch ``number`` for figures: ``"S12 tracker yaw -> 31"``."""
     s = BY_NUMBER[number]

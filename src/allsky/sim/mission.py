@@ -194,8 +194,6 @@ class Mission:
         self.abort_reason = h.get("abort_reason")
         self.programmed_roll_deg = h.get("programmed_roll_deg")
         self.programmed_yaw_deg = h.get("programmed_yaw_deg")
-        self.drift_count_s = float(cfg.sequencer.drift_count_s)
-        self.blanking_s = float(cfg.sequencer.tracker_blanking_s)
         self.settle_s = float(cfg.sequencer.settle_time_s)
         self.pulse_weight_arcsec = float(cfg.electronics.vfc_pulse_weight_arcsec)
         self.apply_calibration = bool(cfg.calibration.apply)

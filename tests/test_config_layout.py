@@ -77,7 +77,7 @@ GRAPH = {m: {d for d in _imports(p) if d != m} for m, p in MODULES.items()}
 
 def test_the_package_has_the_modules_named_by_its_face():
     assert set(MODULES) == {PACKAGE, *(f"{PACKAGE}.{m}" for m in (
-        "rules", "toml_io", "schema", "meanings", "dispersion_table", "scenario",
+        "rules", "checkers", "toml_io", "schema", "cross_rules", "meanings", "dispersion_table", "scenario",
         "dispersions"))}
 
 

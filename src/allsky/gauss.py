@@ -73,7 +73,10 @@ def bits53(rng):
 
 @njit
 def uniform(rng):
-    """One uniform deviate in [0, 1) (53 bits) from generator ``rng``, which it advances."""
+    """One uniform deviate in [0, 1) from generator ``rng``, which it advances.
+
+    The deviate carries 53 random bits.
+    """
     return bits53(rng) * (1.0 / TWO53)
 
 

@@ -1,4 +1,4 @@
-"""The package layers of allsky, top to bottom, and the import graph read from the source.
+"""Package layers of allsky, top to bottom, and the import graph read from source.
 
 A package may import only from packages below it. ``tests/test_layers.py``
 holds the code to this order; ``docs/architecture.md`` draws it
@@ -83,7 +83,7 @@ def _is_module(module: str, root: Path) -> bool:
 
 
 def import_graph(root: Path = SRC) -> dict:
-    """Module -> set of allsky modules it imports, for every source file under ``root``."""
+    """Module -> set of allsky modules it imports, for each source file under ``root``."""
     return {module_name(p, root): imports_of(p, root) for p in sorted(root.rglob("*.py"))}
 
 

@@ -1,4 +1,4 @@
-"""``allsky analyze``: the loop-margin and PWPF tables, the JSON file and the figure.
+"""``allsky analyze``: loop-margin and PWPF tables, the JSON file and the figure.
 
 The numbers come from :func:`allsky.studies.analysis.analyze`; this module
 presents them.
@@ -13,7 +13,7 @@ from allsky.studies.analysis import RATE_LOOP_AXES, analyze, frequency_responses
 
 
 def format_margins(margins: dict) -> str:
-    """The result of :func:`allsky.studies.analysis.loop_margins` as a fixed-width text table."""
+    """Loop margins (:func:`allsky.studies.analysis.loop_margins`) as a text table."""
     head = (f"{'loop':<19}{'GM [dB]':>9}{'PM [deg]':>10}{'w_gc [rad/s]':>14}"
             f"{'w_pc [rad/s]':>14}{'BW [rad/s]':>12}{'coupling':>10}")
     lines = [head, "-" * len(head)]
@@ -29,7 +29,7 @@ def format_margins(margins: dict) -> str:
 
 
 def format_pwpf(result: dict) -> str:
-    """The result of :func:`allsky.studies.analysis.pwpf_static_characteristic` as a table."""
+    """The PWPF static characteristic (analysis.pwpf_static_characteristic) as a table."""
     def ms(v):
         return f"{'inf':>9}" if v is None else f"{v * 1e3:>9.2f}"
 
@@ -55,7 +55,7 @@ def format_pwpf(result: dict) -> str:
 
 
 def format_analysis(result: dict) -> str:
-    """The result of :func:`allsky.studies.analysis.analyze` as text: margins, then PWPF."""
+    """An :func:`allsky.studies.analysis.analyze` result as text: margins, then PWPF."""
     return "\n".join(["Loop margins (linear, cut at the plant input)", "",
                       format_margins(result["margins"]), "", format_pwpf(result["pwpf"])])
 

@@ -1,4 +1,4 @@
-"""The layers picture of ``docs/architecture.md``, drawn from the code's own imports.
+"""The layers picture of ``docs/architecture.md``, drawn from the code's imports.
 
 Each package of :data:`allsky.layers.LAYERS` is a band, top to bottom, with
 its modules listed inside; each arrow is the imports between two packages,

@@ -209,11 +209,12 @@ class ResultsFile:
         os.fsync(self.fd)
 
     def close(self):
+        """Close the results file (every row is already on disk)."""
         os.close(self.fd)
 
 
 def manifest(cfg, runs: int) -> dict:
-    """The ``campaign.json`` content of a campaign of ``runs`` runs on scenario ``cfg``."""
+    """The ``campaign.json`` content of a campaign of ``runs`` runs on ``cfg``."""
     return {"format": MANIFEST_FORMAT, "allsky_version": __version__, "runs": int(runs),
             "base_seed": int(cfg.mission.seed), "dispersions": dispersions.spec(cfg),
             "columns": columns(cfg), "scenario": json.loads(json.dumps(cfg.as_dict()))}

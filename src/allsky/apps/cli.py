@@ -367,7 +367,7 @@ def crash_report(exc) -> str:
 
 
 def main(argv=None) -> int:
-    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit code.
+    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return exit code.
 
     See :data:`EXIT_CODES`.
     """

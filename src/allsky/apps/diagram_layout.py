@@ -1,4 +1,4 @@
-"""Where the block diagram draws each block: presentation data, keyed by patent numeral.
+"""Where the block diagram draws each block: presentation data by patent numeral.
 
 A box is keyed by the first numeral of its row in the block table
 (:data:`allsky.hardware.blocks.BLOCKS`), which gives its name, numerals and

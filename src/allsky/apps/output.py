@@ -1,4 +1,4 @@
-"""The command line's output files: checked before the work, written whole or not at all.
+"""Output files: checked before the work, written whole or not at all.
 
 Every file a command writes (telemetry, JSON, figures, campaign records) goes
 through :func:`write_atomic`: it is written under a temporary name in the

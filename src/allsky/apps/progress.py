@@ -39,7 +39,7 @@ def frame_loop_needs_compiling() -> bool:
 
 
 def fly(m, quiet=False, stream=None):
-    """Fly the remaining modes of mission ``m`` with a progress line; return its summary."""
+    """Fly the remaining modes of ``m`` with a progress line; return its summary."""
     stream = stream or sys.stderr
     disable = True if quiet else (None if stream is sys.stderr else False)
     with tqdm(total=len(m.plan), initial=m.next_mode, unit="mode", file=stream,

@@ -9,7 +9,7 @@ from allsky.units import RAD2ARCSEC
 
 
 def format_report(summary: dict, tracker_star=None) -> str:
-    """A plain-text report of a mission summary (:meth:`allsky.sim.mission.Mission.summary`).
+    """A plain-text report of a mission summary (:meth:`Mission.summary`).
 
     ``tracker_star`` (:class:`allsky.vehicle.sky.Star`), when given, is named
     as the star the tracker locked.
@@ -99,7 +99,7 @@ def write_outputs(outputs) -> tuple[list, list]:
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky run``: fly the mission, print the report, write --json / --telemetry / --plots.
+    """``allsky run``: fly, print the report, write --json, --telemetry and --plots.
 
     Every output path is checked before flying. Interrupted (Ctrl-C, SIGTERM),
     the report, ``--json`` and ``--telemetry`` of the part flown are still

@@ -1,4 +1,4 @@
-"""``allsky stars``: the star catalog and what the tracker's magnitude window passes.
+"""``allsky stars``: the catalog and what the tracker's magnitude window passes.
 
 The list comes from :func:`allsky.vehicle.sky.catalog`; this module prints it.
 """

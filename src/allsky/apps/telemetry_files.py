@@ -1,4 +1,6 @@
-"""Telemetry files: CSV and Parquet, written and read back bit for bit, and their column page.
+"""Telemetry files: CSV and Parquet, written and read back bit for bit.
+
+Also the column page, ``docs/telemetry.md``.
 
 A telemetry table (:meth:`allsky.sim.mission.Mission.telemetry`) has one
 float64 column per entry of :data:`allsky.sim.recorder.COLUMNS`. Files
@@ -66,7 +68,7 @@ def write(path, table: np.ndarray, option=None) -> Path:
 
 
 def write_csv(path, table: np.ndarray, option=None) -> Path:
-    """Write the telemetry table to CSV (``repr`` of each float: exact on reading back)."""
+    """Write the telemetry table to CSV (each float as ``repr``: exact on reading)."""
     from allsky.apps.output import write_atomic
 
     def writer(tmp):
@@ -318,7 +320,7 @@ def _allowed_words(allowed) -> str:
 
 
 def markdown() -> str:
-    """The column list ``docs/telemetry.md``, generated from :data:`allsky.sim.recorder.COLUMNS`."""
+    """The column page ``docs/telemetry.md``, from :data:`allsky.sim.recorder.COLUMNS`."""
     lines = [
         "# Telemetry columns",
         "",

@@ -1,4 +1,4 @@
-"""Calibration sequencer 19 of computer 111: the end-of-turn computations of Modes 4 and 5.
+"""Calibration sequencer 19 of computer 111: the computations ending Modes 4 and 5.
 
 At the end of the roll (Mode 4) or yaw (Mode 5) calibration turn, master
 sequencer 20 starts this sequencer: it steps selector S7 over contacts
@@ -24,7 +24,7 @@ AXES = ("roll", "yaw")
 
 
 def calibrate(axis, switches, counters, pulse_weight_arcsec, turn_sign, word23) -> np.ndarray:
-    """Read counters 14/16/18 through S7 and store ``axis``'s calibration in register 23.
+    """Read counters 14/16/18 via S7; store ``axis``'s calibration in register 23.
 
     Parameters
     ----------

@@ -59,7 +59,7 @@ def calibrate_yaw(word23, counts_arcsec, true_angle_arcsec):
 
 @njit
 def target_step(axis, counter_arcsec, word23, word24, work):
-    """One computer cycle on ``axis``: update the corrected angle and error of that axis.
+    """One computer cycle on ``axis``: update that axis's corrected angle and error.
 
     ``counter_arcsec`` is the selected counter's content times the pulse
     weight. Returns the error to write into that axis's storage register.

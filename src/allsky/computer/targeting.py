@@ -34,7 +34,10 @@ def reference_frame(sun_inertial, star_inertial) -> np.ndarray:
 
 
 def programmed_angles_deg(sun_inertial, star_inertial, target_inertial) -> tuple:
-    """Programmed (roll, yaw) [deg] that point +x at the target from the reference attitude."""
+    """Programmed (roll, yaw) [deg] that point +x at the target.
+
+    The turns start from the reference attitude.
+    """
     t = reference_frame(sun_inertial, star_inertial) @ np.asarray(target_inertial, dtype=float)
     t = t / np.linalg.norm(t)
     phi = math.atan2(t[2], t[1])

@@ -33,7 +33,11 @@ def neutral_computed() -> np.ndarray:
 
 
 def computed_as_dict(w) -> dict:
-    """Register 23 as the calibration summary's ``scale_factor``/``cross_coupling`` parts."""
+    """Register 23 as the scale-factor and cross-coupling parts of the summary.
+
+    The parts are the calibration summary's ``scale_factor`` and
+    ``cross_coupling``.
+    """
     return {
         "scale_factor": {"roll": float(w[SF_ROLL]), "yaw": float(w[SF_YAW])},
         "cross_coupling": {"roll_into_pitch": float(w[ROLL_INTO_PITCH]),

@@ -10,9 +10,10 @@ checkers of one value), ``toml_io`` (reading TOML, the writer), ``schema``
 :class:`Scenario`) and ``dispersions`` (drawing a scenario per mission seed).
 """
 
+from allsky.config.cross_rules import CROSS_RULES
 from allsky.config.rules import ConfigError
 from allsky.config.scenario import Scenario, load_scenario, scenario_from_dict
-from allsky.config.schema import CROSS_RULES, DEFAULT_SCENARIO_PATH, RULES, allowed
+from allsky.config.schema import DEFAULT_SCENARIO_PATH, RULES, allowed
 
 __all__ = ["CROSS_RULES", "DEFAULT_SCENARIO_PATH", "RULES", "ConfigError", "Scenario",
            "allowed", "load_scenario", "scenario_from_dict"]

@@ -11,20 +11,22 @@ from datetime import timedelta
 
 import numpy as np
 
+from allsky.config.checkers import (
+    boolean,
+    star_name,
+    utc_datetime,
+)
+from allsky.config.cross_rules import last_start_utc
 from allsky.config.rules import (
     EPHEMERIS_START_UTC,
     NON_NEGATIVE,
     ConfigError,
     as_float,
-    boolean,
     check_conds,
     number,
     real_array,
-    star_name,
     type_name,
-    utc_datetime,
 )
-from allsky.config.schema import last_start_utc
 from allsky.config.toml_io import iso_utc
 
 #: Keys that hold a number, vector or matrix but are never drawn, and why.
@@ -86,7 +88,7 @@ def _flatten(table):
 # ---------------------------------------------------------------------------
 
 def validate(table: Mapping, values: Mapping) -> dict:
-    """Check the merged ``[dispersions]`` entries against the validated scenario ``values``.
+    """Check merged ``[dispersions]`` entries against validated scenario ``values``.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Dispersions: scenario keys drawn at random per mission seed (Monte Carlo inputs).
+"""Scenario keys drawn at random per mission seed: the Monte Carlo dispersions.
 
 A scenario's ``[dispersions]`` table (empty in the packaged default), or a
 file given by ``--disperse`` holding such a table, names scenario keys and

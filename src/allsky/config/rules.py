@@ -1,4 +1,4 @@
-"""The words of configuration rules: :class:`ConfigError`, numeric conditions, checkers.
+"""Configuration rules: :class:`ConfigError`, numeric conditions, generic checkers.
 
 A checker takes ``(key, value as read from TOML)`` and returns the frozen
 value (a float, a tuple of floats, a UTC datetime ...) or raises
@@ -10,14 +10,10 @@ Type rules are the same everywhere: an integer is accepted where a float is
 expected; a boolean or a string is never a number; a number must be finite.
 """
 
-import difflib
-import functools
 import math
 from collections.abc import Callable
 from datetime import UTC, date, datetime, time
 from typing import NamedTuple
-
-import numpy as np
 
 from allsky.units import DEG2ARCSEC
 
@@ -71,7 +67,10 @@ class ConfigError(Exception):
         return type(self), (self.key, self._given, self.rule)
 
     def with_rule(self, rule: str) -> "ConfigError":
-        """The same key and value (shown or not, as here) with ``rule`` in place of the rule."""
+        """The same error with ``rule`` in place of the rule.
+
+        Key and value are kept, the value shown or not as here.
+        """
         return type(self)(self.key, self._given, rule)
 
 
@@ -100,7 +99,8 @@ class Cond(NamedTuple):
     ok: Callable[[float], bool]
 
 
-def _g(x) -> str:
+def shown_number(x) -> str:
+    """A number as rule texts show it: integers whole, floats in %g form."""
     return str(x) if isinstance(x, int) else f"{x:g}"
 
 
@@ -113,35 +113,41 @@ NON_NEGATIVE = Cond("must be >= 0", lambda x: x >= 0)
 
 
 def at_least(lo, why=""):
-    return Cond(f"must be >= {_g(lo)}{_why(why)}", lambda x: x >= lo)
-
-
-def below(hi):
-    return Cond(f"must be < {_g(hi)}", lambda x: x < hi)
+    """:class:`Cond` requiring ``x >= lo`` (``why``, if given, in parentheses)."""
+    return Cond(f"must be >= {shown_number(lo)}{_why(why)}", lambda x: x >= lo)
 
 
 def in_closed(lo, hi, why=""):
-    return Cond(f"must be in [{_g(lo)}, {_g(hi)}]{_why(why)}", lambda x: lo <= x <= hi)
+    """:class:`Cond` requiring ``lo <= x <= hi`` (``why``, if given, in parentheses)."""
+    return Cond(f"must be in [{shown_number(lo)}, {shown_number(hi)}]{_why(why)}", lambda x: lo <= x <= hi)
 
 
 def in_open(lo, hi):
-    return Cond(f"must be in ({_g(lo)}, {_g(hi)})", lambda x: lo < x < hi)
+    """:class:`Cond` requiring ``lo < x < hi``."""
+    return Cond(f"must be in ({shown_number(lo)}, {shown_number(hi)})", lambda x: lo < x < hi)
 
 
 def in_open_closed(lo, hi, why=""):
-    return Cond(f"must be in ({_g(lo)}, {_g(hi)}]{_why(why)}", lambda x: lo < x <= hi)
+    """:class:`Cond` requiring ``lo < x <= hi`` (``why``, if given, in parentheses)."""
+    return Cond(f"must be in ({shown_number(lo)}, {shown_number(hi)}]{_why(why)}", lambda x: lo < x <= hi)
 
 
 def in_closed_open(lo, hi):
-    return Cond(f"must be in [{_g(lo)}, {_g(hi)})", lambda x: lo <= x < hi)
+    """:class:`Cond` requiring ``lo <= x < hi``."""
+    return Cond(f"must be in [{shown_number(lo)}, {shown_number(hi)})", lambda x: lo <= x < hi)
 
 
 def magnitude_at_most(limit):
-    return Cond(f"magnitude must be <= {_g(limit)}", lambda x: abs(x) <= limit)
+    """:class:`Cond` requiring ``abs(x) <= limit``."""
+    return Cond(f"magnitude must be <= {shown_number(limit)}", lambda x: abs(x) <= limit)
 
 
 def check_conds(conds, key, x, shown, where=""):
-    """Raise :class:`ConfigError` (value ``shown``) for the first ``Cond`` that ``x`` breaks."""
+    """Raise :class:`ConfigError` for the first ``Cond`` that ``x`` breaks.
+
+    The error shows the value as ``shown`` and prefixes the rule with
+    ``where``.
+    """
     for c in conds:
         if not c.ok(x):
             raise ConfigError(key, shown, f"{where}{c.text}")
@@ -165,7 +171,7 @@ def type_name(v) -> str:
 
 
 def as_float(v):
-    """``(float, None)`` or ``(None, reason)``: a finite number, ints accepted, bools not."""
+    """``(float, None)`` or ``(None, reason)``: a finite number (int yes, bool no)."""
     if isinstance(v, bool) or not isinstance(v, int | float):
         return None, f"must be a number, not {type_name(v)}"
     try:
@@ -253,147 +259,3 @@ def one_of(*choices: str):
         return v
     check.allowed = "one of " + ", ".join(f'"{c}"' for c in choices)
     return check
-
-
-# ---------------------------------------------------------------------------
-# Checkers of one kind of value
-# ---------------------------------------------------------------------------
-
-def boolean(key, v):
-    """``true`` or ``false``."""
-    if not isinstance(v, bool):
-        raise ConfigError(key, v, f"must be true or false, not {type_name(v)}")
-    return v
-
-
-def utc_datetime(key, v):
-    """A date-time in the ephemeris range, returned timezone-aware in UTC."""
-    shown = v
-    if isinstance(v, str):
-        try:
-            v = datetime.fromisoformat(v.strip())
-        except ValueError:
-            raise ConfigError(key, shown, "must be an ISO-8601 date-time such as "
-                              "2026-11-22T12:00:00Z") from None
-    elif isinstance(v, date) and not isinstance(v, datetime):
-        v = datetime.combine(v, time(0, 0))
-    elif not isinstance(v, datetime):
-        raise ConfigError(key, v, f"must be a TOML date-time or an ISO-8601 string, "
-                          f"not {type_name(v)}")
-    rule = (f"must be within the ephemeris range {EPHEMERIS_START_UTC.date()}.."
-            f"{EPHEMERIS_END_UTC.date()} (UTC)")
-    try:
-        v = v.replace(tzinfo=UTC) if v.tzinfo is None else v.astimezone(UTC)
-    except OverflowError:  # year 1 or 9999 moved across midnight by its offset
-        raise ConfigError(key, shown, rule) from None
-    if not EPHEMERIS_START_UTC <= v <= EPHEMERIS_END_UTC:
-        raise ConfigError(key, shown, rule)
-    return v
-
-
-def inertia_tensor(key, v):
-    """A rigid body's inertia tensor: symmetric, positive definite, triangle inequalities."""
-    j = np.array(real_array(key, v, (3, 3)))
-    scale = float(np.abs(j).max())
-    if scale == 0.0:
-        raise ConfigError(key, v, "must be positive definite (all elements are 0)")
-    js = j / scale  # dimensionless, so no overflow for any finite input
-    if not np.all(np.abs(js - js.T) <= 1e-9):
-        raise ConfigError(key, v, "must be symmetric (to a relative 1e-9)")
-    a, b, c = np.linalg.eigvalsh(js)  # ascending
-    moments = ", ".join(f"{float(m) * scale:.6g}" for m in (a, b, c))
-    if a <= 1e-12 * c:
-        raise ConfigError(key, v, f"must be positive definite (principal moments {moments})")
-    if a + b < c * (1 - 1e-9):
-        raise ConfigError(key, v, f"principal moments {moments} break the triangle inequality"
-                          " (each must be <= the sum of the other two)")
-    # Mirror the upper triangle: exactly symmetric, and unchanged when loaded again.
-    return tuple(tuple(float(j[min(r, k), max(r, k)]) for k in range(3)) for r in range(3))
-
-
-def misalignment_matrix(key, v):
-    """Gyro input-axis misalignments: 3x3, zero diagonal, each within 1 degree."""
-    m = real_array(key, v, (3, 3))
-    if any(m[i][i] != 0.0 for i in range(3)):
-        raise ConfigError(key, v, "diagonal must be 0: scale-factor error is set by "
-                          "gyro.scale_factor_error_ppm")
-    if any(abs(x) > MISALIGNMENT_MAX_ARCSEC for row in m for x in row):
-        raise ConfigError(key, v, f"every element's magnitude must be <= "
-                          f"{_g(MISALIGNMENT_MAX_ARCSEC)} arcsec")
-    return m
-
-
-def attitude(key, v):
-    """``"random"``, or a quaternion [w, x, y, z] (inertial -> body), returned normalised."""
-    if v == "random":
-        return "random"
-    if not isinstance(v, list):
-        raise ConfigError(key, v, 'must be "random" or a quaternion [w, x, y, z] '
-                          "(inertial -> body)")
-    given = real_array(key, v, (4,))
-    big = max(abs(x) for x in given)
-    if big == 0.0:
-        raise ConfigError(key, v, "quaternion [w, x, y, z] must not be all zero")
-    if abs(math.fsum(x * x for x in given) - 1.0) <= 4e-16:
-        return given  # already unit: kept bit for bit, so a saved scenario loads unchanged
-    q = np.array(given) / big  # scaled first so that 1e-320 or 1e308 normalise too
-    return tuple(float(x) for x in q / np.linalg.norm(q))
-
-
-def mode_timeouts(*conds: Cond):
-    """A table of exactly the ``MODE_KEYS``, each a time [s] obeying every ``Cond``."""
-    each = number(*conds)
-
-    def check(key, v):
-        if not isinstance(v, dict):
-            raise ConfigError(key, v, f"must be a table of the modes {', '.join(MODE_KEYS)}")
-        missing = [m for m in MODE_KEYS if m not in v]
-        extra = [m for m in v if m not in MODE_KEYS]
-        if missing or extra:
-            raise ConfigError(key, v, f"must have exactly the modes {', '.join(MODE_KEYS)}")
-        return {m: each(f"{key}.{m}", v[m]) for m in MODE_KEYS}
-    check.allowed = (f"a table of the modes {', '.join(MODE_KEYS)}, each "
-                     + each.allowed.removeprefix("a number, "))
-    return check
-
-
-def magnitude_window(key, v):
-    """[brightest, faintest] visual magnitudes, brightest < faintest."""
-    lo, hi = real_array(key, v, (2,))
-    if not lo < hi:
-        raise ConfigError(key, v, "must be [brightest, faintest] with brightest < faintest")
-    return (lo, hi)
-
-
-@functools.cache
-def _catalog() -> dict:
-    import ephem.stars
-
-    return {name.lower(): name for name in ephem.stars.stars}
-
-
-def star_name(key, v):
-    """A star of PyEphem's catalog (any case), returned with its catalog spelling."""
-    if not isinstance(v, str):
-        raise ConfigError(key, v, f"must be a star name (a string), not {type_name(v)}")
-    found = _catalog().get(v.strip().lower())
-    if found is None:
-        near = difflib.get_close_matches(v.strip().lower(), list(_catalog()), n=3, cutoff=0.5)
-        hint = ("; nearest: " + ", ".join(_catalog()[n] for n in near)) if near else ""
-        raise ConfigError(key, v, f"not in the PyEphem star catalog{hint}")
-    return found
-
-
-# Words for the configuration reference (see allsky.config.schema.allowed).
-boolean.allowed = "true or false"
-utc_datetime.allowed = (f"a date-time (TOML or ISO-8601 string), UTC, within "
-                        f"{EPHEMERIS_START_UTC.date()}..{EPHEMERIS_END_UTC.date()}, the "
-                        "years allsky.vehicle.sky takes from PyEphem; the whole mission must "
-                        "end by then (rules between keys)")
-inertia_tensor.allowed = ("a 3x3 array: symmetric, positive definite, principal moments "
-                          "obeying the triangle inequality")
-misalignment_matrix.allowed = (f"a 3x3 array, diagonal 0, each element within "
-                               f"+-{_g(MISALIGNMENT_MAX_ARCSEC)}")
-attitude.allowed = '"random", or a quaternion [w, x, y, z] (inertial to body; normalised)'
-magnitude_window.allowed = "[brightest, faintest], brightest < faintest"
-star_name.allowed = "a star name of the PyEphem catalog (any case)"

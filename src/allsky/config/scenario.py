@@ -36,7 +36,7 @@ merges a file's ``[dispersions]`` table over the scenario's.
 Every value is checked once, here: its type (an integer is accepted where a
 float is expected; a boolean or a string is never a number), finiteness, its
 own rule (:data:`~allsky.config.schema.RULES`, one entry per key) and the rules
-tying keys together (:data:`~allsky.config.schema.CROSS_RULES`). Anything wrong
+tying keys together (:data:`~allsky.config.cross_rules.CROSS_RULES`). Anything wrong
 raises :class:`~allsky.config.rules.ConfigError` naming the key, the value and
 the rule; no other exception escapes for any file content.
 """
@@ -46,10 +46,10 @@ from datetime import datetime
 from types import MappingProxyType
 
 from allsky.config import dispersion_table
+from allsky.config.cross_rules import CROSS_RULES
 from allsky.config.meanings import describe
 from allsky.config.rules import ConfigError, type_name
 from allsky.config.schema import (
-    CROSS_RULES,
     RULES,
     TARGET_RADEC_FORM,
     TARGET_STAR_FORM,

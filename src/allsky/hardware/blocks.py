@@ -1,4 +1,4 @@
-"""The block table: every numeral of US 4,012,018, its block, and the code that implements it.
+"""The block table: each numeral of US 4,012,018, its block and the code for it.
 
 One row per block (or per group of like blocks, listed roll, pitch, yaw):
 the patent's reference numerals, what the block is, the modules and

@@ -15,7 +15,7 @@ from allsky.jit import njit
 
 @njit
 def dac(code, bits, lsb):
-    """Analogue value of a signed ``code`` through a ``bits``-bit converter with step ``lsb``."""
+    """Analogue value of signed ``code`` through a ``bits``-bit DAC with step ``lsb``."""
     hi = (1 << (bits - 1)) - 1
     lo = -(1 << (bits - 1))
     if code > hi:

@@ -25,7 +25,10 @@ class JetParams(NamedTuple):
 
 
 def make_params(thrust_n, moment_arm_m, isp_s) -> JetParams:
-    """Build :class:`JetParams` from per-jet thrust [N], arm [m] and specific impulse [s]."""
+    """Build :class:`JetParams` from thrust [N], arm [m] and specific impulse [s].
+
+    Each value is per jet.
+    """
     f = np.asarray(thrust_n, dtype=float)
     r = np.asarray(moment_arm_m, dtype=float)
     return JetParams(2.0 * f * r, 2.0 * f / (float(isp_s) * units.G0_M_S2))
@@ -33,7 +36,9 @@ def make_params(thrust_n, moment_arm_m, isp_s) -> JetParams:
 
 @njit
 def jets(p, valve, dt_s, propellant_kg, torque_n_m):
-    """Torque of the three couples for valve commands ``valve`` (-1/0/+1) held over a frame.
+    """Torque of the three jet couples for valve commands ``valve`` (-1/0/+1).
+
+    The commands are held over one frame.
 
     ``propellant_kg`` (1 element) is decremented; returns False when the tank
     is empty (then no torque).

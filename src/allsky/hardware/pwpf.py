@@ -70,7 +70,7 @@ def pwpf_step(p, axis, input_v, filter_v, out, on_frames):
 
 
 def static_on_off_times_s(p_gain, tau_s, u_on, u_off, u_m, e):
-    """Continuous-time (T_on, T_off) [s] of the modulator for a constant input ``e`` [V].
+    """Continuous-time (T_on, T_off) [s] of the modulator for constant input ``e`` [V].
 
     Returns ``(0, inf)`` inside the dead zone and ``(inf, 0)`` in saturation.
     """

@@ -34,7 +34,10 @@ class StarTrackerParams(NamedTuple):
 
 @njit
 def star_tracker(p, q, out, rng):
-    """Tracker outputs for attitude ``q``: ``out = [yaw_arcsec, pitch_arcsec, present]``."""
+    """Outputs of star tracker 105 for attitude ``q``, written into ``out``.
+
+    ``out = [yaw_arcsec, pitch_arcsec, present]``.
+    """
     best = 1e9
     yaw_best = 0.0
     pitch_best = 0.0

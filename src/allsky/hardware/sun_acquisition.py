@@ -27,7 +27,7 @@ class SunAcquisitionParams(NamedTuple):
 
 @njit
 def sun_acquisition(p, linear_range_arcsec, fine, coarse_body, gyro_arcsec_s, pos, rate):
-    """Fill control-amplifier inputs ``pos`` [arcsec] and ``rate`` [arcsec/s] for Mode 1."""
+    """Fill control-amplifier inputs ``pos`` [arcsec], ``rate`` [arcsec/s] for Mode 1."""
     in_range = fine[2] > 0.5 and abs(fine[0]) < linear_range_arcsec \
         and abs(fine[1]) < linear_range_arcsec
     rate[0] = gyro_arcsec_s[0]

@@ -24,7 +24,10 @@ class VfcParams(NamedTuple):
 
 @njit
 def vfc(p, axis, rate_arcsec_s, dt_s, residue_pulses):
-    """Pulses [signed int] put out over one frame; carries the remainder in ``residue_pulses``."""
+    """Pulses [signed int] put out over one frame.
+
+    The remainder is carried in ``residue_pulses``.
+    """
     pps = rate_arcsec_s / p.pulse_weight_arcsec
     if pps > p.max_rate_pps:
         pps = p.max_rate_pps

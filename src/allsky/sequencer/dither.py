@@ -1,4 +1,6 @@
-"""The dither scale-factor method (the comparison mode): generator, feed-forward, detector.
+"""The dither scale-factor method: generator, feed-forward, detector.
+
+This is the comparison mode.
 
 A small sinusoidal attitude dither ``d(t) = A sin(w t)`` (A a vector: amplitude
 and axis, one frequency per axis) is added to the attitude command; a
@@ -41,7 +43,7 @@ class DitherParams(NamedTuple):
 
 @njit
 def dither_command(p, t_s, angle_arcsec, ff_volts):
-    """Dither angle [arcsec] per axis and the feed-forward modulator input [V] at ``t_s``."""
+    """Dither angle [arcsec] per axis and feed-forward modulator input [V] at ``t_s``."""
     # a(t) = -A w^2 sin(w t) [rad/s^2], kept in ff_volts until the torque is formed
     for i in range(3):
         s = np.sin(p.omega_rad_s[i] * t_s)
@@ -66,7 +68,9 @@ def feedforward_torque_n_m(inertia_kg_m2, amplitude_rad, omega_rad_s, t_s):
 # ---------------------------------------------------------------------------
 
 def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
-    """Complex amplitude ``c`` (``|c| sin(w t + arg c)``, t from the first sample) of ``x`` at ``freq_hz``.
+    """Complex amplitude ``c`` of ``x`` at ``freq_hz``, from one DFT bin.
+
+    The component is ``|c| sin(w t + arg c)``, t from the first sample.
 
     ``x`` holds ``n + 1`` samples spanning the record. For an *integrating*
     channel (a counter) the estimate works on the ``n`` sample-to-sample
@@ -103,7 +107,9 @@ def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
 
 
 def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):
-    """Complex amplitude of ``x`` at ``freq_hz`` by least squares: sin, cos and a polynomial trend.
+    """Complex amplitude of ``x`` at ``freq_hz`` by least squares.
+
+    The fit holds a sine, a cosine and a polynomial trend.
 
     Exact for any record length (no leakage from the dither itself); the
     trend absorbs the drift ramp of a counter.
@@ -118,7 +124,10 @@ def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):
 
 
 def projected(c, ref):
-    """Component of complex amplitude ``c`` in phase with ``ref`` (signed, same units as c)."""
+    """Signed component of complex amplitude ``c`` in phase with ``ref``.
+
+    It has the units of ``c``.
+    """
     return float(np.real(c * np.conj(ref)) / abs(ref))
 
 

@@ -1,4 +1,6 @@
-"""The comparison mode: gyro calibration by attitude dither, flown in place of Modes 4 and 5.
+"""The comparison mode: gyro calibration by attitude dither.
+
+It is flown in place of Modes 4 and 5.
 
 The mode's steps are in the mode table (:mod:`allsky.sequencer.modes`,
 mode ``"dither"``): a record leg, a settle leg, then :func:`dither_analysis`.
@@ -37,7 +39,9 @@ AXES = ("roll", "pitch", "yaw")
 
 def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
             detector="fft"):
-    """Estimates from a dither record (rows: t, counters x3 [arcsec], optical x3 [arcsec]).
+    """Estimates from a dither record (rows: t, counters x3, optical x3).
+
+    Counters and optical channels are in [arcsec].
 
     Returns ``{axis: {...}}`` for each dithered axis: complex amplitudes of
     the gyro and optical channels, both scale-factor estimates, and the
@@ -113,7 +117,9 @@ def dither_analysis(m, records):
 
 
 def target_hold_dither(m):
-    """Dither while holding on the target after Mode 6-2 (the computer's errors hold the vehicle).
+    """Dither while holding on the target after Mode 6-2.
+
+    The computer's errors hold the vehicle.
 
     There is no optical reference on the target (the Sun sensor is off the
     Sun, S14/S15 open), so only estimate 1 (gyro against command) exists, and

@@ -1,4 +1,4 @@
-"""What master sequencer 20 asks of the frame loop, leg by leg, and what it gets back.
+"""What master sequencer 20 asks of the frame loop, leg by leg, and gets back.
 
 A *leg* is one step of a mode: the program computer 111 runs during it, the
 condition the sequencer's watch waits for (settle, hand-over or elapsed

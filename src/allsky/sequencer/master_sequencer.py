@@ -102,7 +102,10 @@ def yaw_rate_positive(m, records):
 
 
 def calibration_sequencer(m, records, axis):
-    """Start calibration sequencer 19 for ``axis`` ("roll" or "yaw"): counters -> register 23."""
+    """Start calibration sequencer 19 for ``axis``: counters -> register 23.
+
+    ``axis`` is "roll" or "yaw".
+    """
     s = m.state
     counts = cal19.calibrate(axis, s.switches, s.counters, m.pulse_weight_arcsec,
                              s.rate_sign[RATE_SIGN[axis]], s.word23)
@@ -110,7 +113,10 @@ def calibration_sequencer(m, records, axis):
 
 
 def withhold_calibration(m, records):
-    """Fly Mode 6 uncalibrated when the scenario says so: register 23 neutral, S1-S3 open."""
+    """Fly Mode 6 uncalibrated if so configured: register 23 neutral, S1-S3 open.
+
+    Only when the scenario says so (``m.apply_calibration`` false).
+    """
     if not m.apply_calibration:
         m.state.word23[:] = wr.neutral_computed()
         m.switch(open_=(1, 2, 3))
@@ -142,7 +148,7 @@ def roll_rate_toward_target(m, records):
 
 
 def preset_counters(m, records):
-    """Preset counters 16 and 18 so that the corrected pitch and yaw start Mode 6-2 at zero."""
+    """Preset counters 16 and 18 so the corrected pitch and yaw start Mode 6-2 at zero."""
     s = m.state
     pitch_arcsec, yaw_arcsec = cpu.mode6_preset_arcsec(s.word23, s.cpu)
     s.counters[1] = round(pitch_arcsec / m.pulse_weight_arcsec)
@@ -150,7 +156,7 @@ def preset_counters(m, records):
 
 
 def start_yaw_computation(m, records):
-    """CPU 22 computes the yaw, then the pitch error from the preset counters 18 and 16."""
+    """CPU 22 computes the yaw, then the pitch error from preset counters 18 and 16."""
     s = m.state
     cpu.target_step(2, s.counters[2] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)
     cpu.target_step(1, s.counters[1] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)

@@ -42,7 +42,10 @@ class Operate(NamedTuple):
 
 
 class Wait(NamedTuple):
-    """One leg: computer 111 runs ``program`` until the sequencer's watch sees its condition."""
+    """One leg: computer 111 runs ``program`` until the watch sees its condition.
+
+    The watch is master sequencer 20's.
+    """
 
     what: str  #: what is awaited, in words (abort messages and the step display show it)
     program: str  #: key of :data:`PROGRAMS`

@@ -1,1 +1,1 @@
-"""The simulation: the compiled frame loop, the mission state and driver, telemetry."""
+"""The simulation: compiled frame loop, mission state and driver, telemetry."""

@@ -1,4 +1,4 @@
-"""A mission: the vehicle, its electronics and the master sequencer, from a scenario.
+"""A mission: vehicle, electronics and master sequencer, built from a scenario.
 
 :class:`Mission` builds the frame loop's parameters from a validated
 scenario, runs the modes one at a time (:meth:`Mission.run_mode`) or all of
@@ -145,7 +145,7 @@ def dither_params(cfg) -> dither.DitherParams:
 
 
 def ejection_state(cfg) -> sim_state.State:
-    """Mission state at ejection: attitude and tip-off rates drawn from the mission seed."""
+    """Mission state at ejection: attitude and tip-off rates from the mission seed."""
     rng = np.random.default_rng([int(cfg.mission.seed), 0])
     att = cfg.ejection.attitude
     q0 = quaternion.random_unit(rng) if isinstance(att, str) else np.asarray(att, dtype=float)
@@ -214,7 +214,7 @@ class Mission:
 
     def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
             on_timeout=None, record_rows=0):
-        """Run the frame loop until ``what`` happens; raise :class:`ModeAbort` if it does not.
+        """Run the frame loop until ``what`` happens; raise ModeAbort if it does not.
 
         Returns the dither record (``record_rows`` rows at most) of the leg.
         """
@@ -281,6 +281,7 @@ class Mission:
     # -- running ---------------------------------------------------------------
     @property
     def finished(self) -> bool:
+        """True once the mission is complete or aborted."""
         return self.status != "running"
 
     @property

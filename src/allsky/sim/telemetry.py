@@ -1,4 +1,4 @@
-"""Telemetry tables: the columns the frame loop writes, by name, and what they encode.
+"""Telemetry tables: the columns the frame loop writes, and what they encode.
 
 The loop fills a float64 table, one row every ``mission.telemetry_every_frames``
 frames, through :mod:`allsky.sim.recorder`, which holds the column list

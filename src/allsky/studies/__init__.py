@@ -1,1 +1,4 @@
-"""Studies built on missions: the calibration comparison, Monte Carlo campaigns, loop analysis."""
+"""Studies: the calibration comparison, Monte Carlo campaigns, loop analysis.
+
+Each is built on missions.
+"""

@@ -201,7 +201,9 @@ def _reachable_and_observable(sys: control.StateSpace) -> control.StateSpace:
 def loop_transfer(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
                   position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s, axis,
                   rate_commanded=False, vehicle=None) -> control.StateSpace:
-    """Loop transfer function L(s) of one axis, cut at its torque input, the other axes closed.
+    """Loop transfer function L(s) of one axis, cut at its torque input.
+
+    The other axes' loops stay closed.
 
     Parameters
     ----------
@@ -256,7 +258,9 @@ def loop_transfer(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
 
 def axis_loops(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
                position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s) -> dict:
-    """Every loop of :func:`loop_transfer`: ``{"position roll": L(s), ..., "rate yaw": L(s)}``.
+    """Every loop of :func:`loop_transfer`, as ``{name: L(s)}``.
+
+    Names run from ``"position roll"`` to ``"rate yaw"``.
 
     Parameters are those of :func:`loop_transfer` (without ``axis``). The
     position loops of the three axes come first, then the rate-command
@@ -460,7 +464,9 @@ def _valve_trace(p, input_v, n_steps):
 
 
 def simulated_duty_cycle(params: pwpf.PwpfParams, input_v, step_s, duration_s) -> float:
-    """Duty cycle of the simulated modulator (:func:`allsky.hardware.pwpf.pwpf_step`), constant input.
+    """Duty cycle of the simulated modulator for a constant input.
+
+    The modulator is :func:`allsky.hardware.pwpf.pwpf_step`.
 
     The modulator starts from rest; the duty cycle is the fraction of steps
     the valve is open over the whole cycles between the second and the last
@@ -489,7 +495,7 @@ def simulated_duty_cycle(params: pwpf.PwpfParams, input_v, step_s, duration_s) -
 
 def pwpf_static_characteristic(filter_gain, time_constant_s, on_threshold_v, off_threshold_v,
                                full_on_v, min_on_time_s, frame_s, inputs_v=None) -> dict:
-    """The PWPF static characteristic: analytic, simulated fine, simulated at the frame.
+    """PWPF static characteristic: analytic, simulated fine, simulated at the frame.
 
     Parameters
     ----------
@@ -563,7 +569,10 @@ def scenario_loops(cfg) -> dict:
 
 
 def frequency_responses(loops: dict, omega_rad_s) -> dict:
-    """``{name: (omega [rad/s], |L(j omega)| [-], phase [deg], unwrapped)}`` of each loop."""
+    """``{name: (omega, |L(j omega)|, phase, unwrapped)}`` of each loop.
+
+    Units: omega [rad/s], ``|L(j omega)|`` [-], phase [deg].
+    """
     w = np.asarray(omega_rad_s, dtype=float)
     out = {}
     for name, loop in loops.items():

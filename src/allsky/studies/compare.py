@@ -1,4 +1,4 @@
-"""The patent's calibration (Modes 4-5) against the dither method, on the same vehicle.
+"""The patent's calibration (Modes 4-5) against the dither method, same vehicle.
 
 Both methods fly the same vehicle: same scenario, same gyro errors, same
 seed, hence the same ejection and the same noise through Mode 3. Then the
@@ -218,7 +218,7 @@ def predicted(cfg, legacy_time_s=None) -> dict:
 
 
 def compare(cfg, runs=1, workers=2, on_progress=None) -> dict:
-    """Fly both methods over ``runs`` seeds (from the scenario's seed on); return the results.
+    """Fly both methods over ``runs`` seeds from the scenario's; return the results.
 
     Parameters
     ----------

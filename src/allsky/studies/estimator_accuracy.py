@@ -1,4 +1,4 @@
-"""Steady-state accuracy of a single-axis gyro + angle-sensor Kalman filter, in closed form.
+"""Closed-form steady-state accuracy of a gyro + angle-sensor Kalman filter.
 
 One axis: a gyro is integrated to propagate the attitude angle between
 samples of an angle sensor (star tracker 105, sun sensor 104), and a Kalman
@@ -72,7 +72,10 @@ class SteadyStateAccuracy(NamedTuple):
 
 
 class ContinuousAccuracy(NamedTuple):
-    """Steady-state standard deviations and covariance of the continuous (Kalman-Bucy) filter."""
+    """Steady-state accuracy of the continuous (Kalman-Bucy) filter.
+
+    Holds the standard deviations and the covariance.
+    """
 
     attitude_rad: np.ndarray  #: [rad] attitude error sigma
     bias_rad_s: np.ndarray  #: [rad/s] drift-bias error sigma
@@ -153,7 +156,9 @@ def farrenkopf(sigma_v_rad_rt_s, sigma_u_rad_s_rt_s, sigma_n_rad, dt_s) -> Stead
 
 def rate_integrating(sigma_v_rad_rt_s, sigma_u_rad_s_rt_s, sigma_n_rad, sigma_e_rad,
                      dt_s) -> SteadyStateAccuracy:
-    """Steady-state accuracy with a rate-integrating gyro read out with noise (Markley & Reynolds).
+    """Steady-state accuracy with a rate-integrating gyro read out with noise.
+
+    After Markley & Reynolds.
 
     The gyro reports its integrated angle with white readout noise
     ``sigma_e`` at every sample. The drift part of the gyro angle follows
@@ -279,7 +284,7 @@ def continuous(sigma_v_rad_rt_s, sigma_u_rad_s_rt_s, sigma_n_rad_rt_hz) -> Conti
 
 
 def quantization_sigma_rad(pulse_weight_rad):
-    """Readout noise [rad] of a counter that holds the integrated angle in whole pulses.
+    """Readout noise [rad] of a counter holding the integrated angle in whole pulses.
 
     The count misses the true integral by the fraction of a pulse still on
     the converter's integrator (voltage-to-frequency converters 8/10/12 carry

@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns: missions over seeds and dispersions, and their statistics.
+"""Monte Carlo campaigns: missions over seeds and dispersions, and statistics.
 
 Run i of a campaign flies the scenario with ``mission.seed = base + i``
 (base: the scenario's ``mission.seed``) and its ``[dispersions]`` drawn for
@@ -71,7 +71,7 @@ DASK_CONNECT_TIMEOUT_S = 10.0
 
 
 class CampaignError(Exception):
-    """A campaign that cannot start or go on (seeds, directory, resume mismatch, cluster)."""
+    """A campaign that cannot start or go on (seeds, directory, resume, cluster)."""
 
 
 class ClusterLost(CampaignError):
@@ -88,7 +88,7 @@ def columns(cfg) -> list:
 
 
 def row_from_summary(run: int, seed: int, inputs: dict, summary: dict) -> dict:
-    """A campaign row from a mission summary (:meth:`allsky.sim.mission.Mission.summary`).
+    """A campaign row from a mission summary (:meth:`Mission.summary`).
 
     ``inputs`` are the drawn values as flat columns
     (:func:`allsky.config.dispersions.flat_inputs`). Values a mission did not reach
@@ -113,7 +113,7 @@ def row_from_summary(run: int, seed: int, inputs: dict, summary: dict) -> dict:
 
 
 def fly_one(cfg, run: int, seed: int) -> dict:
-    """Fly run ``run`` (mission seed ``seed``) of a campaign on scenario ``cfg``; its row.
+    """Fly run ``run`` (mission seed ``seed``) on scenario ``cfg``; return its row.
 
     A draw that breaks a scenario rule (or that cannot be drawn) gives status
     ``"invalid"``, an unexpected failure status ``"error"``, each with its
@@ -149,7 +149,7 @@ _WORKER = {}
 
 
 def fly_runs(data: dict, jobs) -> list:
-    """Worker entry point: rows of ``jobs`` (``(run, seed)`` pairs) on scenario ``data``.
+    """Worker entry point: rows of ``jobs`` ((run, seed) pairs) on scenario ``data``.
 
     ``data`` is :meth:`Scenario.as_dict` output; the scenario is validated once
     per process and kept while the same data comes back.
@@ -372,7 +372,7 @@ def _cluster_lost(e) -> bool:
 
 
 def check_seeds(cfg, runs: int):
-    """Refuse a campaign whose seeds ``cfg.mission.seed + i`` pass the largest mission seed.
+    """Refuse a campaign whose seeds ``cfg.mission.seed + i`` pass the largest seed.
 
     Raises
     ------

@@ -79,7 +79,7 @@ class Envelope:
         return float(np.min(self.offsets))
 
     def support(self, direction) -> np.ndarray:
-        """Support function ``h(d) = sum_i L_i |d . g_i|`` for one (3,) or many (k, 3) ``d``.
+        """Support function ``h(d) = sum_i L_i |d . g_i|``, one (3,) or many (k, 3) ``d``.
 
         Not normalised: ``h`` is positively homogeneous of degree 1, so for a
         unit ``d`` it is the largest component along ``d`` of any reachable
@@ -89,7 +89,7 @@ class Envelope:
         return np.abs(d @ self.axes.T) @ self.limits
 
     def max_along(self, direction) -> np.ndarray:
-        """Largest magnitude reachable along the direction(s) ``direction`` (normalised here).
+        """Largest magnitude reachable along ``direction`` (one or many, normalised here).
 
         Parameters
         ----------
@@ -378,7 +378,7 @@ def _reach(envelope: Envelope, unit: str) -> dict:
 
 
 def envelope_summary(axes, torque_max_n_m, momentum_max_n_m_s, jet_torque_n_m) -> dict:
-    """Torque and momentum reach of a wheel array, its worst single failure, and the jets.
+    """Torque and momentum reach: a wheel array, its worst single failure, the jets.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Rigid-body rotational dynamics of the vehicle (the plant): instrument vehicle 100.
+"""Rigid-body rotational dynamics of instrument vehicle 100 (the plant).
 
 State ``x = [q_w, q_x, q_y, q_z, wx, wy, wz]``: the inertial->body quaternion
 and the body rate [rad/s] in body axes; input: body torque [N m].

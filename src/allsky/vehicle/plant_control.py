@@ -89,7 +89,7 @@ def operating_point() -> control.OperatingPoint:
 
 
 def linearize(inertia_kg_m2, name="vehicle") -> control.StateSpace:
-    """The vehicle linearised about :func:`operating_point`: small angles and body rates.
+    """The vehicle linearised about :func:`operating_point` (small angles, body rates).
 
     :func:`control.linearize` of :func:`vehicle_nlsys` (forward differences
     of :func:`allsky.vehicle.plant.derivatives`), then two steps that the

@@ -32,7 +32,10 @@ def dcm_body_from_inertial(q):
 
 @njit
 def rotate_to_body(q, v_inertial, out_body):
-    """Write ``dcm_body_from_inertial(q) @ v_inertial`` into ``out_body`` without allocating."""
+    """Write ``dcm_body_from_inertial(q) @ v_inertial`` into ``out_body``.
+
+    Nothing is allocated.
+    """
     w, x, y, z = q[0], q[1], q[2], q[3]
     a, b, c = v_inertial[0], v_inertial[1], v_inertial[2]
     out_body[0] = (w * w + x * x - y * y - z * z) * a + 2.0 * (x * y + w * z) * b \
@@ -71,7 +74,10 @@ def multiply(p, q):
 
 
 def from_dcm(c):
-    """Unit quaternion ``[w, x, y, z]`` (w >= 0) of a body-from-inertial DCM (Shepperd's method)."""
+    """Unit quaternion ``[w, x, y, z]`` (w >= 0) of a body-from-inertial DCM.
+
+    Shepperd's method.
+    """
     c = np.asarray(c, dtype=float)
     tr = np.trace(c)
     k = np.argmax([tr, c[0, 0], c[1, 1], c[2, 2]])
@@ -97,7 +103,10 @@ def from_dcm(c):
 
 
 def random_unit(rng):
-    """Quaternion uniform over the rotation group (Shoemake 1992), from a numpy Generator."""
+    """Quaternion uniform over the rotation group, from a numpy Generator.
+
+    Shoemake's (1992) construction from three uniform deviates.
+    """
     u1, u2, u3 = rng.random(3)
     a, b = math.sqrt(1 - u1), math.sqrt(u1)
     q = np.array([a * math.sin(2 * math.pi * u2), a * math.cos(2 * math.pi * u2),

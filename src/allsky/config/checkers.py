@@ -1,0 +1,171 @@
+"""Checkers of the scenario's particular kinds of value.
+
+Dates, inertia tensors, misalignment matrices, attitudes, mode timeouts,
+magnitude windows and star names, built on the vocabulary of
+:mod:`allsky.config.rules`: each takes ``(key, value as read from TOML)``,
+returns the frozen value or raises :class:`~allsky.config.rules.ConfigError`,
+and carries ``allowed``, its rule in words.
+"""
+
+import difflib
+import functools
+import math
+from datetime import UTC, date, datetime, time
+
+import numpy as np
+
+from allsky.config.rules import (
+    EPHEMERIS_END_UTC,
+    EPHEMERIS_START_UTC,
+    MISALIGNMENT_MAX_ARCSEC,
+    MODE_KEYS,
+    Cond,
+    ConfigError,
+    number,
+    real_array,
+    shown_number,
+    type_name,
+)
+
+
+def boolean(key, v):
+    """``true`` or ``false``."""
+    if not isinstance(v, bool):
+        raise ConfigError(key, v, f"must be true or false, not {type_name(v)}")
+    return v
+
+
+def utc_datetime(key, v):
+    """A date-time in the ephemeris range, returned timezone-aware in UTC."""
+    shown = v
+    if isinstance(v, str):
+        try:
+            v = datetime.fromisoformat(v.strip())
+        except ValueError:
+            raise ConfigError(key, shown, "must be an ISO-8601 date-time such as "
+                              "2026-11-22T12:00:00Z") from None
+    elif isinstance(v, date) and not isinstance(v, datetime):
+        v = datetime.combine(v, time(0, 0))
+    elif not isinstance(v, datetime):
+        raise ConfigError(key, v, f"must be a TOML date-time or an ISO-8601 string, "
+                          f"not {type_name(v)}")
+    rule = (f"must be within the ephemeris range {EPHEMERIS_START_UTC.date()}.."
+            f"{EPHEMERIS_END_UTC.date()} (UTC)")
+    try:
+        v = v.replace(tzinfo=UTC) if v.tzinfo is None else v.astimezone(UTC)
+    except OverflowError:  # year 1 or 9999 moved across midnight by its offset
+        raise ConfigError(key, shown, rule) from None
+    if not EPHEMERIS_START_UTC <= v <= EPHEMERIS_END_UTC:
+        raise ConfigError(key, shown, rule)
+    return v
+
+
+def inertia_tensor(key, v):
+    """Rigid-body inertia tensor: symmetric, positive definite, triangle inequalities."""
+    j = np.array(real_array(key, v, (3, 3)))
+    scale = float(np.abs(j).max())
+    if scale == 0.0:
+        raise ConfigError(key, v, "must be positive definite (all elements are 0)")
+    js = j / scale  # dimensionless, so no overflow for any finite input
+    if not np.all(np.abs(js - js.T) <= 1e-9):
+        raise ConfigError(key, v, "must be symmetric (to a relative 1e-9)")
+    a, b, c = np.linalg.eigvalsh(js)  # ascending
+    moments = ", ".join(f"{float(m) * scale:.6g}" for m in (a, b, c))
+    if a <= 1e-12 * c:
+        raise ConfigError(key, v, f"must be positive definite (principal moments {moments})")
+    if a + b < c * (1 - 1e-9):
+        raise ConfigError(key, v, f"principal moments {moments} break the triangle inequality"
+                          " (each must be <= the sum of the other two)")
+    # Mirror the upper triangle: exactly symmetric, and unchanged when loaded again.
+    return tuple(tuple(float(j[min(r, k), max(r, k)]) for k in range(3)) for r in range(3))
+
+
+def misalignment_matrix(key, v):
+    """Gyro input-axis misalignments: 3x3, zero diagonal, each within 1 degree."""
+    m = real_array(key, v, (3, 3))
+    if any(m[i][i] != 0.0 for i in range(3)):
+        raise ConfigError(key, v, "diagonal must be 0: scale-factor error is set by "
+                          "gyro.scale_factor_error_ppm")
+    if any(abs(x) > MISALIGNMENT_MAX_ARCSEC for row in m for x in row):
+        raise ConfigError(key, v, f"every element's magnitude must be <= "
+                          f"{shown_number(MISALIGNMENT_MAX_ARCSEC)} arcsec")
+    return m
+
+
+def attitude(key, v):
+    """``"random"``, or a quaternion [w, x, y, z] (inertial -> body).
+
+    A quaternion is returned normalised.
+    """
+    if v == "random":
+        return "random"
+    if not isinstance(v, list):
+        raise ConfigError(key, v, 'must be "random" or a quaternion [w, x, y, z] '
+                          "(inertial -> body)")
+    given = real_array(key, v, (4,))
+    big = max(abs(x) for x in given)
+    if big == 0.0:
+        raise ConfigError(key, v, "quaternion [w, x, y, z] must not be all zero")
+    if abs(math.fsum(x * x for x in given) - 1.0) <= 4e-16:
+        return given  # already unit: kept bit for bit, so a saved scenario loads unchanged
+    q = np.array(given) / big  # scaled first so that 1e-320 or 1e308 normalise too
+    return tuple(float(x) for x in q / np.linalg.norm(q))
+
+
+def mode_timeouts(*conds: Cond):
+    """A table of exactly the ``MODE_KEYS``, each a time [s] obeying every ``Cond``."""
+    each = number(*conds)
+
+    def check(key, v):
+        if not isinstance(v, dict):
+            raise ConfigError(key, v, f"must be a table of the modes {', '.join(MODE_KEYS)}")
+        missing = [m for m in MODE_KEYS if m not in v]
+        extra = [m for m in v if m not in MODE_KEYS]
+        if missing or extra:
+            raise ConfigError(key, v, f"must have exactly the modes {', '.join(MODE_KEYS)}")
+        return {m: each(f"{key}.{m}", v[m]) for m in MODE_KEYS}
+    check.allowed = (f"a table of the modes {', '.join(MODE_KEYS)}, each "
+                     + each.allowed.removeprefix("a number, "))
+    return check
+
+
+def magnitude_window(key, v):
+    """[brightest, faintest] visual magnitudes, brightest < faintest."""
+    lo, hi = real_array(key, v, (2,))
+    if not lo < hi:
+        raise ConfigError(key, v, "must be [brightest, faintest] with brightest < faintest")
+    return (lo, hi)
+
+
+@functools.cache
+def _catalog() -> dict:
+    import ephem.stars
+
+    return {name.lower(): name for name in ephem.stars.stars}
+
+
+def star_name(key, v):
+    """A star of PyEphem's catalog (any case), returned with its catalog spelling."""
+    if not isinstance(v, str):
+        raise ConfigError(key, v, f"must be a star name (a string), not {type_name(v)}")
+    found = _catalog().get(v.strip().lower())
+    if found is None:
+        near = difflib.get_close_matches(v.strip().lower(), list(_catalog()), n=3, cutoff=0.5)
+        hint = ("; nearest: " + ", ".join(_catalog()[n] for n in near)) if near else ""
+        raise ConfigError(key, v, f"not in the PyEphem star catalog{hint}")
+    return found
+
+
+# Words for the configuration reference (see allsky.config.schema.allowed).
+boolean.allowed = "true or false"
+utc_datetime.allowed = (f"a date-time (TOML or ISO-8601 string), UTC, within "
+                        f"{EPHEMERIS_START_UTC.date()}..{EPHEMERIS_END_UTC.date()}, the "
+                        "years allsky.vehicle.sky takes from PyEphem; the whole mission must "
+                        "end by then (rules between keys)")
+inertia_tensor.allowed = ("a 3x3 array: symmetric, positive definite, principal moments "
+                          "obeying the triangle inequality")
+misalignment_matrix.allowed = (f"a 3x3 array, diagonal 0, each element within "
+                               f"+-{shown_number(MISALIGNMENT_MAX_ARCSEC)}")
+attitude.allowed = '"random", or a quaternion [w, x, y, z] (inertial to body; normalised)'
+magnitude_window.allowed = "[brightest, faintest], brightest < faintest"
+star_name.allowed = "a star name of the PyEphem catalog (any case)"

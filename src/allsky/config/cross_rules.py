@@ -1,0 +1,210 @@
+"""Rules that tie scenario keys together, run after each key passed its own.
+
+Each rule is a function of the flat scenario (``"table.key" -> value``) that
+raises :class:`~allsky.config.rules.ConfigError` naming a key; its docstring
+is the rule in words, as the configuration reference prints it.
+"""
+
+import math
+from datetime import timedelta
+
+from allsky.config.rules import (
+    EPHEMERIS_END_UTC,
+    EPHEMERIS_START_UTC,
+    MODE_KEYS,
+    ConfigError,
+)
+from allsky.config.schema import (
+    DITHER_MAX_SAMPLES,
+    DITHER_SETTLE_ALLOWANCE_S,
+    MISSION_MAX_FRAMES,
+    MISSION_MAX_S,
+    SUN_RATE_SPAN_S,
+    TARGET_RADEC_FORM,
+    TELEMETRY_MAX_ROWS,
+)
+from allsky.config.toml_io import iso_utc
+from allsky.units import DEG2ARCSEC
+
+
+def _frame_fits_jet_minimum(v):
+    """`mission.frame_s` <= `jets.min_on_time_s` (a valve pulse lasts whole frames)."""
+    frame, t_min = v["mission.frame_s"], v["jets.min_on_time_s"]
+    if frame > t_min * (1 + 1e-12):
+        raise ConfigError("mission.frame_s", frame,
+                          f"frame too coarse for the jet minimum on-time: must be <= "
+                          f"jets.min_on_time_s ({t_min:g} s)")
+
+
+def _pwpf_hysteresis(v):
+    """`pwpf.off_threshold_v` < `pwpf.on_threshold_v` (the modulator's hysteresis)."""
+    on, off = v["pwpf.on_threshold_v"], v["pwpf.off_threshold_v"]
+    if not on > off:
+        raise ConfigError("pwpf.off_threshold_v", off,
+                          f"must be < pwpf.on_threshold_v ({on:g} V)")
+
+
+def _sun_presence_covers_linear_range(v):
+    """`sun_sensor.presence_half_angle_deg` >= the fine linear range."""
+    half = v["sun_sensor.presence_half_angle_deg"]
+    lin_deg = v["sun_sensor.linear_range_arcsec"] / DEG2ARCSEC
+    if half < lin_deg:
+        raise ConfigError("sun_sensor.presence_half_angle_deg", half,
+                          f"must be >= the sun sensor linear range ({lin_deg:g} deg)")
+
+
+def _dither_sampling(v):
+    """`dither.sample_s` >= `mission.frame_s`; a dithered axis's period > 2 samples."""
+    sample, frame = v["dither.sample_s"], v["mission.frame_s"]
+    if sample < frame * (1 - 1e-12):
+        raise ConfigError("dither.sample_s", sample,
+                          f"must be >= mission.frame_s ({frame:g} s): samples are taken "
+                          "once a frame at most")
+    pairs = zip(v["dither.amplitude_urad"], v["dither.period_s"], strict=True)
+    for axis, (amp, period) in enumerate(pairs):
+        if amp > 0 and not period > 2 * sample:
+            raise ConfigError("dither.period_s", v["dither.period_s"],
+                              f"element {axis} must be > 2 x dither.sample_s ({2 * sample:g} s)"
+                              " (Nyquist) on a dithered axis")
+
+
+def _dither_record(v):
+    """`dither.sample_s` whole frames; `dither.record_s` >= dithered periods, <= 2^20 samples."""
+    sample, frame = v["dither.sample_s"], v["mission.frame_s"]
+    per_sample = sample / frame
+    if abs(per_sample - round(per_sample)) > 1e-9 * per_sample:
+        raise ConfigError("dither.sample_s", sample,
+                          f"must be a whole number of frames (mission.frame_s = {frame:g} s): "
+                          f"the record is sampled every {max(1, round(per_sample))} frames")
+    lead, record = v["dither.lead_in_s"], v["dither.record_s"]
+    samples = (lead + record) / sample
+    if samples > DITHER_MAX_SAMPLES:
+        raise ConfigError("dither.record_s", record,
+                          f"dither.lead_in_s + dither.record_s would hold {samples:.4g} samples "
+                          f"of {sample:g} s; must be <= {DITHER_MAX_SAMPLES * sample - lead:g} s "
+                          f"(at most 2^20 = {DITHER_MAX_SAMPLES} samples)")
+    pairs = zip(v["dither.amplitude_urad"], v["dither.period_s"], strict=True)
+    for axis, (amp, period) in enumerate(pairs):
+        if amp > 0 and period > record:
+            raise ConfigError("dither.period_s", v["dither.period_s"],
+                              f"element {axis} must be <= dither.record_s ({record:g} s): the "
+                              "record holds a whole period of each dithered axis")
+
+
+def _fft_whole_periods(v):
+    """With `dither.detector = "fft"`, `dither.record_s` holds whole periods of dithered axes."""
+    if v["dither.detector"] != "fft":
+        return
+    sample, record = v["dither.sample_s"], v["dither.record_s"]
+    n = round(record / sample)  # the samples the analysis takes (allsky.sequencer.dither_mode)
+    pairs = zip(v["dither.amplitude_urad"], v["dither.period_s"], strict=True)
+    for axis, (amp, period) in enumerate(pairs):
+        turns = n * sample / period
+        if amp > 0 and abs(turns - round(turns)) > 1e-6:  # the tolerance of dither.fft_amplitude
+            raise ConfigError("dither.period_s", v["dither.period_s"],
+                              f"element {axis} goes {turns:.6g} times into dither.record_s "
+                              f'({record:g} s): the "fft" detector needs whole periods in the '
+                              'record (or use "hann" or "lsq")')
+
+
+def _converters_follow_the_turns(v):
+    """Converters 8, 10, 12 follow the calibration turns: max rate x pulse weight > rate command."""
+    pps, weight = v["electronics.vfc_max_rate_pps"], v["electronics.vfc_pulse_weight_arcsec"]
+    turn_arcsec_s = v["electronics.rate_command_deg_s"] * DEG2ARCSEC
+    if not pps * weight > turn_arcsec_s:
+        raise ConfigError("electronics.vfc_max_rate_pps", pps,
+                          f"must be > {turn_arcsec_s / weight:g}: converters 8, 10, 12 saturate "
+                          f"at {pps * weight:g} arcsec/s, no faster than the calibration turns "
+                          f"({turn_arcsec_s:g} arcsec/s, electronics.rate_command_deg_s)")
+
+
+# ---------------------------------------------------------------------------
+# How long a mission may take, and what that costs
+# ---------------------------------------------------------------------------
+
+def plan_durations_s(v) -> dict:
+    """Longest time [s] of the ``legacy`` and ``dither`` plans: their modes' timeouts.
+
+    The dither mode, in place of Modes 4 and 5, is allowed its lead-in and record and
+    :data:`DITHER_SETTLE_ALLOWANCE_S`."""
+    t = v["sequencer.timeout_s"]
+    legacy = math.fsum(t[m] for m in MODE_KEYS)
+    dither = math.fsum([*(t[m] for m in MODE_KEYS if m not in ("4", "5")),
+                        v["dither.lead_in_s"], v["dither.record_s"], DITHER_SETTLE_ALLOWANCE_S])
+    return {"legacy": legacy, "dither": dither}
+
+
+def longest_mission_s(v) -> float:
+    """The longest a mission of either plan can take [s] (:func:`plan_durations_s`)."""
+    return max(plan_durations_s(v).values())
+
+
+def last_start_utc(v):
+    """The latest ``mission.date_utc`` whose mission ends inside the ephemeris range."""
+    span_s = max(longest_mission_s(v), SUN_RATE_SPAN_S)
+    return EPHEMERIS_END_UTC - timedelta(seconds=span_s)
+
+
+def _mission_within_a_day(v):
+    """The longest mission (its plan's mode timeouts) <= 86400 s: the Sun moves on a line."""
+    plans = plan_durations_s(v)
+    why = f"must fit in {MISSION_MAX_S:g} s, a day: the Sun moves on a line good to 1.4 arcsec"
+    if plans["legacy"] > MISSION_MAX_S:
+        raise ConfigError("sequencer.timeout_s", v["sequencer.timeout_s"],
+                          f"the modes' timeouts add up to {plans['legacy']:g} s; a mission {why}")
+    if plans["dither"] > MISSION_MAX_S:
+        raise ConfigError("dither.record_s", v["dither.record_s"],
+                          f"the dither plan would take {plans['dither']:g} s (timeouts of Modes "
+                          f"1, 2, 3, 6-1, 6-2 + dither.lead_in_s + dither.record_s + "
+                          f"{DITHER_SETTLE_ALLOWANCE_S:g} s); a mission {why}")
+
+
+def _frames_of_the_longest_mission(v):
+    """The longest mission / `mission.frame_s` <= 1e8 frames (about 40 s of computing)."""
+    longest, frame = longest_mission_s(v), v["mission.frame_s"]
+    frames = longest / frame
+    if frames > MISSION_MAX_FRAMES:
+        raise ConfigError("mission.frame_s", frame,
+                          f"the longest mission ({longest:g} s) would take {frames:.4g} frames; "
+                          f"must be >= {longest / MISSION_MAX_FRAMES:g} s (at most "
+                          f"{MISSION_MAX_FRAMES:.0e} frames, about 40 s of computing)")
+
+
+def _telemetry_rows(v):
+    """The longest mission's frames / `mission.telemetry_every_frames` <= 1e6 rows (320 MB)."""
+    frames = longest_mission_s(v) / v["mission.frame_s"]
+    every = v["mission.telemetry_every_frames"]
+    if frames / every > TELEMETRY_MAX_ROWS:
+        raise ConfigError("mission.telemetry_every_frames", every,
+                          f"the longest mission ({frames:.4g} frames) would record "
+                          f"{frames / every:.4g} telemetry rows; must be >= "
+                          f"{math.ceil(frames / TELEMETRY_MAX_ROWS)} (at most "
+                          f"{TELEMETRY_MAX_ROWS:.0e} rows, 320 MB)")
+
+
+def _mission_ends_inside_the_ephemeris(v):
+    """`mission.date_utc` + the longest mission (at least 1 h) ends by 2100-12-31T23:59:59Z."""
+    date, last = v["mission.date_utc"], last_start_utc(v)
+    if date > last:
+        span = f"{EPHEMERIS_START_UTC.date()}..{EPHEMERIS_END_UTC.date()}"
+        raise ConfigError("mission.date_utc", date, f"must be <= {iso_utc(last)}: the mission "
+                          f"would end after the ephemeris range {span} (the longest mission "
+                          f"takes {longest_mission_s(v):g} s, the Sun's rate the first "
+                          f"{SUN_RATE_SPAN_S:g} s)")
+
+
+def _one_target_form(v):
+    """`target.star`, or both `target.ra_deg` and `target.dec_deg`."""
+    if v["target.star"] is not None:
+        return
+    for k in TARGET_RADEC_FORM:
+        if v[f"target.{k}"] is None:
+            raise ConfigError(f"target.{k}", rule="missing: give target.star, or both "
+                              "target.ra_deg and target.dec_deg")
+
+
+#: Cross-key rules, in the order they are checked.
+CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
+               _dither_sampling, _dither_record, _fft_whole_periods, _converters_follow_the_turns,
+               _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
+               _mission_ends_inside_the_ephemeris, _one_target_form)

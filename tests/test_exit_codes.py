@@ -246,3 +246,21 @@ def test_report_gives_ra_and_dec_to_a_sensible_precision(saved_states):
     summary["target"] = {**summary["target"], "ra_deg": 279.234735, "dec_deg": 38.783689}
     summary["target"].pop("star", None)
     assert "Target: RA 18.616 h, Dec +38.78 deg" in format_report(summary)
+
+
+def test_figure_and_telemetry_suffixes_are_checked_before_the_work(capsys, tmp_path):
+    """A figure or telemetry file with a suffix nobody writes is refused before flying."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from allsky.apps.output import FIGURE_SUFFIXES
+
+    supported = {f".{k}" for k in FigureCanvasBase.get_supported_filetypes()}
+    assert set(FIGURE_SUFFIXES) <= supported
+    for argv, option in ((["analyze", "--plot", str(tmp_path / "a.txt")], "--plot"),
+                         (["compare", "--plot", str(tmp_path / "c.txt")], "--plot"),
+                         (["run", "--telemetry", str(tmp_path / "t.txt")], "--telemetry")):
+        assert cli.main([*argv, "--quiet"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"allsky: error: {option}: cannot write") and "suffix" in err
+        assert "\n" not in err
+    assert list(tmp_path.iterdir()) == []

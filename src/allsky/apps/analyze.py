@@ -76,10 +76,10 @@ def run_from_cli(cfg, args) -> int:
 
     ``--json -`` writes the JSON alone to stdout, instead of the tables.
     """
-    from allsky.apps.output import check_output, write_atomic
+    from allsky.apps.output import FIGURE_SUFFIXES, check_output, write_atomic
 
     check_output("--json", args.json)
-    check_output("--plot", args.plot)
+    check_output("--plot", args.plot, suffixes=FIGURE_SUFFIXES)
     to_stdout = args.json == "-"
     say = (lambda *a, **k: None) if to_stdout else print
     result = analyze(cfg)

@@ -161,10 +161,16 @@ def run_from_cli(cfg, args) -> int:
 
     from tqdm import tqdm
 
-    from allsky.apps.output import Interrupted, cap_workers, check_output, write_atomic
+    from allsky.apps.output import (
+        FIGURE_SUFFIXES,
+        Interrupted,
+        cap_workers,
+        check_output,
+        write_atomic,
+    )
 
     check_output("--json", args.json)
-    check_output("--plot", args.plot)
+    check_output("--plot", args.plot, suffixes=FIGURE_SUFFIXES)
     runs = int(args.runs)
     to_stdout = args.json == "-"
     say = (lambda *a, **k: None) if to_stdout else print

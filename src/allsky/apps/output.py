@@ -83,6 +83,13 @@ def write_atomic(path, data=None, writer=None, option=None) -> Path:
     return path
 
 
+#: Figure file suffixes matplotlib writes (checked against matplotlib in the tests).
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif",
+                   ".tiff", ".webp")
+#: Telemetry file suffixes (apps/telemetry_files.FORMATS).
+TELEMETRY_SUFFIXES = (".csv", ".parquet")
+
+
 def check_output(option, path, directory=False, suffixes=None):
     """Refuse, before the work, an output path that cannot be written.
 

@@ -106,7 +106,13 @@ def run_from_cli(cfg, args) -> int:
     written and :class:`~allsky.apps.output.Interrupted` says so; a file that
     cannot be written does not stop the others.
     """
-    from allsky.apps.output import Interrupted, OutputError, check_output, write_atomic
+    from allsky.apps.output import (
+        TELEMETRY_SUFFIXES,
+        Interrupted,
+        OutputError,
+        check_output,
+        write_atomic,
+    )
     from allsky.apps.progress import fly
     from allsky.config.dispersions import disperse, format_drawn
     from allsky.sim.mission import Mission
@@ -118,7 +124,7 @@ def run_from_cli(cfg, args) -> int:
     plots_dir = getattr(args, "plots", None)
     quiet = getattr(args, "quiet", False) or to_stdout
     check_output("--json", json_path)  # before flying: no mission lost to a typo
-    check_output("--telemetry", tlm_path)
+    check_output("--telemetry", tlm_path, suffixes=TELEMETRY_SUFFIXES)
     if tlm_path:
         telemetry_files.file_format(tlm_path)
     check_output("--plots", plots_dir, directory=True)

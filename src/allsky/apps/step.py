@@ -258,13 +258,13 @@ def run_from_cli(cfg, args) -> int:
     way (after Ctrl-C, :class:`~allsky.apps.output.Interrupted` says so).
     """
     from allsky.apps import report, states, telemetry_files
-    from allsky.apps.output import Interrupted, check_output, write_atomic
+    from allsky.apps.output import TELEMETRY_SUFFIXES, Interrupted, check_output, write_atomic
     from allsky.config import ConfigError
     from allsky.sim.mission import Mission
 
     want_tlm = bool(args.telemetry)
     check_output("--json", args.json)
-    check_output("--telemetry", args.telemetry)
+    check_output("--telemetry", args.telemetry, suffixes=TELEMETRY_SUFFIXES)
     if want_tlm:
         telemetry_files.file_format(args.telemetry)  # refuse a bad suffix before flying
     check_output("--save-dir", args.save_dir, directory=True)

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from allsky.layers import find_cycles
+
 PACKAGE = "allsky.config"
 DIR = Path(__file__).resolve().parents[1] / "src" / "allsky" / "config"
 #: Longest a module of the package may grow before its job should be split [lines].
@@ -51,27 +53,6 @@ def _imports(path: Path, package: str = PACKAGE, modules=None) -> dict:
     return found
 
 
-def _cycles(graph: dict) -> list:
-    """Every import loop a depth-first search meets, as ``[a, b, ..., a]``."""
-    state, stack, cycles = {}, [], []
-
-    def visit(m):
-        state[m] = "open"
-        stack.append(m)
-        for d in sorted(graph.get(m, ())):
-            if state.get(d) == "open":
-                cycles.append(stack[stack.index(d):] + [d])
-            elif d not in state:
-                visit(d)
-        stack.pop()
-        state[m] = "done"
-
-    for m in sorted(graph):
-        if m not in state:
-            visit(m)
-    return cycles
-
-
 GRAPH = {m: {d for d in _imports(p) if d != m} for m, p in MODULES.items()}
 
 
@@ -82,7 +63,7 @@ def test_the_package_has_the_modules_named_by_its_face():
 
 
 def test_no_import_cycle_in_the_config_package():
-    cycles = _cycles(GRAPH)
+    cycles = find_cycles(GRAPH)
     assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles)
 
 
@@ -134,5 +115,5 @@ def test_the_checker_sees_lazy_relative_and_package_imports(tmp_path):
     f.write_text("from allsky.config import a as cfg\nx = cfg._thaw\n"
                  "from allsky.config.b import _hidden\n")
     assert sorted(_private_uses(f, modules=fake)) == ["allsky.config.b._hidden", "cfg._thaw"]
-    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == [["a", "b", "c", "a"]]
-    assert _cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+    assert find_cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == [["a", "b", "c", "a"]]
+    assert find_cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []

@@ -8,7 +8,7 @@ inside functions too: a lazy import is still a dependency. The order is
 import pytest
 
 from allsky import layers
-from allsky.layers import RANK, SRC, import_graph, imports_of, package_of
+from allsky.layers import RANK, SRC, find_cycles, import_graph, imports_of, package_of
 
 GRAPH = import_graph()
 
@@ -32,22 +32,7 @@ def test_no_import_cycles():
     faces = {m for m in GRAPH if m.count(".") == 1 and (SRC / m.split(".")[1]).is_dir()}
     graph = {m: {d for d in deps if d in GRAPH and d not in faces and d != m}
              for m, deps in GRAPH.items() if m not in faces}
-    state, stack, cycles = {}, [], []
-
-    def visit(m):
-        state[m] = "open"
-        stack.append(m)
-        for d in sorted(graph.get(m, ())):
-            if state.get(d) == "open":
-                cycles.append(stack[stack.index(d):] + [d])
-            elif d not in state:
-                visit(d)
-        stack.pop()
-        state[m] = "done"
-
-    for m in sorted(graph):
-        if m not in state:
-            visit(m)
+    cycles = find_cycles(graph)
     assert not cycles, "import cycles: " + "; ".join(" -> ".join(c) for c in cycles)
 
 

@@ -97,3 +97,24 @@ def package_edges(graph: dict) -> dict:
             if a != b:
                 edges[(a, b)] = edges.get((a, b), 0) + 1
     return edges
+
+
+def find_cycles(graph: dict) -> list:
+    """Every import loop a depth-first search meets, as ``[a, b, ..., a]``."""
+    state, stack, cycles = {}, [], []
+
+    def visit(m):
+        state[m] = "open"
+        stack.append(m)
+        for d in sorted(graph.get(m, ())):
+            if state.get(d) == "open":
+                cycles.append(stack[stack.index(d):] + [d])
+            elif d not in state:
+                visit(d)
+        stack.pop()
+        state[m] = "done"
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m)
+    return cycles

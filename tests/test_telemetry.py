@@ -351,7 +351,7 @@ def test_run_writes_parquet_telemetry(tmp_path, capsys, table):
 def test_run_refuses_a_bad_telemetry_suffix_before_flying(tmp_path, capsys):
     assert main(["run", "--telemetry", str(tmp_path / "tlm.xlsx")]) == 2
     out, err = capsys.readouterr()
-    assert err.startswith("allsky: error: telemetry file") and "'.xlsx'" in err
+    assert err.startswith("allsky: error: --telemetry: cannot write") and "'.xlsx'" in err
     assert len(err.strip().splitlines()) == 1
     assert "Mode timeline" not in out  # refused before the mission was flown
     assert not (tmp_path / "tlm.xlsx").exists()

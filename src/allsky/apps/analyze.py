@@ -1,15 +1,19 @@
 """``allsky analyze``: loop-margin and PWPF tables, the JSON file and the figure.
 
 The numbers come from :func:`allsky.studies.analysis.analyze`; this module
-presents them.
+presents them. With ``--envelope`` it shows instead the torque and momentum
+envelopes of a reaction-wheel pyramid and of the jets
+(:mod:`allsky.vehicle.envelopes`) and checks the dither example in them.
 """
 
 import json
 import math
+from types import MappingProxyType
 
 import numpy as np
 
 from allsky.studies.analysis import RATE_LOOP_AXES, analyze, frequency_responses, scenario_loops
+from allsky.vehicle.envelopes import BODY_AXES
 
 
 def format_margins(margins: dict) -> str:
@@ -75,8 +79,18 @@ def run_from_cli(cfg, args) -> int:
     """``allsky analyze``: print the tables; write --json and the --plot PNG.
 
     ``--json -`` writes the JSON alone to stdout, instead of the tables.
+    With ``--envelope``: :func:`run_envelope`.
     """
     from allsky.apps.output import FIGURE_SUFFIXES, check_output, write_atomic
+
+    if args.envelope:
+        return run_envelope(cfg, args)
+    given = [f"--wheel-{k}" for k in ("beta", "torque", "momentum")
+             if getattr(args, f"wheel_{k}") is not None]
+    if given:
+        from allsky.config import ConfigError
+
+        raise ConfigError(None, rule=f"{given[0]}: only with --envelope")
 
     check_output("--json", args.json)
     check_output("--plot", args.plot, suffixes=FIGURE_SUFFIXES)
@@ -96,4 +110,360 @@ def run_from_cli(cfg, args) -> int:
         w = np.logspace(-2, math.log10(math.pi / cfg.mission.frame_s), 400)
         fig = plots.analysis(result, frequency_responses(scenario_loops(cfg), w))
         say(f"plot: {plots.save(fig, args.plot)}")
+    return 0
+
+
+# ---------------------------------------------------------------------------
+# --envelope: reaction-wheel and jet torque/momentum envelopes
+# ---------------------------------------------------------------------------
+
+#: [deg] Default angle of each pyramid wheel's spin axis from +x: atan(sqrt 2), at which
+#: all twelve facets of the torque envelope are equally far from the origin, so the
+#: inscribed sphere (the torque available in every direction) is largest.
+DEFAULT_PYRAMID_BETA_DEG = math.degrees(math.atan(math.sqrt(2.0)))
+#: [N m] Default torque limit of each wheel, sized for the dither example's 16000 kg m^2
+#: vehicle: at DEFAULT_PYRAMID_BETA_DEG one failed wheel leaves an inscribed radius of
+#: 0.816 tau = 0.082 N m, 3.4 times the dither's 0.0241 N m peak about any axis.
+DEFAULT_WHEEL_TORQUE_N_M = 0.1
+#: [N m s] Default momentum limit of each wheel. The dither stores only J A w = 0.196 N m s;
+#: the limit is set instead by a 0.1 deg/s slew of the 16000 kg m^2 vehicle about any axis
+#: with one wheel failed: J w = 27.9 N m s <= 0.816 h needs h >= 34 N m s (500 s of full
+#: torque per wheel).
+DEFAULT_WHEEL_MOMENTUM_N_M_S = 50.0
+#: The dither example the wheels are checked against: inertia [kg m^2] (about each body
+#: axis), amplitude [rad] and period [s] (docs/envelopes.md).
+DITHER_EXAMPLE = MappingProxyType({"inertia_kg_m2": 16000.0, "amplitude_rad": 100e-6,
+                                   "period_s": 51.2})
+#: Samples per dither period in the profile check; a multiple of 4 puts samples on the peaks.
+DITHER_SAMPLES = 64
+AXIS_NAMES = ("roll", "pitch", "yaw")
+
+
+def dither_profiles_n_m(inertia_kg_m2, amplitude_rad, period_s, samples=DITHER_SAMPLES):
+    """Feed-forward torque over one period of a dither about each body axis in turn.
+
+    Parameters
+    ----------
+    inertia_kg_m2 : float
+        Inertia about each body axis [kg m^2] (the estimate the feed-forward uses).
+    amplitude_rad : float
+        Dither amplitude [rad].
+    period_s : float
+        Dither period [s].
+    samples : int
+        Samples per period.
+
+    Returns
+    -------
+    ndarray, shape (3, samples, 3)
+        ``[axis, sample]``: the torque vector [N m], body axes, from
+        :func:`allsky.sequencer.dither.feedforward_torque_n_m`; its peak is
+        ``J A w^2`` along the dithered axis.
+    """
+    from allsky.sequencer.dither import feedforward_torque_n_m
+
+    inertia = float(inertia_kg_m2) * np.eye(3)
+    omega = np.full(3, 2.0 * math.pi / float(period_s))
+    t_s = np.arange(samples) * (float(period_s) / samples)
+    return np.array([[feedforward_torque_n_m(inertia, amplitude_rad * np.eye(3)[k], omega, t)
+                      for t in t_s] for k in range(3)])
+
+
+def _dither_margins(envelope, profiles) -> dict:
+    """Margin of each axis's dither profile in ``envelope``, and the least."""
+    from allsky.vehicle.envelopes import check_profile
+
+    per_axis = [check_profile(envelope, p).margin for p in profiles]
+    worst = int(np.argmin(per_axis))
+    return {"inside": bool(per_axis[worst] >= 1.0), "margin": float(per_axis[worst]),
+            "worst_axis": AXIS_NAMES[worst], "margin_per_axis": [float(m) for m in per_axis]}
+
+
+def envelope_analysis(jet_torque_n_m, beta_deg=DEFAULT_PYRAMID_BETA_DEG,
+                      wheel_torque_n_m=DEFAULT_WHEEL_TORQUE_N_M,
+                      wheel_momentum_n_m_s=DEFAULT_WHEEL_MOMENTUM_N_M_S,
+                      dither=DITHER_EXAMPLE) -> dict:
+    """Wheel-pyramid and jet envelopes, with the dither example checked in them.
+
+    Parameters
+    ----------
+    jet_torque_n_m : array_like, shape (3,)
+        Roll, pitch, yaw couple torques of jets 39-41 [N m], ``2 F r``
+        (:func:`allsky.hardware.jets.make_params`).
+    beta_deg : float
+        Angle of each wheel's spin axis from +x [deg] (:func:`allsky.vehicle.envelopes.pyramid_axes`).
+    wheel_torque_n_m, wheel_momentum_n_m_s : float
+        Torque [N m] and momentum [N m s] limit of each wheel.
+    dither : mapping
+        ``inertia_kg_m2``, ``amplitude_rad``, ``period_s`` of the dither to check.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``wheels`` and ``jets`` exactly as
+        :func:`allsky.vehicle.envelopes.envelope_summary`; ``wheel_array``
+        (the inputs: ``beta_deg``, ``axes``, ``torque_max_n_m``,
+        ``momentum_max_n_m_s``); ``dither_check``: the dither's inputs, its
+        peak torque ``J A w^2`` [N m], and for ``wheels``, ``one_failed``
+        (the worst single failure) and ``jets``: ``inside``, ``margin`` (the
+        least over the three axes, :func:`allsky.vehicle.envelopes.check_profile`),
+        ``worst_axis`` and ``margin_per_axis`` (dither about roll, pitch, yaw in turn).
+    """
+    from allsky.vehicle.envelopes import (
+        envelope_summary,
+        jet_envelope,
+        make_envelope,
+        pyramid_axes,
+    )
+
+    axes = pyramid_axes(beta_deg)
+    result = envelope_summary(axes, wheel_torque_n_m, wheel_momentum_n_m_s, jet_torque_n_m)
+    torque = make_envelope(axes, wheel_torque_n_m)
+    failed = result["wheels"]["one_failed"]["wheel"]
+    profiles = dither_profiles_n_m(**dither)
+    omega = 2.0 * math.pi / dither["period_s"]
+    result["wheel_array"] = {"beta_deg": float(beta_deg), "axes": axes.tolist(),
+                             "torque_max_n_m": float(wheel_torque_n_m),
+                             "momentum_max_n_m_s": float(wheel_momentum_n_m_s)}
+    result["dither_check"] = {
+        **{k: float(v) for k, v in dither.items()},
+        "peak_torque_n_m": dither["inertia_kg_m2"] * dither["amplitude_rad"] * omega ** 2,
+        "wheels": _dither_margins(torque, profiles),
+        "one_failed": _dither_margins(torque.without(failed), profiles),
+        "jets": _dither_margins(jet_envelope(jet_torque_n_m), profiles)}
+    return result
+
+
+def _reach_row(label, reach, unit) -> str:
+    r, m = reach[f"min_radius_{unit}"], reach[f"max_{unit}"]
+    return f"  {label:<26}{r:>10.4g}{m[0]:>12.4g}{m[1]:>12.4g}{m[2]:>12.4g}"
+
+
+def format_envelopes(result: dict) -> str:
+    """An :func:`envelope_analysis` result as text: reaches, then the dither check."""
+    arr, w, dc = result["wheel_array"], result["wheels"], result["dither_check"]
+    failed = w["one_failed"]["wheel"]
+    head = f"  {'':<26}{'radius':>10}{'x (roll)':>12}{'y (pitch)':>12}{'z (yaw)':>12}"
+    lines = [(f"Reaction wheels: four-wheel pyramid about +x (roll), spin axes "
+              f"{arr['beta_deg']:.2f} deg from +x, {arr['torque_max_n_m']:g} N m and "
+              f"{arr['momentum_max_n_m_s']:g} N m s per wheel"),
+             ("Envelopes: inscribed radius (available in every direction) and largest reach "
+              "along each body axis"),
+             head, "  " + "-" * (len(head) - 2),
+             _reach_row("wheels, torque [N m]", w["torque"], "n_m"),
+             _reach_row("wheels, momentum [N m s]", w["momentum"], "n_m_s"),
+             _reach_row(f"wheel {failed} failed, torque", w["one_failed"]["torque"], "n_m"),
+             _reach_row(f"wheel {failed} failed, momentum", w["one_failed"]["momentum"],
+                        "n_m_s"),
+             _reach_row("jets 39-41, torque [N m]", result["jets"]["torque"], "n_m"),
+             (f"  (wheel {failed}: the single failure leaving the least torque in every "
+              "direction)"),
+             "",
+             (f"Dither check: inertia {dc['inertia_kg_m2']:g} kg m^2, amplitude "
+              f"{dc['amplitude_rad'] * 1e6:g} urad, period {dc['period_s']:g} s; peak torque "
+              f"J A w^2 = {dc['peak_torque_n_m']:.4g} N m"),
+             f"  {'margin, dither about':<26}{'roll':>10}{'pitch':>12}{'yaw':>12}{'fits':>8}"]
+    for key, label in (("wheels", "wheels"), ("one_failed", f"wheel {failed} failed"),
+                       ("jets", "jets 39-41")):
+        m = dc[key]["margin_per_axis"]
+        lines.append(f"  {label:<26}{m[0]:>10.4g}{m[1]:>12.4g}{m[2]:>12.4g}"
+                     f"{'yes' if dc[key]['inside'] else 'NO':>8}")
+    lines.append("  (margin: available torque along the dither's axis / its peak torque; "
+                 "fits when >= 1)")
+    return "\n".join(lines)
+
+
+def _hull_2d(points: np.ndarray) -> np.ndarray:
+    """Indices of the convex hull of 2-D points, counter-clockwise (monotone chain)."""
+    order = sorted(range(len(points)), key=lambda i: (points[i, 0], points[i, 1]))
+
+    def cross(o, a, b):
+        return ((points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+                - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0]))
+
+    scale = float(np.ptp(points)) ** 2 or 1.0
+    chains = []
+    for seq in (order, order[::-1]):
+        chain = []
+        for i in seq:
+            # Collinear points (parallel in-plane axes, rounding) are dropped.
+            while len(chain) >= 2 and cross(chain[-2], chain[-1], i) <= 1e-12 * scale:
+                chain.pop()
+            chain.append(i)
+        chains.append(chain[:-1])
+    return np.array(chains[0] + chains[1])
+
+
+def facet_polygons(envelope) -> list:
+    """The corners of each facet of an envelope, ordered around it.
+
+    For the facet of outward normal ``n`` the axes not lying in its plane sit
+    at their limit on the side of ``n``, ``sum sign(n . g_i) L_i g_i``, and
+    the axes in its plane (``envelope.facet_axes``) take every combination
+    of ``+-L_j g_j``; the facet is the convex hull of those points in the plane.
+
+    Parameters
+    ----------
+    envelope : allsky.vehicle.envelopes.Envelope
+
+    Returns
+    -------
+    list of ndarray, shape (k, 3)
+        One polygon per facet, in the order of ``envelope.normals``; its
+        vertices lie on the facet's plane ``n . x = h(n)``, counter-clockwise
+        seen from outside.
+    """
+    g, lim = envelope.axes, envelope.limits
+    polygons = []
+    for n, plane in zip(envelope.normals, envelope.facet_axes, strict=True):
+        inside = np.zeros(len(g), dtype=bool)
+        inside[list(plane)] = True
+        side = np.sign(g @ n)
+        base = ((~inside) * side * lim) @ g
+        signs = np.array(np.meshgrid(*[[-1.0, 1.0]] * len(plane))).reshape(len(plane), -1).T
+        corners = base + (signs * lim[list(plane)]) @ g[list(plane)]
+        # A right-handed basis of the plane, so that the hull's counter-clockwise
+        # order is counter-clockwise seen from outside (along -n).
+        e1 = np.cross(n, BODY_AXES[int(np.argmin(np.abs(n)))])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        flat = (corners - corners.mean(axis=0)) @ np.column_stack([e1, e2])
+        polygons.append(corners[_hull_2d(flat)])
+    return polygons
+
+
+def _draw_zonotope(ax, envelope, colour):
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    facets = Poly3DCollection(facet_polygons(envelope), facecolor=colour, alpha=0.35,
+                              edgecolor="0.15", linewidth=0.6)
+    ax.add_collection3d(facets)
+    return facets
+
+
+def _draw_box(ax, half_n_m, reach, colour, label):
+    """Faces of the box ``|x_i| <= half_i`` inside the view cube ``|x_i| <= reach``.
+
+    A face beyond the view is left out rather than drawn at the view's edge;
+    the others are clipped to the view.
+    """
+    half = np.asarray(half_n_m, dtype=float)
+    extent = np.minimum(half, reach)
+    drawn = False
+    for i in range(3):
+        if half[i] > reach:
+            continue
+        j, k = (i + 1) % 3, (i + 2) % 3
+        square = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]], dtype=float)
+        for side in (-1.0, 1.0):
+            ring = np.zeros((5, 3))
+            ring[:, i] = side * half[i]
+            ring[:, j] = square[:, 0] * extent[j]
+            ring[:, k] = square[:, 1] * extent[k]
+            ax.plot(*ring.T, color=colour, lw=1.0, ls="--", label=None if drawn else label)
+            drawn = True
+
+
+BODY_AXIS_LABELS = ("x roll [N m]", "y pitch [N m]", "z yaw [N m]")
+
+
+def envelope_figure(result: dict, show_failure=True):
+    """``allsky analyze --envelope``: the torque envelopes in 3-D, with the jets.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`envelope_analysis`.
+    show_failure : bool
+        Add a second panel with the worst single failure's envelope.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One 3-D panel per envelope: the facets as translucent polygons (one
+        ``Poly3DCollection`` per panel, one polygon per facet), the jets'
+        torque box as a dashed wireframe, the spin axes as arrows and the
+        dither's peak torque about each body axis as points.
+    """
+    from matplotlib.figure import Figure
+
+    from allsky.vehicle.envelopes import make_envelope
+
+    arr, dc = result["wheel_array"], result["dither_check"]
+    axes = np.array(arr["axes"])
+    full = make_envelope(axes, arr["torque_max_n_m"])
+    failed = result["wheels"]["one_failed"]["wheel"]
+    panels = [("four wheels", full, "tab:blue", "wheels")]
+    if show_failure:
+        panels.append((f"wheel {failed} failed", full.without(failed), "tab:orange",
+                       "one_failed"))
+    jets = np.array(result["jets"]["torque"]["max_n_m"])
+    # Equal scales on the three axes, set by the wheels: the jets' faces beyond are named
+    # in the legend instead of shrinking the wheels to a dot.
+    tip = 1.25 * full.max_along(axes)
+    reach = 1.05 * float(np.max(tip))
+    beyond = [f"|{'xyz'[i]}| <= {jets[i]:g}" for i in range(3) if jets[i] > reach]
+    shown = [f"|{'xyz'[i]}| <= {jets[i]:g}" for i in range(3) if jets[i] <= reach]
+    jet_label = "jets 39-41: " + "; ".join(
+        ([f"{', '.join(shown)} N m"] if shown else [])
+        + ([f"{', '.join(beyond)} N m off the scale"] if beyond else []))
+    fig = Figure(figsize=(6.0 * len(panels), 6.6), layout="constrained")
+    fig.suptitle(f"Torque envelopes [N m]: four-wheel pyramid, {arr['torque_max_n_m']:g} N m "
+                 f"per wheel, spin axes {arr['beta_deg']:.2f}° from +x (roll)", fontsize=11)
+    peak = dc["peak_torque_n_m"]
+    for k, (title, env, colour, key) in enumerate(panels):
+        ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
+        _draw_zonotope(ax, env, colour)
+        _draw_box(ax, jets, reach, "0.3", jet_label)
+        for wheel, a in enumerate(axes):
+            if key == "one_failed" and wheel == failed:
+                continue
+            ax.plot(*np.array([[0.0, 0.0, 0.0], a * tip[wheel]]).T, color="black", lw=0.8)
+            ax.text(*(a * tip[wheel]), f" wheel {wheel}", fontsize=8)
+        dots = peak * np.vstack([np.eye(3), -np.eye(3)])
+        ax.scatter(*dots.T, color="tab:red", s=12, depthshade=False,
+                   label=f"dither peak torque {peak:.3g} N m on each axis")
+        ax.set_title(f"{title}: {len(env.normals)} facets, inscribed radius "
+                     f"{env.min_radius:.3g} N m;\ndither margin {dc[key]['margin']:.3g} "
+                     f"({dc[key]['worst_axis']})", fontsize=10)
+        for set_lim in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+            set_lim(-reach, reach)
+        ax.set_box_aspect((1, 1, 1), zoom=0.92)
+        for set_label, text in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel),
+                                   BODY_AXIS_LABELS, strict=True):
+            set_label(text, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.view_init(elev=22, azim=-58)
+    fig.legend(*fig.axes[0].get_legend_handles_labels(), loc="outside lower center",
+               fontsize=8, ncols=2, frameon=False)
+    return fig
+
+
+def run_envelope(cfg, args) -> int:
+    """``allsky analyze --envelope``: print the envelopes; write --json and --plot."""
+    from allsky.apps.output import FIGURE_SUFFIXES, check_output, write_atomic
+    from allsky.hardware.jets import make_params
+
+    check_output("--json", args.json)
+    check_output("--plot", args.plot, suffixes=FIGURE_SUFFIXES)
+    to_stdout = args.json == "-"
+    say = (lambda *a, **k: None) if to_stdout else print
+    jets = make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s)
+    def given(value, default):
+        return default if value is None else value
+
+    result = envelope_analysis(jets.torque_n_m,
+                               given(args.wheel_beta, DEFAULT_PYRAMID_BETA_DEG),
+                               given(args.wheel_torque, DEFAULT_WHEEL_TORQUE_N_M),
+                               given(args.wheel_momentum, DEFAULT_WHEEL_MOMENTUM_N_M_S))
+    say(format_envelopes(result))
+    body = json.dumps(result, indent=2) + "\n"
+    if to_stdout:
+        print(body, end="")
+    elif args.json:
+        say(f"wrote {write_atomic(args.json, body, option='--json')}")
+    if args.plot:
+        from allsky.apps import plots
+
+        say(f"plot: {plots.save(envelope_figure(result), args.plot)}")
     return 0

@@ -5,6 +5,7 @@ Commands::
     allsky run [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--telemetry PATH] [--plots DIR]
     allsky plot TELEMETRY [--out DIR] [--summary SUMMARY.json]
     allsky analyze [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--plot PNG]
+                   [--envelope [--wheel-torque N_M] [--wheel-momentum N_M_S] [--wheel-beta DEG]]
     allsky config show [SCENARIO] [--set KEY=VALUE ...]
     allsky config check FILE [--set KEY=VALUE ...]
     allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers K | --scheduler ADDRESS]
@@ -199,21 +200,45 @@ def _parser() -> argparse.ArgumentParser:
                       help="mission summary (allsky run --json) for the calibration figure")
 
     analyze = sub.add_parser(
-        "analyze", help="loop margins per axis and the PWPF modulator's static characteristic",
+        "analyze", help="loop margins per axis and the PWPF modulator's static characteristic; "
+                        "wheel and jet envelopes",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Linear gain and phase margins of each axis's position and rate loops, "
                     "and the PWPF modulators' duty cycle against a constant input: the "
-                    "analytic curve beside the simulated modulator.",
+                    "analytic curve beside the simulated modulator.\n\n"
+                    "With --envelope instead: the torque and momentum envelopes of a "
+                    "four-wheel reaction-wheel pyramid about +x (roll), with its worst single "
+                    "failure, beside the torque box of the scenario's jets 39-41, and the "
+                    "dither example (16000 kg m^2, 100 urad, 51.2 s) checked in each "
+                    "(docs/envelopes.md). The wheel defaults are sized for that vehicle.",
         epilog="examples:\n"
                "  allsky analyze\n"
                "  allsky analyze --set pwpf.time_constant_s=0.05 --plot loops.png\n"
-               "  allsky analyze my_scenario.toml --json analysis.json")
+               "  allsky analyze my_scenario.toml --json analysis.json\n"
+               "  allsky analyze --envelope --plot envelope.png\n"
+               "  allsky analyze --envelope --wheel-torque 0.05 --wheel-beta 60 --json -")
     scenario_args(analyze)
     analyze.add_argument("--json", metavar="PATH",
-                         help="write the margins and the PWPF characteristic as JSON ('-': to "
-                              "stdout, instead of the tables)")
+                         help="write the margins and the PWPF characteristic (with --envelope: "
+                              "the envelopes and the dither check) as JSON ('-': to stdout, "
+                              "instead of the tables)")
     analyze.add_argument("--plot", metavar="PNG",
-                         help="write Bode plots with the margins and the static curve (PNG)")
+                         help="write Bode plots with the margins and the static curve (with "
+                              "--envelope: the torque envelopes in 3-D) (PNG)")
+    analyze.add_argument("--envelope", action="store_true",
+                         help="show the wheel and jet torque/momentum envelopes instead")
+    analyze.add_argument("--wheel-torque", type=_positive_float, metavar="N_M",
+                         help="with --envelope: torque limit of each wheel [N m] (default 0.1: "
+                              "after the worst failure 3.4 times the dither's 0.0241 N m "
+                              "about any axis)")
+    analyze.add_argument("--wheel-momentum", type=_positive_float, metavar="N_M_S",
+                         help="with --envelope: momentum limit of each wheel [N m s] (default "
+                              "50: a 0.1 deg/s slew of 16000 kg m^2 about any axis after the "
+                              "worst failure)")
+    analyze.add_argument("--wheel-beta", type=_pyramid_angle, metavar="DEG",
+                         help="with --envelope: angle of each wheel's spin axis from +x [deg] "
+                              "(default atan(sqrt 2) = 54.74: all twelve facets equally far, "
+                              "the largest torque available in every direction)")
 
     mc = sub.add_parser(
         "montecarlo", help="fly a campaign over seeds and dispersions; statistics and histograms",
@@ -304,6 +329,14 @@ def _positive_float(text):
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not v > 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"{v} must be a positive, finite number")
+    return v
+
+
+def _pyramid_angle(text):
+    v = _positive_float(text)
+    if not v < 90.0:
+        raise argparse.ArgumentTypeError(f"{v} must be below 90 deg (90: all wheels in the "
+                                         "y-z plane, no roll torque)")
     return v
 
 

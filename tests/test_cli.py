@@ -22,9 +22,12 @@ def test_run_writes_json_and_telemetry(tmp_path, capsys):
     assert s["status"] == "complete" and s["abort_reason"] is None
     assert [m["mode"] for m in s["modes"]] == ["1", "2", "3", "4", "5", "6-1", "6-2"]
     for part in ("calibration", "truth"):
-        assert set(s[part]) == {"drift_deg_h", "scale_factor", "cross_coupling"}
+        assert set(s[part]) - {"gyro_drift_deg_h", "integrator_drift_deg_h"} == {
+            "drift_deg_h", "scale_factor", "cross_coupling"}
         assert set(s[part]["cross_coupling"]) == {"roll_into_pitch", "roll_into_yaw",
                                                   "yaw_into_pitch", "yaw_into_roll"}
+    assert set(s["truth"]) >= {"gyro_drift_deg_h", "integrator_drift_deg_h"}
+    assert s["reference_star"] == s["locked_star"] == "Canopus"
     assert set(s["target"]) >= {"programmed_roll_deg", "programmed_yaw_deg",
                                 "pointing_error_arcsec"}
     assert s["propellant_kg"] > 0

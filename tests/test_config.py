@@ -65,7 +65,8 @@ def test_default_loads_with_frozen_types():
 def test_every_default_key_has_its_unit_in_its_name():
     units = ("_s", "_deg", "_deg_h", "_ppm", "_arcsec", "_kg_m2", "_n", "_m", "_kg", "_v",
              "_pps", "_bits", "_frames", "_per_s", "_deg_s", "_rt_h", "_arcsec_s", "_utc", "_urad")
-    unitless = {"seed", "attitude", "magnitude_window", "counter_overflow", "star", "apply",
+    unitless = {"seed", "attitude", "magnitude_window", "counter_overflow", "star",
+                "reference_star", "apply",
                 "filter_gain", "feedforward", "inertia_estimate_scale", "estimator", "detector",
                 "store_cross_coupling"}
     for sec, table in DEFAULT.items():
@@ -308,6 +309,15 @@ RULE_CASES = [
     ("sequencer.timeout_s.6-1", "0", "must be in (0, 86400] (a mission lasts at most a day)"),
     ("sequencer.timeout_s.1", "1e12", "must be in (0, 86400]"),
     ("sequencer.timeout_s.1", '"long"', "must be a number"),
+    # the integrator drift of each chain into converters 8/10/12
+    ("electronics.integrator_drift_deg_h", "[0, 101, 0]",
+     "element 1 must be in [-100, 100] (an amplifier offset this large is a failed chain"),
+    ("electronics.integrator_drift_deg_h", "[0, 0]", "3"),
+    # the planned reference star: in the catalog, and inside the magnitude window
+    # (Sirius V = -1.44, PyEphem's catalog; the default window is [-1.0, -0.3])
+    ("star_tracker.reference_star", "Canopis", "not in the PyEphem star catalog; nearest: Canopus"),
+    ("star_tracker.reference_star", "Sirius",
+     "magnitude -1.44 is outside star_tracker.magnitude_window [-1, -0.3]"),
     # target
     ("target.star", "Canopis", "not in the PyEphem star catalog; nearest: Canopus"),
     ("target.star", "42", "must be a star name (a string), not an integer"),
@@ -666,3 +676,10 @@ def test_toml_syntax_error_gives_the_line(tmp_path):
 def test_scenario_from_dict_rejects_non_tables():
     with pytest.raises(ConfigError, match="table of sections"):
         scenario_from_dict([1])
+
+
+def test_reference_star_inside_a_wider_window_is_accepted_in_catalog_spelling():
+    # Sirius (V = -1.44) passes a window opened to -1.5.
+    cfg = load_scenario(overrides=["star_tracker.magnitude_window=[-1.5, -0.3]",
+                                   'star_tracker.reference_star="sirius"'])
+    assert cfg.star_tracker.reference_star == "Sirius"

@@ -212,22 +212,21 @@ def test_step_every_has_a_floor(capsys):
 
 def test_stars_lists_the_window_and_the_locked_star(capsys):
     from allsky.config import load_scenario
-    from allsky.vehicle import sky
 
     assert cli.main(["stars", "--json", "-"]) == 0
     data = json.loads(capsys.readouterr().out)
     lo, hi = data["magnitude_window"]
     inside = [s for s in data["stars"] if s["in_window"]]
     assert inside == [s for s in data["stars"] if lo <= s["magnitude"] <= hi]
-    locked = [s["name"] for s in data["stars"] if s["locked"]]
+    reference = [s["name"] for s in data["stars"] if s["reference"]]
     cfg = load_scenario(None, [])
-    # The star the targeting assumes: the brightest in the window.
-    assert locked == [sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)[0].name]
+    # The star the programmed angles are computed for.
+    assert reference == [cfg.star_tracker.reference_star] == ["Canopus"]
     mags = [s["magnitude"] for s in data["stars"]]
     assert mags == sorted(mags)
     assert cli.main(["stars", "--window"]) == 0
     out = capsys.readouterr().out
-    assert f"{locked[0]}" in out and "locked" in out
+    assert f"{reference[0]}" in out and "reference (planned)" in out
 
 
 def test_run_report_names_the_tracker_star_and_the_files(tmp_path, capsys):

@@ -79,8 +79,10 @@ def test_same_seed_same_bits():
 
 
 def test_no_star_in_the_window_aborts_mode_2():
-    # No catalog star is brighter than magnitude -2 (Sirius, the brightest, is -1.44).
-    m = fly(["star_tracker.magnitude_window=[-5.0,-4.0]", "sequencer.timeout_s.2=300"])
+    # A window passing Sirius alone (V = -1.44): on the default date, 2026-11-22, the Sun
+    # is 123 deg from Sirius, outside the tracker slit's 90 +- 16 deg.
+    m = fly(["star_tracker.magnitude_window=[-1.5,-1.0]", 'star_tracker.reference_star="Sirius"',
+             "sequencer.timeout_s.2=300"])
     s = m.summary()
     assert s["status"] == "aborted"
     assert s["abort_reason"] == ("Mode 2: no star in the tracker's magnitude window during the"
@@ -118,3 +120,14 @@ def test_plain_python_gives_the_same_numbers(saved_states, tmp_path):
         out[jit] = np.load(path)
     for k in out["0"].files:
         assert np.array_equal(out["0"][k], out["1"][k]), k
+
+
+def test_the_programmed_angles_are_for_the_planned_star():
+    from allsky.sim.mission import reference_star_inertial
+    from allsky.vehicle import sky
+
+    cfg = load_scenario(overrides=["star_tracker.magnitude_window=[-1.5,-0.3]",
+                                   'star_tracker.reference_star="Canopus"'])
+    # Sirius is the brightest in this window; the plan is still Canopus.
+    assert np.array_equal(reference_star_inertial(cfg),
+                          sky.star_direction_inertial("Canopus", cfg.mission.date_utc))

@@ -97,11 +97,24 @@ def test_every_action_is_a_documented_function_and_every_word_is_known():
     (modes.Wait("x", "warp", "settle", ("sun yaw",)), "unknown program"),
     (modes.Do("reboot"), "unknown action"),
     (modes.Operate(), "no switch"),
+    (modes.Wait("x", "none", "settle", ("sun yaw",), carry_settle=True), "no wait before timed"),
 ])
 def test_check_refuses_a_step_outside_the_vocabulary(bad, words):
     table = (modes.Mode("x", 9.0, "test", (bad,), "done"),)
     with pytest.raises(ValueError, match=words):
         modes.check(table)
+
+
+def test_a_carried_settle_time_needs_a_wait_that_timed_the_same_signals():
+    timed = modes.Wait("count", "none", "elapsed", modes.OPTICAL, hold="drift count")
+    carry = modes.Wait("x", "none", "settle", modes.OPTICAL, carry_settle=True)
+    # Its steps pass; only the plans, which name modes of the real table, are missing.
+    with pytest.raises(ValueError, match="names modes not in the table"):
+        modes.check((modes.Mode("x", 9.0, "test", (timed, modes.Operate(close=(1,)), carry),
+                                "d"),))
+    other = modes.Wait("x", "none", "settle", ("sun yaw",), carry_settle=True)
+    with pytest.raises(ValueError, match="no wait before timed"):
+        modes.check((modes.Mode("x", 9.0, "test", (timed, other), "d"),))
 
 
 def test_timeouts_come_from_the_scenario(default_cfg):
@@ -127,7 +140,7 @@ class FakeLegs:
         self.m, self.calls = m, []
 
     def __call__(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
-                 on_timeout=None, record_rows=0):
+                 on_timeout=None, record_rows=0, carry_settle=False):
         from allsky.hardware.switch_bank import closed
 
         self.calls.append({"what": what, "program": program, "watch": watch, "mask": mask,
@@ -155,8 +168,9 @@ def test_the_interpreter_runs_the_legs_of_the_table_in_order():
         (legs.PROGRAM_NONE, legs.WATCH_HANDOVER, 0, legs.SIG_TRACKER_YAW, 0.0, settle,
          {14, 15, 16, 18}),
         (legs.PROGRAM_NONE, legs.WATCH_SETTLE, optical, 0, 0.0, settle, {12, 14, 15}),
-        # Mode 3: count drift through S4-S6 for the drift interval, then compensate.
-        (legs.PROGRAM_NONE, legs.WATCH_ELAPSED, 0, 0, 0.0, cfg.sequencer.drift_count_s,
+        # Mode 3: count drift through S4-S6 for the drift interval (timing how long the
+        # optical errors stay settled), then compensate.
+        (legs.PROGRAM_NONE, legs.WATCH_ELAPSED, optical, 0, 0.0, cfg.sequencer.drift_count_s,
          {4, 5, 6, 12, 14, 15}),
         (legs.PROGRAM_NONE, legs.WATCH_SETTLE, optical, 0, 0.0, settle, {1, 2, 3, 12, 14, 15}),
         # Mode 4: the blanked roll, then the settle on Sun and star.

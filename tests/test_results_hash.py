@@ -29,12 +29,12 @@ CASES = {
 
 #: sha256 of (summary JSON, telemetry bytes) per case, and of ``compare --runs 5``.
 EXPECTED = {
-    "dither-seed1": "02b848dc4a330b83c3f4ac1c95d65ce7",
-    "dither-seed5": "42aee7378ac866d64349c8fba40e2a2c",
-    "legacy-seed1": "3aaa6c2d677777c6cccfdf4abbdac34b",
-    "legacy-seed23-vega": "ccd02ab161b7cf299b4a6169deebe2f2",
-    "legacy-seed7": "941d68e972bca289420480d93ba813e2",
-    "compare-runs5": "00e60537f462ea06b2ba37b848430220",
+    "dither-seed1": "b07ba5e142b565679e41c1cd840e081e",
+    "dither-seed5": "4b32d10a20842f8bf747f5e266376202",
+    "legacy-seed1": "868723f58cdc098bb2c2d2aa58e5b470",
+    "legacy-seed23-vega": "0abe99c6f887c2452a2c1218edd5920f",
+    "legacy-seed7": "5b70f4ddac81836b387024a68d86a1f6",
+    "compare-runs5": "40cb0b6d47cda659e60f2fe1b935eba5",
 }
 
 

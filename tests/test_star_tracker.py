@@ -164,3 +164,17 @@ def test_noise_standard_deviation():
     assert np.mean(samples[:, 0]) == pytest.approx(1800.0, abs=5 * 2.0 / math.sqrt(4000))
     assert np.mean(samples[:, 1]) == pytest.approx(-14400.0, abs=5 * 2.0 / math.sqrt(4000))
     assert np.all(samples[:, 2] == 1.0)
+
+
+def test_the_tracker_tells_which_star_it_holds():
+    """It returns the index of the star nearest the boresight, -1 with none in the field.
+
+    Stars at (yaw, pitch) = (30, 0) deg (outside the +-8 deg narrow field),
+    (0.5, 3) and (-2, 1): squared distances 9.25 and 5 deg^2, so star 2.
+    """
+    p = params([star_at(30.0, 0.0), star_at(0.5, 3.0), star_at(-2.0, 1.0)])
+    out = np.full(3, np.nan)
+    assert star_tracker(p, IDENTITY, out, RNG) == 2
+    assert out[2] == 1.0
+    assert star_tracker(params([star_at(30.0, 0.0)]), IDENTITY, out, RNG) == -1
+    assert out[2] == 0.0

@@ -171,3 +171,23 @@ def test_full_roll_at_default_scaling():
         total += vfc(p, 0, 5400.0, 0.01, residue)
     assert abs(total - 12_960_000) <= 1
     assert total + residue[0] == pytest.approx(12_960_000, abs=1e-3)
+
+
+def test_integrator_drift_is_counted_as_a_rate():
+    """An offset d [arcsec/s] at the converter input counts trunc(d T / w) pulses over T.
+
+    With no rate in, 1.5 deg/h (= 1.5 arcsec/s) for 40 s at w = 0.125 arcsec
+    (dyadic: the sums are exact) is 60 / 0.125 = 480 pulses; on its own axis only.
+    """
+    p = DYADIC._replace(integrator_drift_arcsec_s=(1.5, 0.0, -0.25))
+    residue = np.zeros(3)
+    totals = [sum(vfc(p, a, 0.0, 0.25, residue) for _ in range(160)) for a in range(3)]
+    assert totals == [480, 0, -80]
+    assert residue.tolist() == [0.0, 0.0, 0.0]
+
+
+def test_zero_integrator_drift_leaves_the_input_bit_for_bit():
+    """Without an offset nothing is added: -0.0 stays -0.0 in the carried residue."""
+    residue = np.array([-0.0, 0.0, 0.0])
+    assert vfc(DYADIC, 0, -0.0, 0.01, residue) == 0
+    assert math.copysign(1.0, residue[0]) == -1.0

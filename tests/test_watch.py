@@ -174,3 +174,28 @@ def test_star_lost_while_s12_s13_are_in_use():
 def test_an_empty_tank_ends_the_leg_first():
     h = Harness(leg(legs.WATCH_ELAPSED, hold_s=0.0))
     assert h.frame(tank_ok=False) == legs.EXIT_PROPELLANT
+
+
+def test_an_elapsed_leg_times_its_settle_mask_for_the_next_leg():
+    """Mode 3: the count ends on time, whatever the errors, having timed how long they settled.
+
+    40 s of settled errors with one bad frame at 30 s: the count ends at 40 s
+    (320 frames of 0.125 s) with 10 s of settle time, which a leg carrying it
+    on needs only one more settled frame to complete.
+    """
+    h = Harness(leg(legs.WATCH_ELAPSED, hold_s=40.0))
+    bad = np.array([60.0, 0.0, 1.0])  # sun pitch at 60", above the 50" band
+    assert h.frames(239)[0] == EXIT_NONE and h.settle_s == 239 * DT_S
+    assert h.frame(fine=bad) == EXIT_NONE and h.settle_s == 0.0
+    code, n = h.frames(100)
+    assert (code, n, h.t_s) == (legs.EXIT_DONE, 80, 40.0)
+    assert h.settle_s == 10.0
+    h.leg = leg(hold_s=10.0)._replace(carry_settle=1)
+    h.t_s = 0.0
+    assert h.frame() == legs.EXIT_DONE
+
+
+def test_an_elapsed_leg_without_signals_leaves_the_settle_time_alone():
+    h = Harness(leg(legs.WATCH_ELAPSED, mask=0, hold_s=1.0))
+    h.frames(8)
+    assert h.settle_s == 0.0

@@ -296,7 +296,8 @@ def _parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="List the catalog stars with their magnitudes and J2000 positions on the "
                     "mission date, marking those inside star_tracker.magnitude_window and the "
-                    "one the tracker locks (the brightest inside it).",
+                    "planned reference star (star_tracker.reference_star); the tracker "
+                    "locks the first star of the window its slit meets.",
         epilog="examples:\n"
                "  allsky stars\n"
                "  allsky stars --window                       # only the stars in the window\n"

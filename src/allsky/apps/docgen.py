@@ -179,6 +179,8 @@ def _wait_text(step, cfg, mode) -> str:
         text = f"wait until settled: {signals}"
         if step.hold != "settle":
             text += f", held {_seconds(step.hold, cfg, mode)}"
+        if step.carry_settle:
+            text += " (the time they have been settled runs on from the wait before)"
     elif step.watch == "handover":
         text = (f"wait until {signals} is inside "
                 f"{cfg.sequencer.handover_arcsec:g}\u2033 (hand-over)")
@@ -186,6 +188,8 @@ def _wait_text(step, cfg, mode) -> str:
             text += f", not before {_seconds(step.blank, cfg, mode)} of blanking"
     else:
         text = f"wait {_seconds(step.hold, cfg, mode)}"
+        if signals:
+            text += f", timing how long {signals} have been settled"
     text += f": *{step.what}*"
     if step.program != "none":
         text += f"; computer: {modes.PROGRAMS[step.program].text}"

@@ -12,7 +12,8 @@ def format_report(summary: dict, tracker_star=None) -> str:
     """A plain-text report of a mission summary (:meth:`Mission.summary`).
 
     ``tracker_star`` (:class:`allsky.vehicle.sky.Star`), when given, is named
-    as the star the tracker locked.
+    as the planned reference star; one line says so when the tracker locked
+    another star.
     """
     status = summary["status"]
     if status == "running":
@@ -47,8 +48,11 @@ def format_report(summary: dict, tracker_star=None) -> str:
     if tracker_star is not None:
         lines.append(f"  tracker star {tracker_star.name} (magnitude "
                      f"{tracker_star.magnitude:+.2f}, RA {tracker_star.ra_deg / 15.0:.3f} h, "
-                     f"Dec {tracker_star.dec_deg:+.2f} deg): the brightest in the magnitude "
-                     "window")
+                     f"Dec {tracker_star.dec_deg:+.2f} deg): the planned reference star")
+    planned, locked = summary.get("reference_star"), summary.get("locked_star")
+    if locked is not None and locked != planned:
+        lines.append(f"  the tracker locked {locked}, not the planned {planned}: the "
+                     "programmed angles point from the wrong star")
     if tgt["programmed_roll_deg"] is not None:
         lines.append(f"  programmed roll {tgt['programmed_roll_deg']:+.4f} deg, "
                      f"yaw {tgt['programmed_yaw_deg']:+.4f} deg")
@@ -64,12 +68,10 @@ def format_report(summary: dict, tracker_star=None) -> str:
 
 
 def tracker_star(cfg):
-    """The star the tracker locks: the brightest in its magnitude window, or None."""
+    """The planned reference star ``star_tracker.reference_star``, at the mission date."""
     from allsky.vehicle import sky
 
-    lo, hi = cfg.star_tracker.magnitude_window
-    stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
-    return stars[0] if stars else None
+    return sky.star(cfg.star_tracker.reference_star, cfg.mission.date_utc)
 
 
 def where_stopped(m) -> str:

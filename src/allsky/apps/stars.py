@@ -8,7 +8,7 @@ import sys
 
 
 def format_stars(stars, window, date_utc) -> str:
-    """The catalog as a table: magnitude, RA [h], Dec [deg], inside the window, locked."""
+    """The catalog as a table: magnitude, RA [h], Dec [deg], window, reference star."""
     lo, hi = window
     inside = sum(1 for s in stars if s["in_window"])
     when = date_utc.isoformat().replace("+00:00", "Z")
@@ -16,7 +16,7 @@ def format_stars(stars, window, date_utc) -> str:
               f"star{'s' if inside != 1 else ''} inside (positions J2000 at {when})"), "",
              f"  {'star':<16}{'mag':>7}{'RA [h]':>9}{'Dec [deg]':>11}  window"]
     for s in stars:
-        mark = ("locked (brightest in the window)" if s["locked"]
+        mark = ("reference (planned)" if s["reference"]
                 else "in" if s["in_window"] else "")
         lines.append(f"  {s['name']:<16}{s['magnitude']:>+7.2f}{s['ra_deg'] / 15.0:>9.3f}"
                      f"{s['dec_deg']:>+11.2f}  {mark}".rstrip())
@@ -38,7 +38,7 @@ def run_from_cli(cfg, args) -> int:
             raise ConfigError(None, rule=f"--date {args.date}: {e}") from None
     window = tuple(cfg.star_tracker.magnitude_window)
     date = cfg.mission.date_utc
-    stars = sky.catalog(date, window)
+    stars = sky.catalog(date, window, cfg.star_tracker.reference_star)
     if args.window:
         stars = [s for s in stars if s["in_window"]]
     if args.json:

@@ -66,6 +66,9 @@ class StateError(ValueError):
 MEMBER_MAX_BYTES = 16 * 2**20
 #: Largest departure of the saved quaternion from unit norm (the plant keeps 1e-15).
 QUATERNION_NORM_TOLERANCE = 1e-6
+#: State arrays added since files of this format were first written, with the value an
+#: older file stands for (-1: which star the tracker held was not recorded).
+NEWER_ARRAYS = {"locked_star": np.full(1, -1, dtype=np.int64)}
 #: Statuses a saved mission can have.
 STATUSES = ("running", "complete", "aborted")
 
@@ -87,6 +90,7 @@ def load(path, telemetry=True) -> Mission:
     """
     arrays, history = _read_archive(Path(path))
     cfg, plan = _checked_history(history)
+    arrays = {**NEWER_ARRAYS, **arrays}
     _check_arrays(arrays, cfg)
     return Mission.from_snapshot({**history, "plan": list(plan)}, arrays, telemetry=telemetry)
 

@@ -25,6 +25,7 @@ from allsky.config.schema import (
 )
 from allsky.config.toml_io import iso_utc
 from allsky.units import DEG2ARCSEC
+from allsky.vehicle import sky
 
 
 def _frame_fits_jet_minimum(v):
@@ -203,8 +204,18 @@ def _one_target_form(v):
                               "target.ra_deg and target.dec_deg")
 
 
+def _reference_star_in_window(v):
+    """`star_tracker.reference_star` lies inside `star_tracker.magnitude_window`."""
+    name, (lo, hi) = v["star_tracker.reference_star"], v["star_tracker.magnitude_window"]
+    mag = sky.star(name).magnitude
+    if not lo <= mag <= hi:
+        raise ConfigError("star_tracker.reference_star", name,
+                          f"magnitude {mag:+.2f} is outside star_tracker.magnitude_window "
+                          f"[{lo:g}, {hi:g}]: the tracker could never lock it")
+
+
 #: Cross-key rules, in the order they are checked.
 CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
                _dither_sampling, _dither_record, _fft_whole_periods, _converters_follow_the_turns,
                _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
-               _mission_ends_inside_the_ephemeris, _one_target_form)
+               _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window)

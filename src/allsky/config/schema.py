@@ -128,6 +128,9 @@ def unknown_key(path: tuple, here: dict) -> ConfigError:
 # What each key accepts
 # ---------------------------------------------------------------------------
 
+#: [deg/h] Largest integrator drift accepted (1 deg/h = 1 arcsec/s at the converter input).
+INTEGRATOR_DRIFT_MAX_DEG_H = 100.0
+
 _MOST_FRAMES = "the most frames a mission may take"
 _A_DAY = "a mission lasts at most a day"
 
@@ -155,6 +158,7 @@ RULES: dict[str, Callable] = {
     "star_tracker.fov_narrow_half_deg": number(in_open(0, 90)),
     "star_tracker.magnitude_window": magnitude_window,
     "star_tracker.noise_arcsec": number(NON_NEGATIVE),
+    "star_tracker.reference_star": star_name,
     "jets.thrust_n": vector(3, POSITIVE),
     "jets.moment_arm_m": vector(3, POSITIVE),
     "jets.min_on_time_s": number(in_open_closed(0, 1, "cold-gas valves: a few to tens of ms")),
@@ -174,6 +178,9 @@ RULES: dict[str, Callable] = {
     "electronics.vfc_pulse_weight_arcsec": number(in_open_closed(
         0, DEG2ARCSEC, "1 deg: a 360 deg calibration turn counts 360 pulses or more")),
     "electronics.vfc_max_rate_pps": number(POSITIVE),
+    "electronics.integrator_drift_deg_h": vector(3, in_closed(
+        -INTEGRATOR_DRIFT_MAX_DEG_H, INTEGRATOR_DRIFT_MAX_DEG_H,
+        "an amplifier offset this large is a failed chain, not a drift")),
     "electronics.counter_bits": integer(in_closed(8, 62)),
     "electronics.drift_counter_bits": integer(in_closed(4, 62)),
     "electronics.counter_overflow": one_of("wrap", "saturate"),

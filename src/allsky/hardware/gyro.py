@@ -82,16 +82,24 @@ def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_b
         out_rate_arcsec_s[i] = r
 
 
-def perfect_calibration(p: GyroParams) -> dict:
+def perfect_calibration(p: GyroParams, integrator_drift_arcsec_s=(0.0, 0.0, 0.0)) -> dict:
     """The values a perfect Modes 3-5 calibration would store for these gyros.
 
-    Scale factor = true angle / counted angle; cross-coupling = counts on the
-    other axis per unit true angle (SPEC section 4).
+    Drift = gyro drift plus the integrator drift of the chain to converters
+    8/10/12 (``integrator_drift_arcsec_s``), which Mode 3 counts together;
+    both are also given apart. Scale factor = true angle / counted angle;
+    cross-coupling = counts on the other axis per unit true angle (SPEC section 4).
     """
     s = p.sensitivity
+    gyro_drift = [float(d) for d in p.drift_arcsec_s]
+    integrator = [float(d) for d in integrator_drift_arcsec_s]
+    # Sum only where the integrator drifts: adding 0.0 would turn a -0.0 drift into +0.0.
+    total = [g + i if i != 0.0 else g for g, i in zip(gyro_drift, integrator)]
+    axes = ("roll", "pitch", "yaw")
     return {
-        "drift_deg_h": {"roll": float(p.drift_arcsec_s[0]), "pitch": float(p.drift_arcsec_s[1]),
-                        "yaw": float(p.drift_arcsec_s[2])},
+        "drift_deg_h": dict(zip(axes, total)),
+        "gyro_drift_deg_h": dict(zip(axes, gyro_drift)),
+        "integrator_drift_deg_h": dict(zip(axes, integrator)),
         "scale_factor": {"roll": float(1.0 / s[0, 0]), "yaw": float(1.0 / s[2, 2])},
         "cross_coupling": {"roll_into_pitch": float(s[1, 0]), "roll_into_yaw": float(s[2, 0]),
                            "yaw_into_pitch": float(s[1, 2]), "yaw_into_roll": float(s[0, 2])},

@@ -11,7 +11,10 @@ since the Sun-Canopus angle varies by about +-14 deg over a year, narrow
 (``fov_narrow_half``) across. Only stars inside the magnitude window reach
 the kernel (the window is applied once, before flight, by
 :func:`allsky.sim.mission` from the catalog); of those in the field, the one
-nearest the boresight is tracked. "Star present" flags a lock.
+nearest the boresight is tracked. "Star present" flags a lock, and the
+tracker tells which star it holds (its index in ``stars_inertial``): the
+programmed angles assume a planned star, and a window that passes two stars
+can lock the other one.
 """
 
 from typing import NamedTuple
@@ -36,9 +39,11 @@ class StarTrackerParams(NamedTuple):
 def star_tracker(p, q, out, rng):
     """Outputs of star tracker 105 for attitude ``q``, written into ``out``.
 
-    ``out = [yaw_arcsec, pitch_arcsec, present]``.
+    ``out = [yaw_arcsec, pitch_arcsec, present]``. Returns the index of the
+    tracked star in ``p.stars_inertial``, -1 when none is in the field.
     """
     best = 1e9
+    k_best = -1
     yaw_best = 0.0
     pitch_best = 0.0
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -62,11 +67,13 @@ def star_tracker(p, q, out, rng):
             best = d
             yaw_best = yaw
             pitch_best = pitch
-    if best == 1e9:
+            k_best = k
+    if k_best < 0:
         out[0] = 0.0
         out[1] = 0.0
         out[2] = 0.0
-        return
+        return -1
     out[0] = yaw_best * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
     out[1] = pitch_best * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
     out[2] = 1.0
+    return k_best

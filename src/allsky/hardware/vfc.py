@@ -8,6 +8,11 @@ with its sign (like the charge left on the converter's integrator), so no
 pulse is lost or invented: the pulses put out plus the carried residue equal
 the exact integral of the (clipped) input, the count is within one pulse of
 it, and equals it truncated toward zero while the input keeps one sign.
+
+The analogue chain from the summing amplifier to the converter drifts: an
+offset ``integrator_drift_arcsec_s`` per axis is added to the converter's
+input (the patent's "integrator drift", which Mode 3 measures together with
+the gyro drift; drift counters 13/15/17 cannot tell the two apart).
 """
 
 from typing import NamedTuple
@@ -20,6 +25,8 @@ class VfcParams(NamedTuple):
 
     pulse_weight_arcsec: float  #: [arcsec/pulse]
     max_rate_pps: float  #: [pulses/s] saturation
+    #: [arcsec/s] input offset per axis (roll, pitch, yaw); 1 arcsec/s = 1 deg/h
+    integrator_drift_arcsec_s: tuple = (0.0, 0.0, 0.0)
 
 
 @njit
@@ -28,6 +35,9 @@ def vfc(p, axis, rate_arcsec_s, dt_s, residue_pulses):
 
     The remainder is carried in ``residue_pulses``.
     """
+    offset = p.integrator_drift_arcsec_s[axis]
+    if offset != 0.0:  # only then: adding 0.0 would turn a -0.0 input into +0.0
+        rate_arcsec_s = rate_arcsec_s + offset
     pps = rate_arcsec_s / p.pulse_weight_arcsec
     if pps > p.max_rate_pps:
         pps = p.max_rate_pps

@@ -22,7 +22,7 @@ PROGRAM_TARGET_DITHER = 5  #: dither added while the computer holds the target (
 # What ends a leg.
 WATCH_SETTLE = 0  #: all signals of ``settle_mask`` below the threshold for ``hold_s``
 WATCH_HANDOVER = 1  #: ``handover_signal`` inside the hand-over threshold after ``blank_s``
-WATCH_ELAPSED = 2  #: ``hold_s`` of leg time
+WATCH_ELAPSED = 2  #: ``hold_s`` of leg time (the ``settle_mask`` signals timed meanwhile)
 
 # Signals the master sequencer watches (index = bit of settle_mask).
 SIG_SUN_PITCH = 0
@@ -67,3 +67,6 @@ class Leg(NamedTuple):
     timeout_s: float  #: [s] the leg gives up after this long
     pause_at_s: float = np.inf  #: [s] mission time at which to pause (EXIT_PAUSE)
     resume: int = 0  #: 1 = continue a paused leg (clock and noise stream carry on)
+    #: 1 = the settle time starts from where the previous leg left it (errors that
+    #: have *remained* settled), 0 = from zero
+    carry_settle: int = 0

@@ -26,7 +26,7 @@ from allsky.computer import cpu
 from allsky.computer import word_registers as wr
 from allsky.sequencer import modes
 from allsky.sequencer.dither_mode import dither_analysis
-from allsky.sequencer.legs import WATCH_HANDOVER, WATCH_SETTLE
+from allsky.sequencer.legs import WATCH_HANDOVER
 
 #: The patent's modes in flight order (the legacy plan).
 MODES = modes.LEGACY_PLAN
@@ -69,12 +69,13 @@ def fly_leg(m, name, step):
     cfg = m.cfg
     return m.leg(
         step.what, modes.PROGRAMS[step.program].code, watch,
-        mask=modes.signal_mask(step.signals) if watch == WATCH_SETTLE else 0,
+        mask=modes.signal_mask(step.signals) if watch != WATCH_HANDOVER else 0,
         signal=modes.SIGNALS[step.signals[0]].code if watch == WATCH_HANDOVER else 0,
         blank_s=modes.DURATIONS[step.blank].seconds(cfg, name) if step.blank else 0.0,
         hold_s=modes.DURATIONS[step.hold].seconds(cfg, name),
         on_timeout=step.on_timeout or None,
-        record_rows=modes.RECORDS[step.record](cfg) if step.record else 0)
+        record_rows=modes.RECORDS[step.record](cfg) if step.record else 0,
+        carry_settle=step.carry_settle)
 
 
 # -- actions: what is neither a switch nor a leg ---------------------------------------

@@ -55,6 +55,8 @@ class Wait(NamedTuple):
     hold: str = "settle"  #: key of :data:`DURATIONS`: settle time, or the elapsed time
     on_timeout: str = ""  #: abort reason on timeout ("" = "<what> not achieved")
     record: str = ""  #: key of :data:`RECORDS`: keep the leg's samples under this name
+    #: True: the settle time goes on from the previous wait's (which timed ``signals``)
+    carry_settle: bool = False
 
 
 class Do(NamedTuple):
@@ -219,9 +221,12 @@ MODE_TABLE = (
     Mode("3", 3.0, "drift calibration", (
         Do("clear_drift_counters"),
         Operate(close=(4, 5, 6)),
-        Wait("drift count", "none", "elapsed", hold="drift count"),
+        # Patent: Mode 4 starts when, S1-S3 closed, the optical errors "have remained
+        # less than 50 arc-seconds for at least 10 seconds": timed through the count.
+        Wait("drift count", "none", "elapsed", OPTICAL, hold="drift count"),
         Operate(open_=(4, 5, 6), close=(1, 2, 3)),
-        Wait("optical errors settled", "none", "settle", OPTICAL),
+        Wait("optical errors have remained settled", "none", "settle", OPTICAL,
+             carry_settle=True),
     ), "drift counted over {cfg.sequencer.drift_count_s:g} s; S1-S3 closed"),
     Mode("4", 4.0, "roll calibration, 360 deg roll", (
         Do("clear_counters"),
@@ -330,8 +335,10 @@ def closed_after(plan) -> dict:
 def check(table=MODE_TABLE) -> None:
     """Raise ValueError unless every word of ``table`` is in the vocabulary.
 
-    A settle watch needs at least one signal, a hand-over exactly one, an
-    elapsed wait none; names, codes and plans must be unique and known.
+    A settle watch needs at least one signal, a hand-over exactly one (an
+    elapsed wait may time any); a wait carries a settle time on only after a
+    wait that timed the same signals; names, codes and plans must be unique
+    and known.
     """
     def fail(mode, msg):
         raise ValueError(f"mode table, Mode {mode.name}: {msg}")
@@ -339,6 +346,7 @@ def check(table=MODE_TABLE) -> None:
     if len({m.name for m in table}) != len(table) or len({m.code for m in table}) != len(table):
         raise ValueError("mode table: mode names and codes must be unique")
     for mode in table:
+        previous = None  # the mode's last wait
         if mode.timeout not in DURATIONS:
             fail(mode, f"unknown timeout {mode.timeout!r}")
         for step in mode.steps:
@@ -352,9 +360,13 @@ def check(table=MODE_TABLE) -> None:
                 if unknown:
                     fail(mode, f"{step.what}: unknown signals {unknown}")
                 n = len(step.signals)
-                if (step.watch == "settle" and n == 0) or (step.watch == "handover" and n != 1) \
-                        or (step.watch == "elapsed" and n != 0):
+                if (step.watch == "settle" and n == 0) or (step.watch == "handover" and n != 1):
                     fail(mode, f"{step.what}: {n} signals for a {step.watch} watch")
+                if step.carry_settle and not (
+                        step.watch == "settle" and previous is not None
+                        and previous.watch != "handover" and previous.signals == step.signals):
+                    fail(mode, f"{step.what}: carries a settle time no wait before timed")
+                previous = step
                 for d in (step.blank, step.hold):
                     if d and d not in DURATIONS:
                         fail(mode, f"{step.what}: unknown duration {d!r}")

@@ -12,7 +12,9 @@ compiled into the loop, decides after every frame whether the leg is over:
    signal of the settle mask below the settle threshold, 50", for
    ``hold_s``, 10 s), WATCH_HANDOVER (the watched signal inside the
    hand-over threshold, 7200", once ``blank_s`` has passed) or
-   WATCH_ELAPSED (``hold_s`` of leg time).
+   WATCH_ELAPSED (``hold_s`` of leg time). An elapsed leg with a settle
+   mask also times how long its signals have been settled, for a following
+   leg that carries the settle time on (``Leg.carry_settle``).
 """
 
 from allsky.jit import njit_stage
@@ -73,17 +75,18 @@ def leg_condition(sq, leg, sig, dt_s, t_leg_s, settle_s):
     Returns ``(done, settle_s)``, the settle time advanced by ``dt_s`` or
     reset to 0 when a watched signal is at or above the threshold.
     """
-    if leg.watch == WATCH_ELAPSED:
-        # Half a frame of slack: leg time is a sum of frame steps, not an exact multiple.
-        return t_leg_s >= leg.hold_s - 0.5 * dt_s, settle_s
     if leg.watch == WATCH_HANDOVER:
         return (t_leg_s > leg.blank_s
                 and abs(sig[leg.handover_signal]) < sq.handover_arcsec), settle_s
-    ok = True
-    for k in range(N_SIGNALS):
-        if (leg.settle_mask >> k) & 1 and abs(sig[k]) >= sq.settle_threshold_arcsec:
-            ok = False
-    settle_s = settle_s + dt_s if ok else 0.0
+    if leg.watch != WATCH_ELAPSED or leg.settle_mask:
+        ok = True
+        for k in range(N_SIGNALS):
+            if (leg.settle_mask >> k) & 1 and abs(sig[k]) >= sq.settle_threshold_arcsec:
+                ok = False
+        settle_s = settle_s + dt_s if ok else 0.0
+    # Half a frame of slack: leg time is a sum of frame steps, not an exact multiple.
+    if leg.watch == WATCH_ELAPSED:
+        return t_leg_s >= leg.hold_s - 0.5 * dt_s, settle_s
     return settle_s >= leg.hold_s - 0.5 * dt_s, settle_s
 
 

@@ -104,7 +104,9 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     A leg may pause at mission time ``leg.pause_at_s``: the loop returns
     EXIT_PAUSE with its progress in ``s.leg_clock``, and the same leg run
     again with ``resume=1`` carries on as if it had never stopped (the noise
-    generator is not reseeded). Returns ``(exit_code, leg_time_s)``.
+    generator is not reseeded). A leg ends with its settle time in
+    ``s.leg_clock``, where a next leg with ``carry_settle=1`` starts from it.
+    Returns ``(exit_code, leg_time_s)``.
     """
     # The scratch is allocated here, once per leg; the frames themselves are
     # compiled without the reference-counted runtime (allsky.jit) and cannot allocate.
@@ -125,7 +127,9 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     """
     if not leg.resume:
         gauss_seed(s.rng, leg.seed)
+        carried = s.leg_clock[CLOCK_SETTLE] if leg.carry_settle else 0.0
         s.leg_clock[:] = 0.0
+        s.leg_clock[CLOCK_SETTLE] = carried
     dt = p.frame_s
     sun_i, sun_b, coarse, fine, trk, gyro, comp = (scratch[0], scratch[1], scratch[2],
                                                    scratch[3], scratch[4], scratch[5],
@@ -147,8 +151,11 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
     for frame_in_leg in range(done, n_max):
         _sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
-        sense(p.sun, p.tracker, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
-              s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, sun_b, fine, trk, gyro)
+        star = sense(p.sun, p.tracker, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
+                     s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, sun_b, fine, trk,
+                     gyro)
+        if star_in_use and star >= 0:
+            s.locked_star[0] = star  # the star the loop is closed on (S12/S13)
         sum_and_count(el, p.vfc, dt, gates, gyro, s.drift_counters, s.counters,
                       s.vfc_residue_pulses, s.overflow, comp, line)
         compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
@@ -173,6 +180,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                                                  tank_ok, fine, trk, s.cpu, sig, dt, t_leg,
                                                  timer, sun_gone, star_gone)
         if code != EXIT_NONE:
+            s.leg_clock[CLOCK_SETTLE] = timer  # for a next leg that carries it on
             return code, t_leg
         if s.time_s[0] >= leg.pause_at_s - 0.5 * dt and frame_in_leg + 1 < n_max:
             s.leg_clock[CLOCK_T_LEG] = t_leg
@@ -205,12 +213,14 @@ def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias
     present), ``gyro`` the measured rates [arcsec/s] over the last frame's
     body-angle increment ``dtheta_rad``; ``sun_b`` keeps the Sun's body
     direction for the Mode 1 controller. ``step_bias`` steps the gyros' rate
-    random walk ``bias_rw_arcsec_s``.
+    random walk ``bias_rw_arcsec_s``. Returns the index of the star the
+    tracker holds in ``tracker_p.stars_inertial`` (-1: none).
     """
     rotate_to_body(x, sun_inertial, sun_b)
     sun_sensor(sun_p, sun_b, fine, rng)
-    star_tracker(tracker_p, x, trk, rng)
+    star = star_tracker(tracker_p, x, trk, rng)
     gyro_output(gyro_p, dtheta_rad, dt_s, bias_rw_arcsec_s, gyro, step_bias, rng)
+    return star
 
 
 @njit_stage

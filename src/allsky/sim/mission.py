@@ -98,7 +98,9 @@ def build_params(cfg) -> sim_state.Params:
             cfg.star_tracker.fov_long_half_deg * units.DEG2RAD,
             cfg.star_tracker.fov_narrow_half_deg * units.DEG2RAD,
             float(cfg.star_tracker.noise_arcsec), stars_inertial),
-        vfc=vfc.VfcParams(float(el.vfc_pulse_weight_arcsec), float(el.vfc_max_rate_pps)),
+        vfc=vfc.VfcParams(float(el.vfc_pulse_weight_arcsec), float(el.vfc_max_rate_pps),
+                          tuple(float(d) * units.DEG_H2ARCSEC_S
+                                for d in el.integrator_drift_deg_h)),
         electronics=sim_state.ElectronicsParams(
             counter_bits=int(el.counter_bits), drift_counter_bits=int(el.drift_counter_bits),
             overflow_mode=(updown_counter.WRAP if el.counter_overflow == "wrap"
@@ -161,13 +163,19 @@ def target_inertial(cfg) -> np.ndarray:
 
 
 def reference_star_inertial(cfg) -> np.ndarray:
-    """The star the tracker's magnitude window selects (the brightest in the window)."""
+    """Unit vector to the planned reference star ``star_tracker.reference_star``.
+
+    The programmed angles are computed for it; the tracker locks whichever
+    star of its magnitude window it meets nearest its boresight, which is
+    this one only if the window and the date make it so.
+    """
+    return sky.star_direction_inertial(cfg.star_tracker.reference_star, cfg.mission.date_utc)
+
+
+def tracker_star_names(cfg) -> list:
+    """Names of the stars the tracker can lock, in the order of ``Params.tracker``."""
     lo, hi = cfg.star_tracker.magnitude_window
-    stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
-    if not stars:
-        raise ValueError("no catalog star inside star_tracker.magnitude_window")
-    s = stars[0]
-    return sky.radec_to_unit(s.ra_deg, s.dec_deg)
+    return [s.name for s in sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)]
 
 
 class Mission:
@@ -213,10 +221,11 @@ class Mission:
         switch_bank.operate(self.state.switches, close=close, open_=open_)
 
     def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
-            on_timeout=None, record_rows=0):
+            on_timeout=None, record_rows=0, carry_settle=False):
         """Run the frame loop until ``what`` happens; raise ModeAbort if it does not.
 
         Returns the dither record (``record_rows`` rows at most) of the leg.
+        ``carry_settle``: the settle time goes on from the previous leg's.
         """
         remaining = self._mode_deadline - self.state.time_s[0]
         if hold_s is None:
@@ -225,7 +234,8 @@ class Mission:
                                            self.leg_count]).generate_state(1)[0])
         self.leg_count += 1
         leg = legs.Leg(seed, MODE_CODE[self._mode], program, watch, mask, signal,
-                         float(blank_s), float(hold_s), float(max(remaining, 0.0)))
+                         float(blank_s), float(hold_s), float(max(remaining, 0.0)),
+                         carry_settle=int(carry_settle))
         every = self.params.telemetry_every
         rows = math.ceil(leg.timeout_s / self.params.frame_s / every) + 1 if every else 0
         buf = np.empty((rows, len(COLUMNS)))
@@ -350,6 +360,11 @@ class Mission:
         x_body = quaternion.dcm_body_from_inertial(self.state.x[0:4])[0]
         return sky.separation_deg(x_body, target_inertial(self.cfg)) * units.DEG2ARCSEC
 
+    def locked_star(self):
+        """Name of the star tracker 105 last held while in use; None before a lock."""
+        k = int(self.state.locked_star[0])
+        return tracker_star_names(self.cfg)[k] if k >= 0 else None
+
     def calibration(self) -> dict:
         """What the mission stored: drift DAC values and register 23."""
         el = self.params.electronics
@@ -375,12 +390,15 @@ class Mission:
             "modes": [{"mode": r.mode, "start_s": r.start_s, "end_s": r.end_s, "exit": r.exit}
                       for r in self.timeline],
             "calibration": self.calibration() if ("5" in done or "dither" in done) else None,
-            "truth": gyro.perfect_calibration(self.params.gyro),
+            "truth": gyro.perfect_calibration(self.params.gyro,
+                                              self.params.vfc.integrator_drift_arcsec_s),
             "calibration_applied": self.apply_calibration,
             "target": target,
             "propellant_kg": float(self.cfg.jets.propellant_kg - self.state.propellant_kg[0]),
             "mission_time_s": float(self.state.time_s[0]),
             "seed": int(self.cfg.mission.seed),
+            "reference_star": self.cfg.star_tracker.reference_star,
+            "locked_star": self.locked_star(),
             "counter_overflow": {
                 name: bool(f) for name, f in zip(
                     ("counter14", "counter16", "counter18", "drift13", "drift15", "drift17"),
@@ -428,6 +446,8 @@ class Mission:
         if history.get("format") != STATE_FORMAT:
             raise ValueError(f"not an allsky mission state (format {STATE_FORMAT})")
         # Copies, so that one snapshot can be resumed any number of times.
+        # A state saved before the tracker told its star has no locked_star: none recorded.
+        arrays = {"locked_star": np.full(1, -1, dtype=np.int64), **arrays}
         state = sim_state.State(**{k: np.array(arrays[k], copy=True)
                                    for k in sim_state.State._fields})
         cfg = scenario_from_dict(history["scenario"])

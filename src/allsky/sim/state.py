@@ -102,6 +102,9 @@ class State(NamedTuple):
     max_excursion_rad: np.ndarray  #: (1,) largest rotation away from it so far
     leg_clock: np.ndarray  #: (N_CLOCK,) progress of the current leg (see CLOCK_*)
     rng: np.ndarray  #: (1,) uint64 state of the noise generator (allsky.gauss)
+    #: (1,) int64 star tracker 105 last held while in use: index in
+    #: ``Params.tracker.stars_inertial``; -1 = none yet
+    locked_star: np.ndarray
 
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
@@ -120,5 +123,5 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
         excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
-        rng=np.ones(1, dtype=np.uint64),
+        rng=np.ones(1, dtype=np.uint64), locked_star=np.full(1, -1, dtype=np.int64),
     )

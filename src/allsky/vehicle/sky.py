@@ -310,7 +310,8 @@ def star_direction_inertial(name: str, date_utc: datetime | None = None) -> np.n
     return radec_to_unit(s.ra_deg, s.dec_deg)
 
 
-def catalog(date_utc: datetime | None = None, magnitude_window=None) -> list[dict]:
+def catalog(date_utc: datetime | None = None, magnitude_window=None,
+            reference_star: str | None = None) -> list[dict]:
     """The catalog stars at a date, brightest first, with the tracker's view of each.
 
     Parameters
@@ -319,15 +320,17 @@ def catalog(date_utc: datetime | None = None, magnitude_window=None) -> list[dic
         Date for the positions, as in :func:`star`.
     magnitude_window : (float, float), optional
         The star tracker's magnitude window (brightest, faintest), inclusive.
+    reference_star : str, optional
+        The planned reference star (``star_tracker.reference_star``).
 
     Returns
     -------
     list of dict
         ``name``, ``magnitude``, ``ra_deg``, ``dec_deg`` (J2000 at the date),
         ``in_window`` (inside ``magnitude_window``; None without one) and
-        ``locked`` (the brightest inside the window: the star the tracker
-        locks and the targeting assumes). Variant names of one star are
-        listed once.
+        ``reference`` (the planned reference star the programmed angles are
+        computed for; the tracker itself locks the first star of the window
+        its slit meets). Variant names of one star are listed once.
     """
     seen, out = set(), []
     for name in star_names():
@@ -340,10 +343,7 @@ def catalog(date_utc: datetime | None = None, magnitude_window=None) -> list[dic
                   bool(magnitude_window[0] <= s.magnitude <= magnitude_window[1]))
         out.append({"name": s.name, "magnitude": float(s.magnitude),
                     "ra_deg": float(s.ra_deg), "dec_deg": float(s.dec_deg),
-                    "in_window": inside, "locked": False})
+                    "in_window": inside,
+                    "reference": s.name == reference_star})
     out.sort(key=lambda r: (r["magnitude"], r["name"]))
-    if magnitude_window is not None:
-        locked = [r for r in out if r["in_window"]]
-        if locked:
-            locked[0]["locked"] = True
     return out

@@ -16,6 +16,7 @@ import numpy as np
 
 from allsky.hardware.wiring import N_SWITCHES, SELECTORS
 from allsky.jit import njit_stage
+from allsky.sequencer.modes import MODE_CODE
 from allsky.units import RAD2ARCSEC
 
 
@@ -30,8 +31,9 @@ class Column(NamedTuple):
 #: The columns, in the order :func:`record_telemetry` writes them.
 COLUMNS = (
     Column("time", "s", "mission time since ejection"),
-    Column("mode", "-", "mode code: 1, 2, 3, 4, 5, 6.1, 6.2 (7: dither comparison mode); "
-                        "`mission.MODE_CODE`"),
+    Column("mode", "-", "mode code: " + ", ".join(
+        f"{code:g} (Mode {name})" if name != "dither" else f"{code:g} (dither comparison mode)"
+        for name, code in MODE_CODE.items()) + "; `sequencer.modes.MODE_CODE`"),
     Column("q_w", "-", "attitude quaternion inertial -> body, scalar part"),
     Column("q_x", "-", "attitude quaternion, x part"),
     Column("q_y", "-", "attitude quaternion, y part"),

@@ -47,7 +47,7 @@ def test_config_show_a_file_with_overrides(capsys, tmp_path):
     code, out, _ = run_main(capsys, ["config", "show", str(p), "--set", "target.star=Vega",
                                      "--set", "gyro.drift_deg_h=[0,0,1]"])
     data = tomllib.loads(out)
-    assert code == 0 and data["mission"]["seed"] == 3 and data["target"] == {"star": "Vega"}
+    assert code == 0 and data["mission"]["seed"] == 3 and data["target"] == {"star": "Vega", "hold_s": 0.0}
     assert data["gyro"]["drift_deg_h"] == [0.0, 0.0, 1.0]
     assert data["gyro"]["arw_deg_rt_h"] == DEFAULT["gyro"]["arw_deg_rt_h"]  # every key shown
 

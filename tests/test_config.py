@@ -606,7 +606,7 @@ def test_as_dict_is_plain():
     assert d["mission"]["date_utc"] == "2026-11-22T12:00:00Z"
     assert d["vehicle"]["inertia_kg_m2"][0] == [100.0, 1.5, -1.0]
     assert type(d["sequencer"]["timeout_s"]) is dict
-    assert d["target"] == {"star": "Sirius"}
+    assert d["target"] == {"star": "Sirius", "hold_s": 0.0}
 
 
 ROUND_TRIP_OVERRIDES = [

@@ -116,8 +116,8 @@ def _masked(values, keep):
 
 
 def _cpu_modes(code):
-    """True where CPU 22 computes attitude errors: Modes 6-1 and 6-2."""
-    return (np.abs(code - MODE_CODE["6-1"]) < 1e-6) | (np.abs(code - MODE_CODE["6-2"]) < 1e-6)
+    """True where CPU 22 computes attitude errors: Modes 6-1, 6-2 and the hold on target."""
+    return np.isin(np.round(code, 6), [MODE_CODE[m] for m in ("6-1", "6-2", "hold")])
 
 
 def _sensor_signals(table):

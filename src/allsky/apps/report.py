@@ -59,6 +59,14 @@ def format_report(summary: dict, tracker_star=None) -> str:
     if tgt["pointing_error_arcsec"] is not None:
         applied = "" if summary["calibration_applied"] else " (calibration NOT applied)"
         lines.append(f"  final pointing error {tgt['pointing_error_arcsec']:.1f} arcsec{applied}")
+    hold = summary.get("hold")
+    if hold is not None:
+        drift = hold["drift_arcsec_per_min"]
+        lines += ["", f"Hold on target ({hold['hold_s']:.1f} s, gyros alone)",
+                  (f"  pointing error {hold['start_pointing_error_arcsec']:.1f} arcsec at the "
+                   f"start, {hold['end_pointing_error_arcsec']:.1f} arcsec at the end"),
+                  "  drift [arcsec/min] " + ", ".join(f"{ax} {drift[ax]:+.3f}"
+                                                      for ax in ("roll", "pitch", "yaw"))]
     lines += ["", (f"Propellant used {summary['propellant_kg']:.3f} kg; "
                   f"mission time {summary['mission_time_s']:.1f} s")]
     flagged = [k for k, v in summary["counter_overflow"].items() if v]

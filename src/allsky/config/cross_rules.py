@@ -17,6 +17,7 @@ from allsky.config.rules import (
 from allsky.config.schema import (
     DITHER_MAX_SAMPLES,
     DITHER_SETTLE_ALLOWANCE_S,
+    HOLD_TIMEOUT_ALLOWANCE_S,
     MISSION_MAX_FRAMES,
     MISSION_MAX_S,
     SUN_RATE_SPAN_S,
@@ -127,11 +128,14 @@ def plan_durations_s(v) -> dict:
     """Longest time [s] of the ``legacy`` and ``dither`` plans: their modes' timeouts.
 
     The dither mode, in place of Modes 4 and 5, is allowed its lead-in and record and
-    :data:`DITHER_SETTLE_ALLOWANCE_S`."""
+    :data:`DITHER_SETTLE_ALLOWANCE_S`; a hold on target (`target.hold_s` > 0), flown after
+    either plan, its hold and :data:`HOLD_TIMEOUT_ALLOWANCE_S`."""
     t = v["sequencer.timeout_s"]
-    legacy = math.fsum(t[m] for m in MODE_KEYS)
+    hold = v["target.hold_s"] + HOLD_TIMEOUT_ALLOWANCE_S if v["target.hold_s"] > 0 else 0.0
+    legacy = math.fsum([*(t[m] for m in MODE_KEYS), hold])
     dither = math.fsum([*(t[m] for m in MODE_KEYS if m not in ("4", "5")),
-                        v["dither.lead_in_s"], v["dither.record_s"], DITHER_SETTLE_ALLOWANCE_S])
+                        v["dither.lead_in_s"], v["dither.record_s"], DITHER_SETTLE_ALLOWANCE_S,
+                        hold])
     return {"legacy": legacy, "dither": dither}
 
 
@@ -151,6 +155,10 @@ def _mission_within_a_day(v):
     plans = plan_durations_s(v)
     why = f"must fit in {MISSION_MAX_S:g} s, a day: the Sun moves on a line good to 1.4 arcsec"
     if plans["legacy"] > MISSION_MAX_S:
+        if v["target.hold_s"] > 0:
+            raise ConfigError("target.hold_s", v["target.hold_s"],
+                              f"the modes' timeouts and the hold (+ {HOLD_TIMEOUT_ALLOWANCE_S:g}"
+                              f" s) add up to {plans['legacy']:g} s; a mission {why}")
         raise ConfigError("sequencer.timeout_s", v["sequencer.timeout_s"],
                           f"the modes' timeouts add up to {plans['legacy']:g} s; a mission {why}")
     if plans["dither"] > MISSION_MAX_S:

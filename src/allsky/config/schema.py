@@ -65,6 +65,8 @@ TELEMETRY_MAX_ROWS = 10**6
 DITHER_MAX_SAMPLES = 2**20
 #: [s] Settling allowed after the dither record, as in the mode table (sequencer.modes).
 DITHER_SETTLE_ALLOWANCE_S = 300.0
+#: [s] allowed to the hold on target beyond `target.hold_s` (its elapsed leg ends on a frame).
+HOLD_TIMEOUT_ALLOWANCE_S = 60.0
 
 
 # ---------------------------------------------------------------------------
@@ -201,6 +203,7 @@ RULES: dict[str, Callable] = {
     "target.star": star_name,
     "target.ra_deg": number(in_closed_open(0, 360)),
     "target.dec_deg": number(in_closed(-90, 90)),
+    "target.hold_s": number(in_closed(0, MISSION_MAX_S, _A_DAY)),
     "calibration.apply": boolean,
     "dither.amplitude_urad": vector(3, NON_NEGATIVE),
     "dither.period_s": vector(3, POSITIVE),

@@ -11,14 +11,17 @@ timeout ends the mission as aborted, with the reason (:class:`ModeAbort`).
 The mission object ``m`` the actions work on offers ``state``
 (:class:`allsky.sim.state.State`), ``cfg`` (the scenario), ``params``,
 ``switch(close, open_)``, ``leg(...)``, ``pulse_weight_arcsec``,
-``apply_calibration``, the programmed angles and ``program_target()``
-(the ground computation of register 24), and keeps ``counted_arcsec``,
-``dither_estimates`` and ``dither_record``.
+``apply_calibration``, the programmed angles, ``program_target()``
+(the ground computation of register 24) and ``pointing_error_arcsec()``,
+and keeps ``counted_arcsec``, ``dither_estimates``, ``dither_record`` and
+``hold`` (the measurements of the hold on target).
 
 Calibration sequencer 19 (the counter reading and register 23 update at the
 end of Modes 4 and 5) is part of computer 111:
 :mod:`allsky.computer.calibration_sequencer`.
 """
+
+import numpy as np
 
 from allsky import units
 from allsky.computer import calibration_sequencer as cal19
@@ -27,6 +30,7 @@ from allsky.computer import word_registers as wr
 from allsky.sequencer import modes
 from allsky.sequencer.dither_mode import dither_analysis
 from allsky.sequencer.legs import WATCH_HANDOVER
+from allsky.vehicle import quaternion
 
 #: The patent's modes in flight order (the legacy plan).
 MODES = modes.LEGACY_PLAN
@@ -169,10 +173,48 @@ def yaw_rate_toward_target(m, records):
     s.rate_sign[RATE_SIGN["yaw"]] = 1 if s.cpu[cpu.ERROR_YAW] >= 0 else -1
 
 
+def record_hold_start(m, records):
+    """Note the true attitude, time and pointing error at the start of the hold.
+
+    Kept in ``m.hold`` (plain numbers, so a snapshot can save them).
+    """
+    s = m.state
+    m.hold = {"start_time_s": float(s.time_s[0]),
+              "start_quaternion": [float(v) for v in s.x[0:4]],
+              "start_pointing_error_arcsec": float(m.pointing_error_arcsec())}
+
+
+def measure_hold(m, records):
+    """Measure the hold: end pointing error and the attitude's drift per body axis.
+
+    The drift is the small rotation from the attitude at the hold's start to
+    the one at its end, ``2 q_vec`` of ``q_start^-1 (x) q_end`` (the
+    quaternions rotate inertial into body coordinates,
+    :mod:`allsky.vehicle.quaternion`), in arcsec per minute of hold about
+    roll, pitch and yaw.
+    """
+    s = m.state
+    h = m.hold
+    q_start = np.asarray(h["start_quaternion"])
+    q_end = np.array(s.x[0:4], dtype=float)
+    conj = q_start * np.array([1.0, -1.0, -1.0, -1.0])
+    dq = quaternion.multiply(conj, q_end)
+    if dq[0] < 0:  # the same rotation, the short way round
+        dq = -dq
+    rot_arcsec = 2.0 * dq[1:4] * units.RAD2ARCSEC
+    hold_s = float(s.time_s[0]) - h["start_time_s"]
+    per_min = rot_arcsec / (hold_s / 60.0)
+    m.hold = {"hold_s": hold_s,
+              "start_pointing_error_arcsec": h["start_pointing_error_arcsec"],
+              "end_pointing_error_arcsec": float(m.pointing_error_arcsec()),
+              "drift_arcsec_per_min": {axis: float(v) for axis, v in
+                                       zip(("roll", "pitch", "yaw"), per_min)}}
+
+
 #: Action name (as the mode table writes it) -> function.
 ACTIONS = {f.__name__: f for f in (
     clear_drift_counters, clear_counters, roll_rate_positive, yaw_rate_positive,
     calibration_sequencer, withhold_calibration, load_register_24, start_roll_computation,
     roll_rate_toward_target, preset_counters, start_yaw_computation, yaw_rate_toward_target,
-    dither_analysis)}
+    record_hold_start, measure_hold, dither_analysis)}
 assert set(ACTIONS) == set(modes.ACTIONS), set(ACTIONS) ^ set(modes.ACTIONS)

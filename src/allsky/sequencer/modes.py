@@ -2,7 +2,8 @@
 
 Each :class:`Mode` is a name, the code the telemetry writes for it, a
 title and an ordered tuple of steps (SPEC section 4, patent US 4,012,018
-Modes 1 to 6-2, and the dither comparison mode of seed 000):
+Modes 1 to 6-2, the hold on target that may follow 6-2, and the dither
+comparison mode of seed 000):
 
 * :class:`Operate`: close and open switches of the bank, by number
   (coupled pairs S16+S18, S17+S19 named together);
@@ -30,6 +31,7 @@ import math
 from collections.abc import Callable
 from typing import NamedTuple
 
+from allsky.config.schema import HOLD_TIMEOUT_ALLOWANCE_S
 from allsky.hardware import switch_bank
 from allsky.sequencer import legs
 
@@ -144,6 +146,14 @@ def _dither_timeout_s(cfg, mode) -> float:
     return d.lead_in_s + d.record_s + DITHER_SETTLE_ALLOWANCE_S
 
 
+def _hold_s(cfg, mode) -> float:
+    return cfg.target.hold_s
+
+
+def _hold_timeout_s(cfg, mode) -> float:
+    return cfg.target.hold_s + HOLD_TIMEOUT_ALLOWANCE_S
+
+
 #: Durations the table names.
 DURATIONS = {
     "settle": Duration("`sequencer.settle_time_s`",
@@ -157,6 +167,9 @@ DURATIONS = {
     "mode timeout": Duration("`sequencer.timeout_s` of the mode", _mode_timeout_s),
     "dither timeout": Duration(f"`dither.lead_in_s` + `dither.record_s` + "
                                f"{DITHER_SETTLE_ALLOWANCE_S:g} s", _dither_timeout_s),
+    "hold": Duration("`target.hold_s`", _hold_s),
+    "hold timeout": Duration(f"`target.hold_s` + {HOLD_TIMEOUT_ALLOWANCE_S:g} s",
+                             _hold_timeout_s),
 }
 
 
@@ -191,6 +204,10 @@ ACTIONS = {
                               "counters"),
     "yaw_rate_toward_target": ("set yaw rate-command module 128 to the direction of the yaw "
                                "error"),
+    "record_hold_start": ("note the true attitude and pointing error at the start of the "
+                          "hold (for the drift measured at its end)"),
+    "measure_hold": ("measure the hold: pointing error at its end and the attitude's drift "
+                     "per body axis since its start"),
     "dither_analysis": ("analyse the dither record at each dither frequency; scale factors "
                         "(with `dither.store_cross_coupling`, cross-coupling too) into "
                         "register 23"),
@@ -202,7 +219,8 @@ def action_text(step: Do) -> str:
     return ACTIONS[step.action].format(*step.args)
 
 
-#: The mode table: the patent's six modes (SPEC section 4), then the comparison mode.
+#: The mode table: the patent's six modes (SPEC section 4) and the hold after them, then
+#: the comparison mode.
 MODE_TABLE = (
     Mode("1", 1.0, "Sun orientation", (
         Wait("sun acquired and settled", "sun acquisition", "settle",
@@ -277,6 +295,13 @@ MODE_TABLE = (
         Wait("roll, pitch and yaw errors settled", "target", "settle",
              ("roll error", "pitch error", "yaw error")),
     ), "on target: computed errors settled"),
+    # After 6-2 the master sequencer may hold the target for any time: CPU 22 keeps forming
+    # the errors from counters 14/16/18, S14/S15 stay open, so the gyros alone hold it.
+    Mode("hold", 6.3, "hold on target", (
+        Do("record_hold_start"),
+        Wait("hold on target elapsed", "target", "elapsed", hold="hold"),
+        Do("measure_hold"),
+    ), "held on target for {cfg.target.hold_s:g} s on the gyros", timeout="hold timeout"),
     Mode("dither", 7.0, "dither calibration (comparison method)", (
         Wait("dither record complete", "dither", "elapsed", hold="dither record",
              record="dither record"),
@@ -299,6 +324,20 @@ LEGACY_PLAN = ("1", "2", "3", "4", "5", "6-1", "6-2")
 DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
 #: Plans by the name ``--plan`` takes.
 PLANS = {"legacy": LEGACY_PLAN, "dither": DITHER_PLAN}
+#: Flown after a plan when the scenario asks for a hold (``target.hold_s`` > 0).
+HOLD_MODE = "hold"
+
+
+def with_hold(plan, cfg) -> tuple:
+    """``plan`` with the hold on target appended if ``cfg.target.hold_s`` > 0.
+
+    A plan that already ends with the hold, or a scenario without one, is
+    returned unchanged, so a plan given in full is flown as given.
+    """
+    plan = tuple(plan)
+    if cfg.target.hold_s > 0 and plan[-1:] != (HOLD_MODE,):
+        return (*plan, HOLD_MODE)
+    return plan
 
 
 def signal_mask(signals) -> int:

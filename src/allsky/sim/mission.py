@@ -184,7 +184,12 @@ class Mission:
     def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None,
                  plan=LEGACY_PLAN):
         self.cfg = cfg
-        self.plan = tuple((history or {}).get("plan", plan))
+        # A restored mission flies the plan it saved; a new one gets the hold on target
+        # appended to the plan given when the scenario asks for one (target.hold_s > 0).
+        if history is not None and "plan" in history:
+            self.plan = tuple(history["plan"])
+        else:
+            self.plan = modes.with_hold(plan, cfg)
         if any(name not in modes.BY_NAME for name in self.plan):
             raise ValueError(f"unknown mode in plan {self.plan}")
         self.dither_estimates = None
@@ -202,6 +207,8 @@ class Mission:
         self.abort_reason = h.get("abort_reason")
         self.programmed_roll_deg = h.get("programmed_roll_deg")
         self.programmed_yaw_deg = h.get("programmed_yaw_deg")
+        #: Measurements of the hold on target (master_sequencer.measure_hold); None if not flown.
+        self.hold = h.get("hold")
         self.settle_s = float(cfg.sequencer.settle_time_s)
         self.pulse_weight_arcsec = float(cfg.electronics.vfc_pulse_weight_arcsec)
         self.apply_calibration = bool(cfg.calibration.apply)
@@ -384,7 +391,7 @@ class Mission:
             target["star"] = self.cfg.target.star
         else:
             target["ra_deg"], target["dec_deg"] = self.cfg.target.ra_deg, self.cfg.target.dec_deg
-        return {
+        out = {
             "status": self.status,
             "abort_reason": self.abort_reason,
             "modes": [{"mode": r.mode, "start_s": r.start_s, "end_s": r.end_s, "exit": r.exit}
@@ -404,6 +411,9 @@ class Mission:
                     ("counter14", "counter16", "counter18", "drift13", "drift15", "drift17"),
                     self.state.overflow)},
         }
+        if "hold" in done and self.hold is not None and "hold_s" in self.hold:
+            out["hold"] = self.hold
+        return out
 
     # -- snapshot / resume ---------------------------------------------------------
     def snapshot(self):
@@ -416,7 +426,8 @@ class Mission:
         history : dict
             JSON-serialisable: ``format`` (:data:`STATE_FORMAT`), plan, timeline,
             next mode, leg count, counted angles, status, abort reason,
-            programmed angles and the scenario (:meth:`Scenario.as_dict`).
+            programmed angles, the scenario (:meth:`Scenario.as_dict`) and, once
+            flown, the hold's measurements.
         arrays : dict of numpy.ndarray
             Copies of the state arrays, by :class:`allsky.sim.state.State` field.
         """
@@ -427,6 +438,8 @@ class Mission:
                    "programmed_roll_deg": self.programmed_roll_deg,
                    "programmed_yaw_deg": self.programmed_yaw_deg,
                    "scenario": self.cfg.as_dict()}
+        if self.hold is not None:
+            history["hold"] = self.hold
         arrays = {k: v.copy() for k, v in self.state._asdict().items()}
         return history, arrays
 
@@ -456,7 +469,7 @@ class Mission:
 
 
 def run_mission(cfg, telemetry=True) -> Mission:
-    """Fly a whole mission (Modes 1 to 6-2) and return it."""
+    """Fly a whole mission (Modes 1 to 6-2, then the hold if asked for) and return it."""
     m = Mission(cfg, telemetry=telemetry)
     m.run()
     return m

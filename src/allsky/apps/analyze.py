@@ -8,12 +8,18 @@ envelopes of a reaction-wheel pyramid and of the jets
 
 import json
 import math
-from types import MappingProxyType
 
 import numpy as np
 
 from allsky.studies.analysis import RATE_LOOP_AXES, analyze, frequency_responses, scenario_loops
-from allsky.vehicle.envelopes import BODY_AXES
+from allsky.studies.envelope_check import (  # noqa: F401 - the command's defaults
+    DEFAULT_PYRAMID_BETA_DEG,
+    DEFAULT_WHEEL_MOMENTUM_N_M_S,
+    DEFAULT_WHEEL_TORQUE_N_M,
+    DITHER_EXAMPLE,
+    envelope_analysis,
+)
+from allsky.vehicle.envelopes import facet_polygons
 
 
 def format_margins(margins: dict) -> str:
@@ -117,123 +123,6 @@ def run_from_cli(cfg, args) -> int:
 # --envelope: reaction-wheel and jet torque/momentum envelopes
 # ---------------------------------------------------------------------------
 
-#: [deg] Default angle of each pyramid wheel's spin axis from +x: atan(sqrt 2), at which
-#: all twelve facets of the torque envelope are equally far from the origin, so the
-#: inscribed sphere (the torque available in every direction) is largest.
-DEFAULT_PYRAMID_BETA_DEG = math.degrees(math.atan(math.sqrt(2.0)))
-#: [N m] Default torque limit of each wheel, sized for the dither example's 16000 kg m^2
-#: vehicle: at DEFAULT_PYRAMID_BETA_DEG one failed wheel leaves an inscribed radius of
-#: 0.816 tau = 0.082 N m, 3.4 times the dither's 0.0241 N m peak about any axis.
-DEFAULT_WHEEL_TORQUE_N_M = 0.1
-#: [N m s] Default momentum limit of each wheel. The dither stores only J A w = 0.196 N m s;
-#: the limit is set instead by a 0.1 deg/s slew of the 16000 kg m^2 vehicle about any axis
-#: with one wheel failed: J w = 27.9 N m s <= 0.816 h needs h >= 34 N m s (500 s of full
-#: torque per wheel).
-DEFAULT_WHEEL_MOMENTUM_N_M_S = 50.0
-#: The dither example the wheels are checked against: inertia [kg m^2] (about each body
-#: axis), amplitude [rad] and period [s] (docs/envelopes.md).
-DITHER_EXAMPLE = MappingProxyType({"inertia_kg_m2": 16000.0, "amplitude_rad": 100e-6,
-                                   "period_s": 51.2})
-#: Samples per dither period in the profile check; a multiple of 4 puts samples on the peaks.
-DITHER_SAMPLES = 64
-AXIS_NAMES = ("roll", "pitch", "yaw")
-
-
-def dither_profiles_n_m(inertia_kg_m2, amplitude_rad, period_s, samples=DITHER_SAMPLES):
-    """Feed-forward torque over one period of a dither about each body axis in turn.
-
-    Parameters
-    ----------
-    inertia_kg_m2 : float
-        Inertia about each body axis [kg m^2] (the estimate the feed-forward uses).
-    amplitude_rad : float
-        Dither amplitude [rad].
-    period_s : float
-        Dither period [s].
-    samples : int
-        Samples per period.
-
-    Returns
-    -------
-    ndarray, shape (3, samples, 3)
-        ``[axis, sample]``: the torque vector [N m], body axes, from
-        :func:`allsky.sequencer.dither.feedforward_torque_n_m`; its peak is
-        ``J A w^2`` along the dithered axis.
-    """
-    from allsky.sequencer.dither import feedforward_torque_n_m
-
-    inertia = float(inertia_kg_m2) * np.eye(3)
-    omega = np.full(3, 2.0 * math.pi / float(period_s))
-    t_s = np.arange(samples) * (float(period_s) / samples)
-    return np.array([[feedforward_torque_n_m(inertia, amplitude_rad * np.eye(3)[k], omega, t)
-                      for t in t_s] for k in range(3)])
-
-
-def _dither_margins(envelope, profiles) -> dict:
-    """Margin of each axis's dither profile in ``envelope``, and the least."""
-    from allsky.vehicle.envelopes import check_profile
-
-    per_axis = [check_profile(envelope, p).margin for p in profiles]
-    worst = int(np.argmin(per_axis))
-    return {"inside": bool(per_axis[worst] >= 1.0), "margin": float(per_axis[worst]),
-            "worst_axis": AXIS_NAMES[worst], "margin_per_axis": [float(m) for m in per_axis]}
-
-
-def envelope_analysis(jet_torque_n_m, beta_deg=DEFAULT_PYRAMID_BETA_DEG,
-                      wheel_torque_n_m=DEFAULT_WHEEL_TORQUE_N_M,
-                      wheel_momentum_n_m_s=DEFAULT_WHEEL_MOMENTUM_N_M_S,
-                      dither=DITHER_EXAMPLE) -> dict:
-    """Wheel-pyramid and jet envelopes, with the dither example checked in them.
-
-    Parameters
-    ----------
-    jet_torque_n_m : array_like, shape (3,)
-        Roll, pitch, yaw couple torques of jets 39-41 [N m], ``2 F r``
-        (:func:`allsky.hardware.jets.make_params`).
-    beta_deg : float
-        Angle of each wheel's spin axis from +x [deg] (:func:`allsky.vehicle.envelopes.pyramid_axes`).
-    wheel_torque_n_m, wheel_momentum_n_m_s : float
-        Torque [N m] and momentum [N m s] limit of each wheel.
-    dither : mapping
-        ``inertia_kg_m2``, ``amplitude_rad``, ``period_s`` of the dither to check.
-
-    Returns
-    -------
-    dict
-        JSON-ready: ``wheels`` and ``jets`` exactly as
-        :func:`allsky.vehicle.envelopes.envelope_summary`; ``wheel_array``
-        (the inputs: ``beta_deg``, ``axes``, ``torque_max_n_m``,
-        ``momentum_max_n_m_s``); ``dither_check``: the dither's inputs, its
-        peak torque ``J A w^2`` [N m], and for ``wheels``, ``one_failed``
-        (the worst single failure) and ``jets``: ``inside``, ``margin`` (the
-        least over the three axes, :func:`allsky.vehicle.envelopes.check_profile`),
-        ``worst_axis`` and ``margin_per_axis`` (dither about roll, pitch, yaw in turn).
-    """
-    from allsky.vehicle.envelopes import (
-        envelope_summary,
-        jet_envelope,
-        make_envelope,
-        pyramid_axes,
-    )
-
-    axes = pyramid_axes(beta_deg)
-    result = envelope_summary(axes, wheel_torque_n_m, wheel_momentum_n_m_s, jet_torque_n_m)
-    torque = make_envelope(axes, wheel_torque_n_m)
-    failed = result["wheels"]["one_failed"]["wheel"]
-    profiles = dither_profiles_n_m(**dither)
-    omega = 2.0 * math.pi / dither["period_s"]
-    result["wheel_array"] = {"beta_deg": float(beta_deg), "axes": axes.tolist(),
-                             "torque_max_n_m": float(wheel_torque_n_m),
-                             "momentum_max_n_m_s": float(wheel_momentum_n_m_s)}
-    result["dither_check"] = {
-        **{k: float(v) for k, v in dither.items()},
-        "peak_torque_n_m": dither["inertia_kg_m2"] * dither["amplitude_rad"] * omega ** 2,
-        "wheels": _dither_margins(torque, profiles),
-        "one_failed": _dither_margins(torque.without(failed), profiles),
-        "jets": _dither_margins(jet_envelope(jet_torque_n_m), profiles)}
-    return result
-
-
 def _reach_row(label, reach, unit) -> str:
     r, m = reach[f"min_radius_{unit}"], reach[f"max_{unit}"]
     return f"  {label:<26}{r:>10.4g}{m[0]:>12.4g}{m[1]:>12.4g}{m[2]:>12.4g}"
@@ -271,65 +160,6 @@ def format_envelopes(result: dict) -> str:
     lines.append("  (margin: available torque along the dither's axis / its peak torque; "
                  "fits when >= 1)")
     return "\n".join(lines)
-
-
-def _hull_2d(points: np.ndarray) -> np.ndarray:
-    """Indices of the convex hull of 2-D points, counter-clockwise (monotone chain)."""
-    order = sorted(range(len(points)), key=lambda i: (points[i, 0], points[i, 1]))
-
-    def cross(o, a, b):
-        return ((points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
-                - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0]))
-
-    scale = float(np.ptp(points)) ** 2 or 1.0
-    chains = []
-    for seq in (order, order[::-1]):
-        chain = []
-        for i in seq:
-            # Collinear points (parallel in-plane axes, rounding) are dropped.
-            while len(chain) >= 2 and cross(chain[-2], chain[-1], i) <= 1e-12 * scale:
-                chain.pop()
-            chain.append(i)
-        chains.append(chain[:-1])
-    return np.array(chains[0] + chains[1])
-
-
-def facet_polygons(envelope) -> list:
-    """The corners of each facet of an envelope, ordered around it.
-
-    For the facet of outward normal ``n`` the axes not lying in its plane sit
-    at their limit on the side of ``n``, ``sum sign(n . g_i) L_i g_i``, and
-    the axes in its plane (``envelope.facet_axes``) take every combination
-    of ``+-L_j g_j``; the facet is the convex hull of those points in the plane.
-
-    Parameters
-    ----------
-    envelope : allsky.vehicle.envelopes.Envelope
-
-    Returns
-    -------
-    list of ndarray, shape (k, 3)
-        One polygon per facet, in the order of ``envelope.normals``; its
-        vertices lie on the facet's plane ``n . x = h(n)``, counter-clockwise
-        seen from outside.
-    """
-    g, lim = envelope.axes, envelope.limits
-    polygons = []
-    for n, plane in zip(envelope.normals, envelope.facet_axes, strict=True):
-        inside = np.zeros(len(g), dtype=bool)
-        inside[list(plane)] = True
-        side = np.sign(g @ n)
-        base = ((~inside) * side * lim) @ g
-        signs = np.array(np.meshgrid(*[[-1.0, 1.0]] * len(plane))).reshape(len(plane), -1).T
-        corners = base + (signs * lim[list(plane)]) @ g[list(plane)]
-        # A right-handed basis of the plane, so that the hull's counter-clockwise
-        # order is counter-clockwise seen from outside (along -n).
-        e1 = np.cross(n, BODY_AXES[int(np.argmin(np.abs(n)))])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(n, e1)
-        flat = (corners - corners.mean(axis=0)) @ np.column_stack([e1, e2])
-        polygons.append(corners[_hull_2d(flat)])
-    return polygons
 
 
 def _draw_zonotope(ax, envelope, colour):

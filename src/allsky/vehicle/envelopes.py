@@ -429,3 +429,62 @@ def envelope_summary(axes, torque_max_n_m, momentum_max_n_m_s, jet_torque_n_m) -
         },
         "jets": {"torque": _reach(jet_envelope(jet_torque_n_m), "n_m")},
     }
+
+
+def _hull_2d(points: np.ndarray) -> np.ndarray:
+    """Indices of the convex hull of 2-D points, counter-clockwise (monotone chain)."""
+    order = sorted(range(len(points)), key=lambda i: (points[i, 0], points[i, 1]))
+
+    def cross(o, a, b):
+        return ((points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+                - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0]))
+
+    scale = float(np.ptp(points)) ** 2 or 1.0
+    chains = []
+    for seq in (order, order[::-1]):
+        chain = []
+        for i in seq:
+            # Collinear points (parallel in-plane axes, rounding) are dropped.
+            while len(chain) >= 2 and cross(chain[-2], chain[-1], i) <= 1e-12 * scale:
+                chain.pop()
+            chain.append(i)
+        chains.append(chain[:-1])
+    return np.array(chains[0] + chains[1])
+
+
+def facet_polygons(envelope) -> list:
+    """The corners of each facet of an envelope, ordered around it.
+
+    For the facet of outward normal ``n`` the axes not lying in its plane sit
+    at their limit on the side of ``n``, ``sum sign(n . g_i) L_i g_i``, and
+    the axes in its plane (``envelope.facet_axes``) take every combination
+    of ``+-L_j g_j``; the facet is the convex hull of those points in the plane.
+
+    Parameters
+    ----------
+    envelope : allsky.vehicle.envelopes.Envelope
+
+    Returns
+    -------
+    list of ndarray, shape (k, 3)
+        One polygon per facet, in the order of ``envelope.normals``; its
+        vertices lie on the facet's plane ``n . x = h(n)``, counter-clockwise
+        seen from outside.
+    """
+    g, lim = envelope.axes, envelope.limits
+    polygons = []
+    for n, plane in zip(envelope.normals, envelope.facet_axes, strict=True):
+        inside = np.zeros(len(g), dtype=bool)
+        inside[list(plane)] = True
+        side = np.sign(g @ n)
+        base = ((~inside) * side * lim) @ g
+        signs = np.array(np.meshgrid(*[[-1.0, 1.0]] * len(plane))).reshape(len(plane), -1).T
+        corners = base + (signs * lim[list(plane)]) @ g[list(plane)]
+        # A right-handed basis of the plane, so that the hull's counter-clockwise
+        # order is counter-clockwise seen from outside (along -n).
+        e1 = np.cross(n, BODY_AXES[int(np.argmin(np.abs(n)))])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        flat = (corners - corners.mean(axis=0)) @ np.column_stack([e1, e2])
+        polygons.append(corners[_hull_2d(flat)])
+    return polygons

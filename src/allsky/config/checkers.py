@@ -139,9 +139,10 @@ def magnitude_window(key, v):
 
 @functools.cache
 def _catalog() -> dict:
-    import ephem.stars
+    """Lower-case name -> catalog spelling, for every star of the sky's catalog."""
+    from allsky.vehicle.sky import star_names  # PyEphem loads only when a star is named
 
-    return {name.lower(): name for name in ephem.stars.stars}
+    return {name.lower(): name for name in star_names()}
 
 
 def star_name(key, v):

@@ -1,0 +1,127 @@
+// skymap.js: RA/Dec map with the Sun, catalog stars, target and the tracker's slit footprint.
+const SKY = (function () {
+  const canvas = document.getElementById("sky");
+  let bg = null, bgKey = "";
+  // +x (instrument, sun sensor) and +z (tracker boresight) of every row, as RA/Dec.
+  const XRD = new Float32Array(2 * N), ZRD = new Float32Array(2 * N);
+  for (let i = 0; i < N; i++) {
+    const c = dcm([cont("q_w", i), cont("q_x", i), cont("q_y", i), cont("q_z", i)]);
+    const x = radec(c[0]), z = radec(c[2]);
+    XRD[2 * i] = x[0]; XRD[2 * i + 1] = x[1]; ZRD[2 * i] = z[0]; ZRD[2 * i + 1] = z[1];
+  }
+  const SLIT = slitOutlineBody(3);
+  const PAD = 16;
+
+  function xy(ra, dec, w, h) {
+    return [PAD + (1 - ra / 360) * (w - PAD), (90 - dec) / 180 * (h - 12)];
+  }
+
+  function background(w, h) {
+    const key = `${w}x${h}`;
+    if (bg && bgKey === key) return bg;
+    bg = document.createElement("canvas");
+    const dpr = window.devicePixelRatio || 1;
+    bg.width = Math.round(w * dpr); bg.height = Math.round(h * dpr);
+    const ctx = bg.getContext("2d");
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    ctx.fillStyle = "#0d1630"; ctx.fillRect(0, 0, w, h);
+    ctx.strokeStyle = "#26345a"; ctx.lineWidth = 1; ctx.fillStyle = "#7c8bb0";
+    ctx.font = "9px sans-serif";
+    for (let ra = 0; ra <= 360; ra += 30) {
+      const [x] = xy(ra, 0, w, h);
+      ctx.beginPath(); ctx.moveTo(x, 0); ctx.lineTo(x, h - 12); ctx.stroke();
+      if (ra < 360) ctx.fillText(`${ra / 15}h`, x + 2, h - 2);
+    }
+    for (let dec = -60; dec <= 60; dec += 30) {
+      const [, y] = xy(0, dec, w, h);
+      ctx.beginPath(); ctx.moveTo(PAD, y); ctx.lineTo(w, y); ctx.stroke();
+      ctx.fillText(`${dec > 0 ? "+" : ""}${dec}\u00b0`, 0, y + 3);
+    }
+    for (const st of D.sky.stars) {
+      const [x, y] = xy(st.ra, st.dec, w, h);
+      const r = Math.max(0.8, 2.6 - 0.55 * st.mag);
+      ctx.fillStyle = "#e8ecff"; ctx.beginPath(); ctx.arc(x, y, r, 0, 7); ctx.fill();
+      if (st.win) {
+        ctx.strokeStyle = "#b48cff"; ctx.lineWidth = 1.5;
+        ctx.beginPath(); ctx.arc(x, y, r + 3.5, 0, 7); ctx.stroke();
+        ctx.fillStyle = "#d5c2ff"; ctx.font = "10px sans-serif";
+        ctx.fillText(st.name, x + r + 5, y + 3);
+      } else if (st.mag < 0.5) {
+        ctx.fillStyle = "#97a3c6"; ctx.font = "9px sans-serif";
+        ctx.fillText(st.name, x + r + 2, y + 3);
+      }
+    }
+    bgKey = key;
+    return bg;
+  }
+
+  function polygon(ctx, pts, w, h, fill, stroke) {
+    // Unwrap in RA so that a footprint across 0h/24h stays whole, then draw it twice.
+    const p = pts.map((v) => { const [ra, dec] = radec(v); return xy(ra, dec, w, h); });
+    const span = w - PAD;
+    for (let k = 1; k < p.length; k++) {
+      while (p[k][0] - p[k - 1][0] > span / 2) p[k][0] -= span;
+      while (p[k - 1][0] - p[k][0] > span / 2) p[k][0] += span;
+    }
+    for (const shift of [0, -span, span]) {
+      ctx.beginPath();
+      p.forEach((q, k) => (k ? ctx.lineTo(q[0] + shift, q[1]) : ctx.moveTo(q[0] + shift, q[1])));
+      ctx.closePath();
+      if (fill) { ctx.fillStyle = fill; ctx.fill(); }
+      if (stroke) { ctx.strokeStyle = stroke; ctx.stroke(); }
+    }
+  }
+
+  function trail(ctx, rd, i0, i1, w, h, colour, width) {
+    ctx.strokeStyle = colour; ctx.lineWidth = width; ctx.beginPath();
+    let prev = null;
+    const step = Math.max(1, Math.floor((i1 - i0) / 1500));
+    for (let i = i0; i <= i1; i += step) {
+      const p = xy(rd[2 * i], rd[2 * i + 1], w, h);
+      if (!prev || Math.abs(p[0] - prev[0]) > (w - PAD) / 2) ctx.moveTo(p[0], p[1]);
+      else ctx.lineTo(p[0], p[1]);
+      prev = p;
+    }
+    ctx.stroke();
+  }
+
+  function marker(ctx, v, w, h, colour, label, r) {
+    const [ra, dec] = radec(v);
+    const [x, y] = xy(ra, dec, w, h);
+    ctx.fillStyle = colour; ctx.strokeStyle = colour; ctx.lineWidth = 2;
+    ctx.beginPath(); ctx.arc(x, y, r, 0, 7);
+    if (label === "Sun") ctx.fill(); else ctx.stroke();
+    if (label !== "Sun") {
+      ctx.beginPath(); ctx.moveTo(x - r - 4, y); ctx.lineTo(x + r + 4, y);
+      ctx.moveTo(x, y - r - 4); ctx.lineTo(x, y + r + 4); ctx.stroke();
+    }
+    ctx.font = "bold 10px sans-serif"; ctx.fillText(label, x + r + 4, y - r);
+  }
+
+  function draw(s, t, modeStartRow) {
+    const { ctx, w, h } = fitCanvas(canvas);
+    ctx.drawImage(background(w, h), 0, 0, w, h);
+    // The slit's swath since the mode began, then its footprint now.
+    const i0 = modeStartRow, i1 = s.i;
+    const step = Math.max(1, Math.ceil((i1 - i0) / 160));
+    for (let i = i0; i < i1; i += step) {
+      const c = dcm([cont("q_w", i), cont("q_x", i), cont("q_y", i), cont("q_z", i)]);
+      polygon(ctx, SLIT.map((b) => toInertial(c, b)), w, h, "rgba(150,110,255,0.07)", null);
+    }
+    trail(ctx, ZRD, 0, i1, w, h, "rgba(180,140,255,0.55)", 1);
+    trail(ctx, XRD, 0, i1, w, h, "rgba(120,200,255,0.7)", 1.2);
+    const c = dcm(s.q);
+    polygon(ctx, SLIT.map((b) => toInertial(c, b)), w, h,
+      s.starPresent ? "rgba(180,140,255,0.40)" : "rgba(180,140,255,0.22)", "#c9b0ff");
+    marker(ctx, sunAt(t), w, h, "#ffd23f", "Sun", 6);
+    marker(ctx, D.sky.target.vec, w, h, "#ff6b5b", `target ${D.sky.target.name}`, 5);
+    const x = radec(c[0]), [px, py] = xy(x[0], x[1], w, h);
+    ctx.fillStyle = "#7fd0ff"; ctx.beginPath(); ctx.arc(px, py, 3.5, 0, 7); ctx.fill();
+    ctx.font = "10px sans-serif"; ctx.fillText("+x", px + 5, py + 11);
+    ctx.fillStyle = "#c9d3ee"; ctx.font = "10px sans-serif";
+    ctx.fillText(`ringed: tracker window (mag ${D.sky.window[0]} to ${D.sky.window[1]}); violet: slit, `
+      + "swath this mode, +z path; blue: +x path", PAD + 2, 10);
+  }
+
+  return { draw: draw };
+})();

@@ -1,0 +1,229 @@
+"""The replay page's Python side: its data block, event log, HTML file and commands.
+
+The page in a real browser is tests/test_replay_browser.py.
+"""
+
+import base64
+import hashlib
+import json
+import re
+
+import numpy as np
+import pytest
+
+from allsky.apps import replay, replay_events, telemetry_files
+from allsky.apps.cli import main
+from allsky.hardware.wiring import SELECTORS
+from allsky.sequencer import modes
+from allsky.sim.telemetry import INDEX, switch_closed
+
+AXES = ("roll", "pitch", "yaw")
+
+
+@pytest.fixture(scope="module")
+def flown(saved_states):
+    m = saved_states["mission"]
+    return m.telemetry(), m.summary(), m.cfg
+
+
+@pytest.fixture(scope="module")
+def data(flown):
+    table, summary, cfg = flown
+    return replay.replay_data(table, summary, cfg)
+
+
+def _undelta(d):
+    return np.cumsum(np.asarray(d, dtype=np.int64))
+
+
+def _run_values(runs, n):
+    out = np.empty(n)
+    for k, (row, value) in enumerate(runs):
+        end = runs[k + 1][0] if k + 1 < len(runs) else n
+        out[row:end] = value
+    return out
+
+
+def test_exact_columns_survive_the_encoding_at_every_row(flown, data):
+    """Mode, switches, selector, counters and valves decode to the telemetry exactly."""
+    table, _, _ = flown
+    cols, n = data["columns"], len(table)
+    assert cols["n"] == n
+    t_ms = _undelta(cols["t_ms"])
+    assert np.array_equal(t_ms, np.round(table[:, INDEX["time"]] * 1000).astype(np.int64))
+    for name in replay.EXACT:
+        assert np.array_equal(_undelta(cols["exact"][name]), table[:, INDEX[name]]), name
+    for name in replay.RUNS:
+        assert np.array_equal(_run_values(cols["runs"][name], n), table[:, INDEX[name]]), name
+    selector = np.array([int(c) for c in cols["selector"]])
+    assert np.array_equal(selector, table[:, INDEX["s7_s8"]])
+    for k, name in enumerate(("valve_roll", "valve_pitch", "valve_yaw")):
+        valves = np.array([int(c) - 1 for c in cols["valves"][k]])
+        assert np.array_equal(valves, table[:, INDEX[name]])
+
+
+def test_continuous_columns_within_their_rounding(flown, data):
+    table, _, _ = flown
+    for name, scale in replay.CONTINUOUS.items():
+        got = _undelta(data["columns"]["cont"][name]["d"]) / scale
+        assert np.max(np.abs(got - table[:, INDEX[name]])) <= 0.5 / scale + 1e-9, name
+
+
+def test_long_missions_thin_only_the_continuous_columns(flown, monkeypatch):
+    table, summary, cfg = flown
+    monkeypatch.setattr(replay, "MAX_CONTINUOUS_ROWS", 1000)
+    cols = replay.replay_data(table, summary, cfg)["columns"]
+    assert cols["stride"] == int(np.ceil(len(table) / 1000))
+    assert len(cols["cont"]["q_w"]["d"]) == len(range(0, len(table), cols["stride"]))
+    assert np.array_equal(_undelta(cols["exact"]["counter14"]), table[:, INDEX["counter14"]])
+    assert len(cols["selector"]) == len(table)
+
+
+def test_every_switch_change_is_logged_with_a_reason_from_the_mode_table(flown, data):
+    table, summary, _ = flown
+    masks = table[:, INDEX["switches"]].astype(np.int64)
+    changes = int(np.count_nonzero(np.diff(masks))) + int(masks[0] != 0)
+    switch_events = [e for e in data["events"] if e["kind"] == "switch"]
+    assert len(switch_events) == changes
+    for e in switch_events:
+        assert "no switch step" not in e["reason"], e
+        row = int(np.searchsorted(table[:, INDEX["time"]], e["t_s"]))
+        for k in e["close"]:
+            assert switch_closed(table, k)[row]
+        for k in e["open"]:
+            assert not switch_closed(table, k)[row]
+    flown_modes = [e["mode"] for e in data["events"] if e["kind"] == "mode"]
+    assert flown_modes == [r["mode"] for r in summary["modes"]]
+    times = [e["t_s"] for e in data["events"]]
+    assert times == sorted(times)
+
+
+def test_the_switch_reason_names_the_wait_that_ended(data):
+    """Mode 2: S12 closes once the star is in the window, the rate command off."""
+    e = next(e for e in data["events"] if e["kind"] == "switch" and 12 in e["close"]
+             and e["mode"] == "2")
+    assert e["open"] == [16, 18]
+    assert "star in the magnitude window" in e["reason"]
+    assert e["waiting"] == "locked on Sun and star"
+
+
+def test_an_unmatched_change_is_still_logged(flown):
+    table, summary, _ = flown
+    t = table.copy()
+    row = len(t) // 2
+    t[row:, INDEX["switches"]] = t[row:, INDEX["switches"]].astype(np.int64) ^ (1 << 5)
+    ev = replay_events.events(t, summary["modes"])
+    odd = [e for e in ev if e["kind"] == "switch" and "no switch step" in e["reason"]]
+    assert odd and odd[0]["t_s"] == pytest.approx(t[row, INDEX["time"]])
+
+
+@pytest.mark.parametrize("mode", [m.name for m in modes.MODE_TABLE])
+def test_every_mode_has_one_plain_sentence(mode):
+    text = replay_events.mode_sentence(mode)
+    assert text.endswith(".") and text.count(". ") == 0 and "{" not in text
+
+
+def test_registers_23_and_24_follow_the_timeline(data, flown):
+    _, summary, _ = flown
+    ends = {r["mode"]: r["end_s"] for r in summary["modes"]}
+    words = data["registers"]["23"]
+    assert words[0]["sf_roll"] == 1.0 and words[0]["t_s"] == 0.0
+    assert [w["t_s"] for w in words[1:]] == [ends["4"], ends["5"]]
+    cal = summary["calibration"]
+    assert words[1]["sf_roll"] == cal["scale_factor"]["roll"] and words[1]["sf_yaw"] == 1.0
+    assert words[2]["sf_yaw"] == cal["scale_factor"]["yaw"]
+    assert words[2]["yaw_into_roll"] == cal["cross_coupling"]["yaw_into_roll"]
+    (load,) = data["registers"]["24"]
+    assert load["roll_deg"] == summary["target"]["programmed_roll_deg"]
+    assert load["t_s"] == next(r["start_s"] for r in summary["modes"] if r["mode"] == "6-1")
+
+
+def test_the_diagram_is_read_from_the_layout_and_wiring_tables(data):
+    from allsky.apps import diagram_layout
+    from allsky.hardware import wiring
+
+    g = data["diagram"]
+    assert set(g["boxes"]) == set(diagram_layout.BOXES)
+    drawn = sorted(k for line in g["lines"] for k in line["switches"])
+    assert drawn == [s.number for s in wiring.SWITCHES]  # each switch on exactly one line
+    for k in SELECTORS:
+        assert g["switches"][k - 1]["selector"]
+
+
+def _page(data):
+    return replay.render_html(data)
+
+
+def test_the_page_is_one_file_that_asks_for_nothing(data):
+    page = _page(data)
+    csp = re.search(r'http-equiv="Content-Security-Policy" content="([^"]+)"', page).group(1)
+    assert "default-src 'none'" in csp and "connect-src 'none'" in csp
+    assert "unsafe-inline" not in csp and "unsafe-eval" not in csp
+    scripts = re.findall(r"<script>(.*?)</script>", page, flags=re.S)
+    styles = re.findall(r"<style>(.*?)</style>", page, flags=re.S)
+    assert len(scripts) == 1 and len(styles) == 1
+    for text in scripts + styles:
+        digest = base64.b64encode(hashlib.sha256(text.encode()).digest()).decode()
+        assert f"'sha256-{digest}'" in csp
+    assert not re.search(r"""(src|href)\s*=\s*["'](?!data:)""", page)
+    assert not re.search(r"https?://(?!www\.w3\.org/2000/svg)", page)
+    block = re.search(r'<script type="application/json" id="allsky-data">(.*?)</script>', page,
+                      flags=re.S).group(1)
+    assert json.loads(block)["format"] == replay.DATA_FORMAT
+
+
+def test_the_default_mission_page_is_small(data):
+    assert len(_page(data).encode()) <= 6e6
+
+
+def test_replay_without_a_summary(flown):
+    table, _, cfg = flown
+    d = replay.replay_data(table, None, cfg)
+    assert not d["registers"]["known"] and d["summary"] is None
+    assert [r["mode"] for r in d["timeline"]] == list(modes.LEGACY_PLAN)
+    assert "{" not in d["timeline"][2]["exit"]  # exit texts filled from the scenario
+
+
+def test_replay_command_writes_the_page(flown, tmp_path, capsys):
+    table, summary, _ = flown
+    tlm = tmp_path / "tlm.csv"
+    telemetry_files.write(tlm, table)
+    js = tmp_path / "summary.json"
+    js.write_text(json.dumps(summary))
+    out = tmp_path / "mission.html"
+    assert main(["replay", str(tlm), "--summary", str(js), "--html", str(out)]) == 0
+    assert "wrote replay" in capsys.readouterr().out
+    page = out.read_text()
+    assert page.startswith("<!DOCTYPE html>") and "window.allsky" in page
+
+
+@pytest.mark.parametrize("case", ["missing telemetry", "bad suffix", "missing dir",
+                                  "missing summary", "bad summary", "not a summary"])
+def test_replay_command_bad_paths_exit_2(flown, tmp_path, capsys, case):
+    table, _, _ = flown
+    tlm = tmp_path / "tlm.csv"
+    telemetry_files.write(tlm, table[:50])
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json" if case == "bad summary" else "[1, 2]")
+    args = {"missing telemetry": [str(tmp_path / "none.csv"), "--html", str(tmp_path / "a.html")],
+            "bad suffix": [str(tlm), "--html", str(tmp_path / "a.txt")],
+            "missing dir": [str(tlm), "--html", str(tmp_path / "no" / "a.html")],
+            "missing summary": [str(tlm), "--summary", str(tmp_path / "no.json"), "--html",
+                                str(tmp_path / "a.html")],
+            "bad summary": [str(tlm), "--summary", str(bad), "--html", str(tmp_path / "a.html")],
+            "not a summary": [str(tlm), "--summary", str(bad), "--html",
+                              str(tmp_path / "a.html")]}[case]
+    assert main(["replay", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("allsky: error:") and err.count("\n") == 1
+    assert not (tmp_path / "a.html").exists()
+
+
+def test_run_html_bad_path_exits_2_before_flying(tmp_path, capsys):
+    assert main(["run", "--html", str(tmp_path / "x.png"), "--quiet"]) == 2
+    assert "--html" in capsys.readouterr().err
+
+
+def test_notes_say_what_the_interval_hides(data):
+    text = " ".join(data["notes"])
+    assert "shorter than 0.1 s" in text and "S7/S8" in text

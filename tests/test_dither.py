@@ -133,3 +133,57 @@ def test_on_the_target_only_the_biased_command_estimate_exists():
         assert np.isnan(est["roll"]["scale_factor_optical"])
         err = est["roll"]["scale_factor_command"] - s["truth"]["scale_factor"]["roll"]
         assert 0.01 < abs(err) < 0.05
+
+
+def test_optics_averaged_over_the_sample_are_corrected_for_the_boxcar():
+    """Optics as the mean of 10 frames before each sample: gain and lag divided out exactly."""
+    frames, amp, omega, t_rec = 10, 20.6, 2 * np.pi / 25.6, 819.2
+    n = round(t_rec / DT) + 1
+    t = np.arange(n) * DT
+    lag = np.arange(frames) * DT / frames
+    optics = np.mean([amp * np.sin(omega * (t - d)) for d in lag], axis=0)
+    counter = amp * np.sin(omega * t) / 1.002  # gyro 0.2 % high: SF = 1.002
+    rec = np.column_stack([t, np.zeros(n), np.zeros(n), counter, np.zeros(n), np.zeros(n),
+                           optics])
+    args = (rec, DT, 0.0, t_rec, np.array([0, 0, amp]), np.array([1, 1, omega]))
+    exact = analyse(*args, optics_frames=frames)["yaw"]
+    assert exact["scale_factor_optical"] == pytest.approx(1.002, rel=1e-12)
+    assert exact["tracking_ratio"] == pytest.approx(1.0, rel=1e-12)
+    # Uncorrected, the 0.045 s lag and the gain cost about 86 ppm (boxcar_response).
+    raw = analyse(*args)["yaw"]["scale_factor_optical"]
+    assert (raw / 1.002 - 1) == pytest.approx(-86e-6, rel=0.05)
+
+
+def test_dither_record_averages_the_optics_of_the_frames_since_the_last_sample():
+    from allsky.sim.recorder import N_REC, record_dither
+
+    rec = np.full((4, N_REC), np.nan)  # an uncleared buffer
+    rows = np.zeros(1, dtype=np.int64)
+    counters = np.zeros(3)
+    yaw_seen = []
+    for frame in range(7, 31):  # a leg starting off the 10-frame grid
+        fine = np.array([0.0, float(frame), 1.0])  # sun yaw output = frame number
+        record_dither(rec, rows, 10, 0.01 * frame, frame, counters, 1.0, fine,
+                      np.array([0.0, 0.0, 1.0]))
+        yaw_seen.append(-float(frame))
+    assert rows[0] == 4
+    # The leg's first frame is a point sample; then frames 8-10, 11-20, 21-30.
+    assert np.allclose(rec[:, 0], [0.07, 0.10, 0.20, 0.30])
+    assert np.allclose(rec[:, 6], [-7.0, -9.0, -15.5, -25.5])
+
+
+def test_known_cross_coupling_removes_the_yaw_bias_of_the_roll_the_loop_adds():
+    """Yaw dither with roll = rho x yaw: a roll-into-yaw word c biases SF_yaw by ~ -c rho."""
+    amp, omega, t_rec, c, rho = 20.6, 2 * np.pi / 25.6, 819.2, -972e-6, -0.178
+    n = round(t_rec / DT) + 1
+    t = np.arange(n) * DT
+    yaw = amp * np.sin(omega * t)
+    roll = rho * yaw
+    rec = np.column_stack([t, roll, np.zeros(n), yaw + c * roll, roll, np.zeros(n), yaw])
+    args = (rec, DT, 0.0, t_rec, np.array([0, 0, amp]), np.array([1, 1, omega]))
+    biased = analyse(*args)["yaw"]["scale_factor_optical"]
+    assert (biased - 1.0) == pytest.approx(-c * rho, rel=1e-3)
+    words = {"roll_into_pitch": 0.0, "roll_into_yaw": c, "yaw_into_pitch": 0.0,
+             "yaw_into_roll": 0.0}
+    fixed = analyse(*args, cross_coupling=words)["yaw"]["scale_factor_optical"]
+    assert fixed == pytest.approx(1.0, abs=1e-12)

@@ -38,10 +38,21 @@ AXES = ("roll", "pitch", "yaw")
 
 
 def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
-            detector="fft"):
+            detector="fft", optics_frames=1, cross_coupling=None):
     """Estimates from a dither record (rows: t, counters x3, optical x3).
 
     Counters and optical channels are in [arcsec].
+
+    ``optics_frames`` is the number of frames each optical sample averages
+    (:func:`allsky.sim.recorder.record_dither`); the boxcar's gain and lag
+    at the dither frequency (:func:`boxcar_response`) are divided out.
+    ``cross_coupling`` holds known cross-coupling words (register 23's
+    ``roll_into_yaw`` ...; None or zeros: none known). The counts they
+    predict from the rotation the optics see on the other axes are taken
+    off each gyro channel before the scale factor is formed: in the
+    Sun-and-star hold the roll loop turns a yaw dither partly into roll
+    (``roll = yaw tan(pitch_out)``, about 0.18 yaw), which the yaw gyro's
+    roll-into-yaw misalignment would otherwise read as yaw.
 
     Returns ``{axis: {...}}`` for each dithered axis: complex amplitudes of
     the gyro and optical channels, both scale-factor estimates, and the
@@ -72,19 +83,60 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
         # The dither phase at the record start: sin(w (t0 + k dt)).
         phase = np.exp(1j * omega_rad_s[a] * r[0, 0])
         g = [amp_of(r[:, 1 + b], True) / phase for b in range(3)]
-        o = [amp_of(r[:, 4 + b], False) / phase for b in range(3)]
+        box = boxcar_response(omega_rad_s[a], sample_s, optics_frames)
+        o = [amp_of(r[:, 4 + b], False) / phase / box for b in range(3)]
+        gc = _less_known_cross_counts(g, o, cross_coupling)[a]
         seen = abs(o[a]) > 0.0  # no optical reference (e.g. on the target): nan
         cross = {AXES[b]: dither.projected(g[b] - o[b], o[a]) / abs(o[a]) if seen else np.nan
                  for b in range(3) if b != a}
         out[AXES[a]] = {
             "gyro": g[a], "optical": o[a], "commanded_arcsec": amp,
-            "scale_factor_optical": (dither.projected(o[a], g[a]) / abs(g[a]) if seen
+            "scale_factor_optical": (dither.projected(o[a], gc) / abs(gc) if seen
                                      else np.nan),
-            "scale_factor_command": amp / abs(g[a]),
+            "scale_factor_command": amp / abs(gc),
             "tracking_ratio": abs(o[a]) / amp,
             "cross": cross,
         }
     return out
+
+
+def boxcar_response(omega_rad_s, sample_s, frames):
+    """Complex gain of the mean of ``frames`` frames ending at each sample.
+
+    At ``omega_rad_s``: ``H = (1/M) sum_j exp(-i w j dt)``, j = 0..M-1,
+    dt = ``sample_s`` / M. The mean lags the sample by (M - 1)/2 frames;
+    uncorrected, for the default yaw dither (25.6 s, 10 frames of 0.01 s)
+    the gain (1 - 2.5e-5) and the 11 mrad lag, through the projection of the
+    optics on the gyro's phase (cos 11 mrad = 1 - 6.1e-5), would bias the
+    scale factor by about -86 ppm; roll (51.2 s) by a quarter of that.
+    """
+    m = max(1, int(frames))
+    dt = sample_s / m
+    return complex(np.mean(np.exp(-1j * omega_rad_s * dt * np.arange(m))))
+
+
+#: Register 23 slot of each cross-coupling word: (counting gyro axis, moving axis) -> slot.
+_CROSS_WORDS = {(1, 0): ("roll_into_pitch", wr.ROLL_INTO_PITCH),
+                (2, 0): ("roll_into_yaw", wr.ROLL_INTO_YAW),
+                (1, 2): ("yaw_into_pitch", wr.YAW_INTO_PITCH),
+                (0, 2): ("yaw_into_roll", wr.YAW_INTO_ROLL)}
+
+
+def _less_known_cross_counts(g, o, cross_coupling):
+    """Gyro amplitudes less the counts known cross-coupling makes of the optics' motion."""
+    if not cross_coupling:
+        return g
+    g = list(g)
+    for (b, c), (name, _) in _CROSS_WORDS.items():
+        word = float(cross_coupling.get(name, 0.0))
+        if word != 0.0:
+            g[b] = g[b] - word * o[c]
+    return g
+
+
+def cross_coupling_words(w) -> dict:
+    """The cross-coupling words of register 23 ``w`` by name (zeros: none known)."""
+    return {name: float(w[slot]) for name, slot in _CROSS_WORDS.values()}
 
 
 def dither_analysis(m, records):
@@ -93,15 +145,19 @@ def dither_analysis(m, records):
     The record is the one the mode's first leg kept (``records["dither record"]``,
     :data:`allsky.sequencer.modes.MODE_TABLE`); the estimates are kept on the
     mission (``m.dither_estimates``, ``m.dither_record``) for the comparison.
+    Cross-coupling words already in register 23 (a misalignment correction
+    made apart from the dither, which its method assumes; neutral zeros
+    unless one was loaded) are taken as known (:func:`analyse`) and kept.
     """
     d = m.cfg.dither
     p = m.params
     record = records["dither record"]
+    w = m.state.word23
     est = analyse(record, d.sample_s, d.lead_in_s, d.record_s, p.dither.amplitude_arcsec,
-                  p.dither.omega_rad_s, d.detector)
+                  p.dither.omega_rad_s, d.detector, optics_frames=p.dither_sample_frames,
+                  cross_coupling=cross_coupling_words(w))
     m.dither_estimates = est
     m.dither_record = record
-    w = m.state.word23
     key = "scale_factor_optical" if d.estimator == "optical" else "scale_factor_command"
     if "roll" in est:
         w[wr.SF_ROLL] = est["roll"][key]
@@ -136,4 +192,5 @@ def target_hold_dither(m):
                    legs.WATCH_ELAPSED, hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s,
                    record_rows=rec_rows)
     return analyse(record, d.sample_s, d.lead_in_s, d.record_s, m.params.dither.amplitude_arcsec,
-                   m.params.dither.omega_rad_s, d.detector)
+                   m.params.dither.omega_rad_s, d.detector,
+                   optics_frames=m.params.dither_sample_frames)

@@ -158,18 +158,44 @@ def record_dither(rec, rec_rows, every_frames, t_leg_s, frame, counters, pulse_w
 
     The row holds the leg time, counters 14/16/18 [arcsec] and the attitude
     the optics see [arcsec] per axis, as rotations made: roll from the
-    tracker, pitch and yaw from the Sun. ``rec_rows`` (1,) is its fill count.
+    tracker, pitch and yaw from the Sun. The counters are read at the
+    sample; the optics are the mean of the frames since the previous
+    sample (a boxcar of ``every_frames`` frames, as a sensor's electronics
+    would average, rather than one frame's noise). The leg's first frame
+    opens the record with a point sample, so that every later row averages
+    frames of this leg only. ``rec_rows`` (1,) is its fill count; while a
+    row fills, its time column counts the frames summed into it.
     """
-    if frame % every_frames == 0 and rec_rows[0] < rec.shape[0]:
-        r = rec[rec_rows[0]]
+    k = rec_rows[0]
+    if k >= rec.shape[0]:
+        return
+    # Rotations made, from the optics: the Sun gives pitch and yaw; the
+    # tracker's yaw output mixes roll with yaw, because the star sits off
+    # the boresight in the tracker pitch direction: for small angles
+    # yaw_out = -roll + yaw tan(pitch_out), so roll = -yaw_out + yaw tan(pitch_out).
+    pitch = -fine[0]
+    yaw = -fine[1]
+    roll = -trk[0] + yaw * np.tan(trk[1] / RAD2ARCSEC)
+    r = rec[k]
+    if k == 0:
+        r[0] = 0.0  # the buffer is not cleared: the first row starts its own sums
+        r[4] = 0.0
+        r[5] = 0.0
+        r[6] = 0.0
+    r[0] += 1.0
+    r[4] += roll
+    r[5] += pitch
+    r[6] += yaw
+    if k == 0 or frame % every_frames == 0:
+        n = r[0]
         r[0] = t_leg_s
         for a in range(3):
             r[1 + a] = counters[a] * pulse_weight_arcsec
-        # Rotations made, from the optics: the Sun gives pitch and yaw; the
-        # tracker's yaw output mixes roll with yaw, because the star sits off
-        # the boresight in the tracker pitch direction: for small angles
-        # yaw_out = -roll + yaw tan(pitch_out), so roll = -yaw_out + yaw tan(pitch_out).
-        r[5] = -fine[0]
-        r[6] = -fine[1]
-        r[4] = -trk[0] + r[6] * np.tan(trk[1] / RAD2ARCSEC)
+            r[4 + a] /= n
         rec_rows[0] += 1
+        if k + 1 < rec.shape[0]:
+            nxt = rec[k + 1]
+            nxt[0] = 0.0
+            nxt[4] = 0.0
+            nxt[5] = 0.0
+            nxt[6] = 0.0

@@ -12,8 +12,9 @@ flows through the patent's block diagram::
                    inputs of control amplifiers 31-33; lines 130/131 -> rate inputs
     acquire_sun    (instead of route, when the leg runs Mode 1's controller)
     control        control amplifiers 31-33 (and the dither command with its feed-forward)
-    actuate        PWPF modulators 34-36 -> jets 39-41
-    advance        rigid-body plant, mission clock
+    actuate        PWPF modulators 34-36 -> jets 39-41 (or the reaction wheels, with
+                   the jets unloading them: allsky.vehicle.wheels)
+    advance        rigid-body plant (the gyrostat on the wheel vehicle), mission clock
     record         telemetry row and dither record (allsky.sim.recorder)
     watch          master sequencer 20's watch (allsky.sequencer.watch)
 
@@ -77,12 +78,21 @@ from allsky.sequencer.legs import (
     PROGRAM_TARGET_ROLL,
 )
 from allsky.sequencer.watch import EXIT_NONE, sensors_in_use, watch
+from allsky.sim.faults import fault_actuate, fault_sense, fault_tracker, fault_upset
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_telemetry  # noqa: F401
-from allsky.vehicle.plant import rk4_step
+from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
+from allsky.vehicle.wheels import (
+    ACTUATOR_WHEELS,
+    advance_momentum,
+    body_vector,
+    distribute,
+    unload_valves,
+)
 
-# Rows of 3-vectors of per-leg scratch (sensor outputs, amplifier signals, torque).
-N_SCRATCH = 14
+# Rows of 3-vectors of per-leg scratch (sensor outputs, amplifier signals, torque, and the
+# reaction wheels' momentum and its rate in body axes).
+N_SCRATCH = 16
 # Rows of the per-leg ``gates`` (wire_leg), one column per axis.
 GATE_DRIFT = 0  #: S1-S3: drift DAC 7/9/11 into summing amplifier 4/5/6
 GATE_DRIFT_COUNT = 1  #: S4-S6: converter 8/10/12 into drift counter 13/15/17
@@ -112,17 +122,19 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     # compiled without the reference-counted runtime (allsky.jit) and cannot allocate.
     return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
                        np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
-                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS))
+                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS),
+                       np.zeros(p.wheels.axes.shape[0]))
 
 
 @njit
 def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
-                sig):
+                sig, wheel_u):
     """The frames of :func:`run_leg`.
 
     ``scratch`` (N_SCRATCH, 3), ``gates`` (N_GATES, 3), ``position_gain``
     (one per position route), ``sources`` (N_POSITION_SOURCES,) and ``sig``
-    (N_SIGNALS,) are per-leg work arrays. Each stage is handed only the
+    (N_SIGNALS,) are per-leg work arrays, and ``wheel_u`` the reaction wheels'
+    motor torques (one per wheel). Each stage is handed only the
     parameters and state arrays of its own blocks.
     """
     if not leg.resume:
@@ -136,6 +148,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                                                    scratch[6])
     line, pos, rate, volts, torque, dith, ff = (scratch[7], scratch[8], scratch[9], scratch[10],
                                                 scratch[11], scratch[12], scratch[13])
+    wheel_hb, wheel_hdot = scratch[14], scratch[15]
     el = p.electronics
     sw = s.switches
     program = leg.program
@@ -149,17 +162,28 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     t_leg = s.leg_clock[CLOCK_T_LEG]
     done = int(s.leg_clock[CLOCK_FRAMES])
     n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
+    # Faults act only in a mission that has some: the fault-free frame runs as before.
+    faults, fault_state, n_faults = p.faults, s.fault_state, p.faults.n
     for frame_in_leg in range(done, n_max):
         _sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
-        star = sense(p.sun, p.tracker, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
+        t_frame = s.time_s[0]
+        tracker_p = p.tracker
+        if n_faults:
+            tracker_p = fault_tracker(faults, p.tracker, fault_state, t_frame)
+        star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
                      s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, sun_b, fine, trk,
                      gyro)
+        if n_faults:
+            star = fault_sense(faults, fault_state, t_frame, dt, s.dtheta_rad, fine, trk, gyro,
+                               star)
         if star_in_use and star >= 0:
             s.locked_star[0] = star  # the star the loop is closed on (S12/S13)
         sum_and_count(el, p.vfc, dt, gates, gyro, s.drift_counters, s.counters,
                       s.vfc_residue_pulses, s.overflow, comp, line)
         compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
                 s.word24, sw, s.cpu, s.registers)
+        if n_faults:
+            fault_upset(faults, fault_state, t_frame, s.drift_counters, s.counters, s.registers)
         if program == PROGRAM_MODE1:
             acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
         else:
@@ -167,10 +191,15 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                   sources, pos, rate)
         control(p.control, p.dither, gates, program, dithering, t_leg, dt, pos, rate,
                 s.amp_integral_arcsec, dith, ff, volts)
-        tank_ok = actuate(p.pwpf, p.jets, dt, volts, s.pwpf_filter_v, s.pwpf_out,
-                          s.pwpf_on_frames, s.propellant_kg, torque)
-        advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame, s.excursion_ref_q,
-                s.max_excursion_rad)
+        tank_ok = actuate(p.pwpf, p.jets, p.wheels, p.actuator, dt, volts, s.pwpf_filter_v,
+                          s.pwpf_out, s.pwpf_on_frames, s.propellant_kg, s.wheel_h,
+                          s.wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot)
+        if n_faults:
+            tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
+                                    s.propellant_kg, torque, tank_ok)
+        advance(p.plant, p.wheels, p.actuator, dt, torque, wheel_hb, wheel_hdot, wheel_u,
+                s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad, s.time_s, s.frame,
+                s.excursion_ref_q, s.max_excursion_rad)
         t_leg += dt
         record_telemetry(tlm, tlm_rows, p.telemetry_every, s, leg.mode_code, fine, trk, volts)
         if dithering:
@@ -375,21 +404,61 @@ def control(control_p, dither_p, gates, program, dithering, t_leg_s, dt_s, pos, 
 
 
 @njit_stage
-def actuate(pwpf_p, jets_p, dt_s, volts, filter_v, valve, on_frames, propellant_kg, torque):
-    """PWPF modulators 34-36 and jets 39-41: ``torque`` [N m].
+def actuate(pwpf_p, jets_p, wheels_p, actuator, dt_s, volts, filter_v, valve, on_frames,
+            propellant_kg, wheel_h, wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot):
+    """PWPF modulators 34-36 and jets 39-41 (or the reaction wheels): ``torque`` [N m].
 
+    On the wheel vehicle (``actuator`` ACTUATOR_WHEELS, :func:`actuate_wheels`)
+    ``torque`` is the jets' unloading torque, and the wheels' share goes to
+    ``wheel_u``, ``wheel_hb`` and ``wheel_hdot`` for :func:`advance`.
     Returns False once the tank is dry.
     """
+    if actuator == ACTUATOR_WHEELS:
+        return actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
+                              wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot)
     for a in range(3):
         pwpf_step(pwpf_p, a, volts[a], filter_v, valve, on_frames)
     return jets(jets_p, valve, dt_s, propellant_kg, torque)
 
 
 @njit_stage
-def advance(plant_p, dt_s, torque, x, dtheta_rad, time_s, frame, excursion_ref_q,
+def actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h, wheel_unload,
+                   wheel_u, torque, wheel_hb, wheel_hdot):
+    """The reaction wheels, and jets 39-41 unloading them (allsky.vehicle.wheels).
+
+    Control amplifiers 31-33 command a body torque, linearly (no modulator):
+    ``volts`` times ``torque_per_volt_n_m_v``. The jets fire only to unload
+    (``valve``, ``torque`` [N m]); the wheels are asked for the amplifiers'
+    torque less the jets', so that they cancel each pulse. Out: the motor
+    torques ``wheel_u`` [N m] and, in body axes, the wheels' momentum
+    ``wheel_hb`` [N m s] and its rate ``wheel_hdot`` [N m] over the frame.
+    Returns False once the tank is dry.
+    """
+    unload_valves(wheels_p, wheel_h, wheel_unload, valve)
+    tank_ok = jets(jets_p, valve, dt_s, propellant_kg, torque)
+    for a in range(3):
+        wheel_hdot[a] = volts[a] * wheels_p.torque_per_volt_n_m_v[a] - torque[a]
+    distribute(wheels_p, wheel_hdot, wheel_h, dt_s, wheel_u)
+    body_vector(wheels_p.axes, wheel_h, wheel_hb)
+    body_vector(wheels_p.axes, wheel_u, wheel_hdot)
+    return tank_ok
+
+
+@njit_stage
+def advance(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hdot, wheel_u, wheel_h,
+            wheel_peak_fraction, x, dtheta_rad, time_s, frame, excursion_ref_q,
             max_excursion_rad):
-    """The rigid-body plant over one frame, the mission clock, the largest excursion."""
-    rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
+    """The plant over one frame, the mission clock, the largest excursion.
+
+    The rigid body under ``torque``; on the wheel vehicle the gyrostat, the
+    wheels' momentum ``wheel_hb`` changing at ``wheel_hdot`` (body axes), and
+    the wheel momenta ``wheel_h`` under their motor torques ``wheel_u``.
+    """
+    if actuator == ACTUATOR_WHEELS:
+        rk4_step_gyrostat(plant_p, x, torque, wheel_hb, wheel_hdot, dt_s, dtheta_rad)
+        advance_momentum(wheels_p, wheel_u, dt_s, wheel_h, wheel_peak_fraction)
+    else:
+        rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
     time_s[0] += dt_s
     frame[0] += 1
     if excursion_ref_q[0] != 0.0 or excursion_ref_q[1] != 0.0 \

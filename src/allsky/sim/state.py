@@ -12,6 +12,7 @@ import numpy as np
 
 from allsky.computer.cpu import N_WORK
 from allsky.computer.word_registers import N_PROGRAMMED, neutral_computed
+from allsky.config.schema import WHEELS_MAX
 from allsky.hardware.control_amp import ControlParams
 from allsky.hardware.gyro import GyroParams
 from allsky.hardware.jets import JetParams
@@ -24,7 +25,9 @@ from allsky.hardware.vfc import VfcParams
 from allsky.hardware.wiring import Routing
 from allsky.sequencer.dither import DitherParams
 from allsky.sequencer.legs import N_CLOCK
+from allsky.sim.faults import FaultParams, new_fault_state
 from allsky.vehicle.plant import RigidBodyParams
+from allsky.vehicle.wheels import WheelParams
 
 
 class ElectronicsParams(NamedTuple):
@@ -73,6 +76,11 @@ class Params(NamedTuple):
     dither: DitherParams
     dither_sample_frames: int  #: [frames] per sample of the dither record
     routing: Routing  #: the switch wiring as index arrays (allsky.hardware.wiring.ROUTING)
+    #: what turns the amplifiers' output into torque: allsky.vehicle.wheels.ACTUATOR_JETS
+    #: (modulators 34-36, jets 39-41) or ACTUATOR_WHEELS, one constant for the mission
+    actuator: int
+    wheels: WheelParams  #: the reaction-wheel array (read only when actuator is the wheels)
+    faults: FaultParams  #: the scenario's faults (allsky.sim.faults; n = 0: none)
 
 
 class State(NamedTuple):
@@ -105,6 +113,14 @@ class State(NamedTuple):
     #: (1,) int64 star tracker 105 last held while in use: index in
     #: ``Params.tracker.stars_inertial``; -1 = none yet
     locked_star: np.ndarray
+    #: (3, MAX_FAULTS) onsets [s] and memories of the faults (allsky.sim.faults)
+    fault_state: np.ndarray
+    #: (WHEELS_MAX,) [N m s] momentum of each reaction wheel about its axis (the first
+    #: ``len(wheels.axes)`` are used; zero on the jet vehicle)
+    wheel_h: np.ndarray
+    #: (4,) int64 momentum unloader: [unloading 0/1, frames fired per body axis]
+    wheel_unload: np.ndarray
+    wheel_peak_fraction: np.ndarray  #: (1,) largest |h_i| / limit_i of any wheel so far
 
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
@@ -124,4 +140,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
         excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
         rng=np.ones(1, dtype=np.uint64), locked_star=np.full(1, -1, dtype=np.int64),
+        fault_state=new_fault_state(),
+        wheel_h=np.zeros(WHEELS_MAX), wheel_unload=np.zeros(4, dtype=np.int64),
+        wheel_peak_fraction=np.zeros(1),
     )

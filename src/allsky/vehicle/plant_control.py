@@ -19,6 +19,10 @@ inputs     tau_x, tau_y, tau_z         [N m], body axes
 outputs    the states, same names      as above
 =========  ==========================  =========
 
+:func:`gyrostat_nlsys` is the vehicle carrying reaction wheels, with the
+wheel momenta as further states and the motor torques as further inputs,
+on :func:`allsky.vehicle.plant.gyrostat_derivatives`.
+
 The ``nlsys`` does not renormalise the quaternion (an ODE has no such step);
 :func:`allsky.vehicle.plant.rk4_step` does after each step, a change of the order of
 its truncation error.
@@ -32,7 +36,13 @@ quaternion.
 import control
 import numpy as np
 
-from allsky.vehicle.plant import N_INTEGRATED, N_STATE, derivatives, make_params
+from allsky.vehicle.plant import (
+    N_INTEGRATED,
+    N_STATE,
+    derivatives,
+    gyrostat_derivatives,
+    make_params,
+)
 
 STATE_NAMES = ("q_w", "q_x", "q_y", "q_z", "w_x", "w_y", "w_z")
 INPUT_NAMES = ("tau_x", "tau_y", "tau_z")
@@ -74,6 +84,54 @@ def vehicle_nlsys(inertia_kg_m2, name="vehicle") -> control.NonlinearIOSystem:
 
     return control.nlsys(updfcn, outfcn, states=list(STATE_NAMES), inputs=list(INPUT_NAMES),
                          outputs=list(STATE_NAMES), name=name)
+
+
+def gyrostat_nlsys(inertia_kg_m2, wheel_axes, name="vehicle") -> control.NonlinearIOSystem:
+    """The vehicle with reaction wheels (a gyrostat) as a continuous-time ``nlsys``.
+
+    Its right-hand side is :func:`allsky.vehicle.plant.gyrostat_derivatives`,
+    the compiled plant's, with ``dh_i/dt = u_i``::
+
+        I dw/dt = tau - A u - w x (I w + A h)
+
+    Parameters
+    ----------
+    inertia_kg_m2 : array_like, shape (3, 3)
+        [kg m^2] The body's inertia tensor less the wheels' spin inertia
+        about their axes (:func:`allsky.vehicle.plant.gyrostat_params`).
+    wheel_axes : array_like, shape (n, 3)
+        Unit spin axes, body axes, one row per wheel (the columns of ``A``).
+    name : str, optional
+        Name of the system.
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        States ``q_w .. q_z, w_x .. w_z`` and the wheel momenta ``h_0 ..``
+        [N m s]; inputs ``tau_x, tau_y, tau_z`` [N m] (external) and the
+        motor torques ``u_0 ..`` [N m]; outputs equal to the states.
+    """
+    p = make_params(inertia_kg_m2)
+    a = np.asarray(wheel_axes, dtype=float).reshape(-1, 3).T
+    n = a.shape[1]
+    wheels = [f"h_{i}" for i in range(n)]
+    motors = [f"u_{i}" for i in range(n)]
+
+    def updfcn(t, x, u, params):
+        x = np.asarray(x, dtype=float)
+        u = np.asarray(u, dtype=float)
+        y = np.zeros(N_INTEGRATED)
+        y[:N_STATE] = x[:N_STATE]
+        dy = np.empty(N_INTEGRATED)
+        gyrostat_derivatives(p, y, u[:3], a @ x[N_STATE:], a @ u[3:], dy)
+        return np.concatenate([dy[:N_STATE], u[3:]])
+
+    def outfcn(t, x, u, params):
+        return np.array(x, dtype=float)
+
+    states = list(STATE_NAMES) + wheels
+    return control.nlsys(updfcn, outfcn, states=states, inputs=list(INPUT_NAMES) + motors,
+                         outputs=states, name=name)
 
 
 def operating_point() -> control.OperatingPoint:

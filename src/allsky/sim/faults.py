@@ -1,0 +1,306 @@
+"""Faults compiled into the frame loop: small fixed-size arrays and where they act.
+
+A scenario's ``[[faults]]`` (:mod:`allsky.config.faults`) become a
+:class:`FaultParams` of :data:`MAX_FAULTS` slots: kind code, axis, jet sign,
+duration and size per slot. Their onsets live in the mission state
+(``State.fault_state``, row :data:`ONSET`): a ``start_s`` onset is set at
+ejection (:func:`arm`), a ``start_mode`` onset by the mission driver when
+that mode starts (:func:`on_mode_start`). A fault acts while ``onset <= t <
+onset + duration``.
+
+Each helper acts at the block the fault affects, called by the frame loop
+only when the mission has faults (``FaultParams.n > 0``), so that the
+fault-free loop runs the same code as before:
+
+* :func:`fault_tracker` (before ``sense``): a wrong star joins the stars
+  star tracker 105's magnitude window passes;
+* :func:`fault_sense` (after ``sense``): gyros 1-3 stuck, dead, bias or
+  scale-factor step; sun sensor 104 blind; tracker 105 dropout or stray light;
+* :func:`fault_upset` (after ``compute``): one bit of a counter 13-18 or a
+  storage register 25-27 flips, once;
+* :func:`fault_actuate` (after ``actuate``): jets 39-41 stuck open or failed
+  off; a propellant leak.
+
+Rows :data:`MEMORY` and :data:`LATCHED` of ``State.fault_state`` keep what a
+fault remembers: the output a stuck gyro froze at, and whether it has (or
+whether an upset has happened). Every entry is finite, as a saved state's must be.
+"""
+
+import math
+import re
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky import units
+from allsky.config.faults import AXES, MAX_FAULTS, describe
+from allsky.hardware.star_tracker import StarTrackerParams
+from allsky.jit import njit_stage
+from allsky.units import RAD2ARCSEC
+
+# Kind codes (FaultParams.kind); 0 = an empty slot.
+JET_STUCK_OPEN = 1
+JET_FAILED_OFF = 2
+GYRO_STUCK = 3
+GYRO_DEAD = 4
+GYRO_BIAS_STEP = 5
+GYRO_SCALE_FACTOR_STEP = 6
+SUN_SENSOR_BLIND = 7
+TRACKER_DROPOUT = 8
+TRACKER_STRAY_LIGHT = 9
+WRONG_STAR = 10
+COUNTER_UPSET = 11
+PROPELLANT_LEAK = 12
+#: Scenario kind -> code.
+KIND_CODE = {
+    "jet_stuck_open": JET_STUCK_OPEN, "jet_failed_off": JET_FAILED_OFF,
+    "gyro_stuck": GYRO_STUCK, "gyro_dead": GYRO_DEAD, "gyro_bias_step": GYRO_BIAS_STEP,
+    "gyro_scale_factor_step": GYRO_SCALE_FACTOR_STEP, "sun_sensor_blind": SUN_SENSOR_BLIND,
+    "tracker_dropout": TRACKER_DROPOUT, "tracker_stray_light": TRACKER_STRAY_LIGHT,
+    "wrong_star": WRONG_STAR, "counter_upset": COUNTER_UPSET,
+    "propellant_leak": PROPELLANT_LEAK,
+}
+#: Counter or register numeral -> word index: drift counters 13/15/17 (0-2),
+#: up/down counters 14/16/18 (3-5), storage registers 25-27 (6-8).
+WORD_INDEX = {"13": 0, "15": 1, "17": 2, "14": 3, "16": 4, "18": 5, "25": 6, "26": 7, "27": 8}
+# Rows of State.fault_state.
+ONSET = 0  #: [s] mission time the fault starts (negative: not yet known)
+MEMORY = 1  #: what the fault remembers (a stuck gyro's output [arcsec/s])
+LATCHED = 2  #: 1.0 once the fault has taken its memory, or its upset has happened
+N_ROWS = 3
+UNKNOWN_S = -1.0  #: the onset of a fault whose mode has not started yet
+
+
+class FaultParams(NamedTuple):
+    """The scenario's faults as fixed-size arrays (slots ``n`` and on are empty)."""
+
+    n: int  #: number of faults
+    kind: np.ndarray  #: (MAX_FAULTS,) int64 kind code
+    axis: np.ndarray  #: (MAX_FAULTS,) int64 0 roll, 1 pitch, 2 yaw
+    sign: np.ndarray  #: (MAX_FAULTS,) int64 jet of the couple, +1 or -1
+    duration_s: np.ndarray  #: (MAX_FAULTS,) [s] inf = permanent
+    #: (MAX_FAULTS,) bias [arcsec/s], scale step [-], stray-light offset [arcsec], leak [kg/s]
+    size: np.ndarray
+    word: np.ndarray  #: (MAX_FAULTS,) int64 upset word (WORD_INDEX)
+    bit: np.ndarray  #: (MAX_FAULTS,) int64 upset bit
+    width_bits: np.ndarray  #: (MAX_FAULTS,) int64 word length of the upset word [bit]
+    #: star tracker 105 with the wrong stars added after the window's (as Params.tracker if none)
+    tracker: StarTrackerParams
+
+
+def new_fault_state() -> np.ndarray:
+    """``State.fault_state`` with no onset known yet: (N_ROWS, MAX_FAULTS)."""
+    out = np.zeros((N_ROWS, MAX_FAULTS))
+    out[ONSET] = UNKNOWN_S
+    return out
+
+
+def wrong_stars(faults) -> list:
+    """Names of the wrong stars the faults add to the tracker's window, in order."""
+    out = []
+    for f in faults:
+        if f["kind"] == "wrong_star" and f["star"] not in out:
+            out.append(f["star"])
+    return out
+
+
+def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction) -> FaultParams:
+    """:class:`FaultParams` from the scenario's faults.
+
+    ``tracker`` is star tracker 105's parameters, ``window_names`` the names
+    of the stars its window passes and ``star_direction(name)`` a star's unit
+    vector: a wrong star not already in the window is added after them.
+    """
+    faults = cfg.faults
+    n = len(faults)
+    kind = np.zeros(MAX_FAULTS, dtype=np.int64)
+    axis = np.zeros(MAX_FAULTS, dtype=np.int64)
+    sign = np.ones(MAX_FAULTS, dtype=np.int64)
+    duration = np.full(MAX_FAULTS, np.inf)
+    size = np.zeros(MAX_FAULTS)
+    word = np.zeros(MAX_FAULTS, dtype=np.int64)
+    bit = np.zeros(MAX_FAULTS, dtype=np.int64)
+    width = np.ones(MAX_FAULTS, dtype=np.int64)
+    el = cfg.electronics
+    for i, f in enumerate(faults):
+        kind[i] = KIND_CODE[f["kind"]]
+        axis[i] = AXES.index(f.get("axis", "roll"))
+        sign[i] = f.get("sign", 1)
+        duration[i] = f.get("duration_s", np.inf)
+        size[i] = (f.get("size_deg_h", 0.0) * units.DEG_H2ARCSEC_S
+                   + f.get("size_ppm", 0.0) * units.PPM2FRACTION
+                   + f.get("offset_deg", 0.0) * units.DEG2ARCSEC + f.get("rate_kg_s", 0.0))
+        if f["kind"] == "counter_upset":
+            reg = f["register"]
+            word[i], bit[i] = WORD_INDEX[reg], f["bit"]
+            width[i] = (el.drift_counter_bits if reg in ("13", "15", "17") else
+                        el.counter_bits if reg in ("14", "16", "18") else el.register_bits)
+    extra = [s for s in wrong_stars(faults) if s not in window_names]
+    if extra:
+        stars = np.vstack([tracker.stars_inertial.reshape(-1, 3),
+                           np.array([star_direction(s) for s in extra], dtype=float)])
+        tracker = StarTrackerParams(tracker.fov_long_half_rad, tracker.fov_narrow_half_rad,
+                                    tracker.noise_arcsec, np.ascontiguousarray(stars))
+    return FaultParams(n, kind, axis, sign, duration, size, word, bit, width, tracker)
+
+
+def arm(fault_state, faults) -> None:
+    """Set the onsets given in mission time (``start_s``); mode onsets wait."""
+    for i, f in enumerate(faults):
+        if "start_s" in f:
+            fault_state[ONSET, i] = f["start_s"]
+
+
+def on_mode_start(fault_state, faults, mode, t_s) -> None:
+    """The mission driver's hook as ``mode`` starts: the onsets of its faults.
+
+    A mode flown again (a recovery) does not move an onset already set.
+    """
+    for i, f in enumerate(faults):
+        if f.get("start_mode") == mode and fault_state[ONSET, i] < 0.0:
+            fault_state[ONSET, i] = t_s
+
+
+def started(fault_state, faults, t_s) -> list:
+    """``(fault, onset_s)`` of the faults that have started by mission time ``t_s``."""
+    return [(f, float(fault_state[ONSET, i])) for i, f in enumerate(faults)
+            if 0.0 <= fault_state[ONSET, i] <= t_s]
+
+
+def blame(fault_state, faults, t_s) -> str:
+    """What an abort reason adds: `` (tracker dropout at 512.0 s)``, or "".
+
+    It names the faults acting at mission time ``t_s``, or else the last to start.
+    """
+    hit = started(fault_state, faults, t_s)
+    # The faults acting at the abort; when none does any more, the last one that started.
+    acting = [(f, onset) for f, onset in hit if t_s < onset + f.get("duration_s", math.inf)]
+    hit = acting or sorted(hit, key=lambda h: h[1])[-1:]
+    if not hit:
+        return ""
+    return " (" + "; ".join(f"{describe(f)} at {onset:.1f} s" for f, onset in hit) + ")"
+
+
+_BLAME = re.compile(r" \([^()]* at -?[0-9.]+ s\)$")
+
+
+def symptom(reason: str) -> str:
+    """An abort reason without what :func:`blame` added: the outcome, fault-free words."""
+    return _BLAME.sub("", reason or "")
+
+
+# -- in the frame loop -------------------------------------------------------------
+
+@njit_stage
+def _active(fp, fault_state, i, t_s):
+    """Whether fault ``i`` acts at mission time ``t_s``."""
+    onset = fault_state[ONSET, i]
+    return 0.0 <= onset <= t_s < onset + fp.duration_s[i]
+
+
+@njit_stage
+def fault_tracker(fp, tracker_p, fault_state, t_s):
+    """Star tracker 105's parameters this frame: with the wrong stars while one acts."""
+    for i in range(fp.n):
+        if fp.kind[i] == WRONG_STAR and _active(fp, fault_state, i, t_s):
+            return fp.tracker
+    return tracker_p
+
+
+@njit_stage
+def fault_sense(fp, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, star):
+    """Sensor faults on the outputs of ``sense``; returns the star the tracker holds.
+
+    Gyros 1-3 (``gyro`` [arcsec/s]): stuck at the output of the onset frame,
+    dead (zero), a bias step, a scale-factor step on the rate of the frame's
+    increment ``dtheta_rad``. Sun sensor 104 blind: ``fine`` absent.
+    Tracker 105: dropout (``trk`` absent) or a body-fixed false target at
+    the fault's offset in its yaw output, which it tracks instead of a star.
+    """
+    for i in range(fp.n):
+        if not _active(fp, fault_state, i, t_s):
+            continue
+        k = fp.kind[i]
+        a = fp.axis[i]
+        if k == GYRO_STUCK:
+            if fault_state[LATCHED, i] == 0.0:
+                fault_state[MEMORY, i] = gyro[a]
+                fault_state[LATCHED, i] = 1.0
+            gyro[a] = fault_state[MEMORY, i]
+        elif k == GYRO_DEAD:
+            gyro[a] = 0.0
+        elif k == GYRO_BIAS_STEP:
+            gyro[a] += fp.size[i]
+        elif k == GYRO_SCALE_FACTOR_STEP:
+            gyro[a] += fp.size[i] * dtheta_rad[a] / dt_s * RAD2ARCSEC
+        elif k == SUN_SENSOR_BLIND:
+            fine[0] = 0.0
+            fine[1] = 0.0
+            fine[2] = 0.0
+        elif k == TRACKER_DROPOUT:
+            trk[0] = 0.0
+            trk[1] = 0.0
+            trk[2] = 0.0
+            star = -1
+        elif k == TRACKER_STRAY_LIGHT:
+            trk[0] = fp.size[i]
+            trk[1] = 0.0
+            trk[2] = 1.0
+            star = -1
+    return star
+
+
+@njit_stage
+def _flip(value, bit, width_bits):
+    """``value`` (two's complement of ``width_bits`` bits) with ``bit`` flipped."""
+    span = np.int64(1) << width_bits
+    u = (value & (span - 1)) ^ (np.int64(1) << bit)
+    if u >= span >> 1:
+        u -= span
+    return u
+
+
+@njit_stage
+def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
+    """Counter upsets: flip the fault's bit of counter 13-18 or register 25-27, once."""
+    for i in range(fp.n):
+        if fp.kind[i] != COUNTER_UPSET or fault_state[LATCHED, i] != 0.0 \
+                or not 0.0 <= fault_state[ONSET, i] <= t_s:
+            continue
+        fault_state[LATCHED, i] = 1.0
+        w = fp.word[i]
+        if w < 3:
+            drift_counters[w] = _flip(drift_counters[w], fp.bit[i], fp.width_bits[i])
+        elif w < 6:
+            counters[w - 3] = _flip(counters[w - 3], fp.bit[i], fp.width_bits[i])
+        else:
+            registers[w - 6] = _flip(registers[w - 6], fp.bit[i], fp.width_bits[i])
+
+
+@njit_stage
+def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torque, tank_ok):
+    """Jets 39-41 and the tank after ``actuate``; returns False once the tank is dry.
+
+    A jet stuck open fires whatever modulators 34-36 command (against its
+    opposite jet the couple's torques cancel, both use gas); a jet failed off
+    gives no torque and uses no gas when commanded; a leak drains the tank.
+    """
+    if not tank_ok:
+        return False
+    for i in range(fp.n):
+        if not _active(fp, fault_state, i, t_s):
+            continue
+        k = fp.kind[i]
+        a = fp.axis[i]
+        if k == JET_STUCK_OPEN and valve[a] != fp.sign[i]:
+            torque[a] += fp.sign[i] * jets_p.torque_n_m[a]
+            propellant_kg[0] -= jets_p.flow_kg_s[a] * dt_s
+        elif k == JET_FAILED_OFF and valve[a] == fp.sign[i]:
+            torque[a] -= fp.sign[i] * jets_p.torque_n_m[a]
+            propellant_kg[0] += jets_p.flow_kg_s[a] * dt_s
+        elif k == PROPELLANT_LEAK:
+            propellant_kg[0] -= fp.size[i] * dt_s
+    if propellant_kg[0] <= 0.0:
+        propellant_kg[0] = 0.0
+        return False
+    return True

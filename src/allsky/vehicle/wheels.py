@@ -1,0 +1,237 @@
+"""Reaction wheels: torque distribution over the array and momentum unloading.
+
+An array of ``n`` wheels with unit spin axes ``g_i`` (the columns of the
+3 x n matrix ``A``, body axes) stores the momenta ``h_i`` [N m s] (each
+wheel's absolute angular momentum about its own axis). A motor torque
+``u_i`` changes it, ``dh_i/dt = u_i``, and pushes the body the other way:
+the body feels ``-A u`` (the gyrostat equations,
+:func:`allsky.vehicle.plant.rk4_step_gyrostat`).
+
+Distribution (:func:`distribute`). Each body axis's command is first
+limited to the array's reach along that axis (the torque envelope's extent
+along it), as each jet couple saturates on its own axis: a turn commanded
+far beyond the wheels' authority then does not starve the held axes of
+theirs. The body torque ``tau`` is then asked of the array as the
+minimum-norm solution ``u = -A+ tau``, ``A+ = A^T (A A^T)^-1``
+the pseudo-inverse. Its motor torques lie in the row space of ``A``, so the
+wheels never fight each other, and momentum that starts in the row space
+(zero at ejection) stays there: ``h = A+ (A h)``, the wheel momenta follow
+from the momentum they hold in body axes. A command that one wheel cannot
+give, in torque or in the momentum room left to it over the frame, is
+scaled down as a whole until every wheel can: the body torque keeps its
+direction and loses magnitude (Markley & Crassidis, *Fundamentals of
+Spacecraft Attitude Determination and Control*, section 7.7.1, on
+direction-preserving saturation). The minimum-norm solution does not reach
+every corner of the envelope (:mod:`allsky.vehicle.envelopes`); it reaches
+its inscribed part, which is what the attitude loops need.
+
+Unloading (:func:`unload_valves`). Momentum that the vehicle takes up
+(tip-off rates, a constant disturbance) accumulates in the wheels. Once a
+wheel holds :attr:`WheelParams.unload_start_fraction` of its limit, the jets
+of each body axis fire against the momentum the wheels hold about that
+axis, in minimum-impulse pulses spaced so that their mean torque is
+:data:`UNLOAD_TORQUE_SHARE` of the wheel array's torque reach along the
+axis; the wheels are commanded to cancel each pulse (the valves are known
+when the wheels are commanded), so the pulse changes the stored momentum
+and, to the wheels' torque limit, not the attitude. An axis stops firing
+when its stored momentum is inside a dead band small enough that every
+wheel is then under :attr:`WheelParams` ``unload_end_fraction`` of its
+limit; unloading ends when all three have stopped.
+
+Actuator codes (:data:`ACTUATOR_CODE`): the frame loop turns the control
+amplifiers' output into torque through the jets (PWPF modulators 34-36,
+jets 39-41) or through the wheels, by a constant of the mission.
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky.jit import njit
+from allsky.vehicle.envelopes import make_envelope
+
+#: The frame loop's actuator codes (``Params.actuator``).
+ACTUATOR_JETS = 0
+ACTUATOR_WHEELS = 1
+#: ``actuators.kind`` -> code.
+ACTUATOR_CODE = {"jets": ACTUATOR_JETS, "wheels": ACTUATOR_WHEELS}
+#: Mean torque of the unloading pulses about a body axis, as a share of the wheel array's
+#: torque reach along that axis: the wheels cancel the mean with half their authority
+#: left to the attitude loop.
+UNLOAD_TORQUE_SHARE = 0.5
+#: Smallest singular value of the axes, relative to the largest, for them to span 3-D.
+SPAN_TOL = 1e-6
+
+
+class WheelParams(NamedTuple):
+    """The wheel array, its distribution matrix and its unloading logic."""
+
+    axes: np.ndarray  #: (n, 3) unit spin axes, body axes, one row per wheel (A^T)
+    pinv: np.ndarray  #: (n, 3) minimum-norm distribution A+ = A^T (A A^T)^-1
+    max_torque_n_m: np.ndarray  #: (n,) [N m] motor torque limit per wheel
+    max_momentum_n_m_s: np.ndarray  #: (n,) [N m s] momentum limit per wheel
+    inertia_kg_m2: np.ndarray  #: (n,) [kg m^2] spin-axis inertia per wheel
+    torque_per_volt_n_m_v: np.ndarray  #: (3,) [N m/V] amplifier output -> body torque command
+    axis_reach_n_m: np.ndarray  #: (3,) [N m] the array's largest torque along body x, y, z
+    unload_start_fraction: float  #: [-] unloading starts at this fraction of a wheel's limit
+    unload_deadband_n_m_s: float  #: [N m s] a body axis stops unloading inside this
+    unload_pulse_frames: int  #: [frames] length of one unloading pulse (the valve minimum)
+    unload_period_frames: np.ndarray  #: (3,) int64 [frames] from pulse to pulse, per axis
+
+
+def per_wheel(value, n: int) -> np.ndarray:
+    """One number for every wheel, or one per wheel, as an (n,) float array."""
+    a = np.asarray(value, dtype=float)
+    return np.full(n, float(a)) if a.ndim == 0 else a.reshape(n).copy()
+
+
+def pseudo_inverse(axes) -> np.ndarray:
+    """Minimum-norm distribution matrix ``A+ = A^T (A A^T)^-1``, shape (n, 3).
+
+    ``axes`` holds one unit spin axis per row (``A^T``); they must span 3-D.
+    """
+    at = np.asarray(axes, dtype=float)
+    return at @ np.linalg.inv(at.T @ at)
+
+
+def make_params(axes, max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2,
+                torque_per_volt_n_m_v, unload_fraction, unload_end_fraction,
+                jet_torque_n_m, pulse_frames) -> WheelParams:
+    """Build :class:`WheelParams`.
+
+    Parameters
+    ----------
+    axes : array_like, shape (n, 3)
+        Unit spin axes in body axes, spanning 3-D.
+    max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2 : float or array_like, shape (n,)
+        [N m], [N m s], [kg m^2] per wheel, or one number for all.
+    torque_per_volt_n_m_v : array_like, shape (3,)
+        [N m/V] Body torque commanded per volt of control amplifier 31, 32, 33.
+    unload_fraction, unload_end_fraction : float
+        [-] Unloading starts when a wheel reaches the first fraction of its
+        momentum limit and ends when every wheel is under the second.
+    jet_torque_n_m : array_like, shape (3,)
+        [N m] Couple torque of the roll, pitch and yaw jets that unload.
+    pulse_frames : int
+        [frames] Length of one unloading pulse (the valves' minimum on-time).
+    """
+    g = np.array(axes, dtype=float).reshape(-1, 3)
+    n = g.shape[0]
+    pinv = pseudo_inverse(g)
+    torque = per_wheel(max_torque_n_m, n)
+    momentum = per_wheel(max_momentum_n_m_s, n)
+    # Axis dead band d: with every |H_a| <= d, |h_i| <= sum_a |A+_ia| d <= end * limit_i.
+    deadband = float(unload_end_fraction) * float(np.min(momentum
+                                                          / np.abs(pinv).sum(axis=1)))
+    reach = make_envelope(g, torque).max_along_body_axes()
+    jet = np.asarray(jet_torque_n_m, dtype=float)
+    pulses = int(pulse_frames)
+    period = np.array([max(pulses + 1, math.ceil(jet[a] * pulses
+                                                  / (UNLOAD_TORQUE_SHARE * reach[a])))
+                       for a in range(3)], dtype=np.int64)
+    return WheelParams(g, pinv, torque, momentum, per_wheel(inertia_kg_m2, n),
+                       np.asarray(torque_per_volt_n_m_v, dtype=float).copy(),
+                       np.array(reach, dtype=float), float(unload_fraction), deadband, pulses,
+                       period)
+
+
+@njit
+def body_vector(axes, per_wheel_values, out):
+    """``out = A v``: a per-wheel quantity (momentum, torque) summed in body axes."""
+    for a in range(3):
+        out[a] = 0.0
+    for i in range(axes.shape[0]):
+        for a in range(3):
+            out[a] += axes[i, a] * per_wheel_values[i]
+
+
+@njit
+def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
+    """Motor torques ``u_n_m`` (n) for the body torque ``torque_body_n_m`` [N m].
+
+    ``-A u`` is the body torque. Each component of the command is first
+    limited to ``axis_reach_n_m``; then ``u = -A+ tau``, scaled by the largest
+    factor <= 1 that keeps each ``|u_i|`` within its torque limit and each
+    ``|h_i + u_i dt|`` within its momentum limit over the frame ``dt_s`` (a
+    wheel past its limit may only be slowed): the body gets the (limited)
+    command, or its largest part in the same direction. Returns the factor.
+    """
+    n = p.axes.shape[0]
+    r = p.axis_reach_n_m
+    tx = min(max(torque_body_n_m[0], -r[0]), r[0])
+    ty = min(max(torque_body_n_m[1], -r[1]), r[1])
+    tz = min(max(torque_body_n_m[2], -r[2]), r[2])
+    scale = 1.0
+    for i in range(n):
+        ui = -(p.pinv[i, 0] * tx + p.pinv[i, 1] * ty + p.pinv[i, 2] * tz)
+        u_n_m[i] = ui
+        if abs(ui) * scale > p.max_torque_n_m[i]:
+            scale = p.max_torque_n_m[i] / abs(ui)
+    for i in range(n):
+        ui = u_n_m[i] * scale
+        if ui * h_n_m_s[i] >= 0.0 and ui != 0.0:  # speeding the wheel up
+            room = max(p.max_momentum_n_m_s[i] - abs(h_n_m_s[i]), 0.0)
+            if abs(ui) * dt_s > room:
+                scale *= room / (abs(ui) * dt_s)
+    for i in range(n):
+        u_n_m[i] *= scale
+    return scale
+
+
+@njit
+def unload_valves(p, h_n_m_s, unload, valve):
+    """Jet valve commands (-1/0/+1 per body axis) into ``valve``: momentum unloading.
+
+    ``unload`` (4,) int64 is the unloader's state: ``[0]`` 1 while unloading,
+    ``[1:4]`` the frames each axis has fired pulses for. Unloading starts when
+    a wheel reaches ``unload_start_fraction`` of its limit; while it lasts,
+    each body axis whose stored momentum ``(A h)_a`` is outside the dead band
+    fires a pulse of ``unload_pulse_frames`` every ``unload_period_frames[a]``
+    frames, against that momentum.
+    """
+    n = p.axes.shape[0]
+    if unload[0] == 0:
+        for i in range(n):
+            if abs(h_n_m_s[i]) >= p.unload_start_fraction * p.max_momentum_n_m_s[i]:
+                unload[0] = 1
+    firing = False
+    for a in range(3):
+        valve[a] = 0
+        stored = 0.0
+        for i in range(n):
+            stored += p.axes[i, a] * h_n_m_s[i]
+        if unload[0] != 0 and abs(stored) > p.unload_deadband_n_m_s:
+            firing = True
+            if unload[1 + a] % p.unload_period_frames[a] < p.unload_pulse_frames:
+                valve[a] = -1 if stored > 0.0 else 1
+            unload[1 + a] += 1
+        else:
+            unload[1 + a] = 0
+    if not firing:
+        unload[0] = 0
+
+
+def wheel_speeds_rad_s(p: WheelParams, h_n_m_s, rate_body_rad_s) -> np.ndarray:
+    """Wheel speeds relative to the body [rad/s]: ``h_i / J_i - g_i . w``."""
+    return np.asarray(h_n_m_s) / p.inertia_kg_m2 - p.axes @ np.asarray(rate_body_rad_s)
+
+
+def spin_inertia_tensor_kg_m2(p: WheelParams) -> np.ndarray:
+    """The wheels' spin inertia about their axes in body axes, ``sum_i J_i g_i g_i^T``.
+
+    The gyrostat's body inertia is the vehicle's less this
+    (:func:`allsky.vehicle.plant.gyrostat_params`).
+    """
+    return (p.axes.T * p.inertia_kg_m2) @ p.axes
+
+
+@njit
+def advance_momentum(p, u_n_m, dt_s, h_n_m_s, peak_fraction):
+    """The wheel momenta over a frame of constant motor torque: ``h += u dt`` (exact).
+
+    ``peak_fraction`` (1,) keeps the largest ``|h_i| / limit_i`` reached.
+    """
+    for i in range(p.axes.shape[0]):
+        h_n_m_s[i] += u_n_m[i] * dt_s
+        peak_fraction[0] = max(peak_fraction[0], abs(h_n_m_s[i]) / p.max_momentum_n_m_s[i])

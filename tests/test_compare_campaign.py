@@ -188,3 +188,36 @@ def test_the_command_announces_only_histograms_it_wrote(tmp_path, capsys, monkey
     assert (out / campaign.HISTOGRAMS).exists() is announced
     if announced:
         assert f"histograms: {out / campaign.HISTOGRAMS}" in stdout
+
+
+def test_figures_of_merit_separate_the_method_from_the_targeting(two_pairs):
+    """(b) flies the legacy words on both (legacy (b) is its (a)); (c) is dSF x the turns."""
+    for row in two_pairs["rows"]:
+        leg, dit = row["legacy"], row["dither"]
+        assert leg["pointing_error_same_misalignment_arcsec"] == leg["pointing_error_arcsec"]
+        assert dit["pointing_error_same_misalignment_arcsec"] > 0.0
+        # The same record with the words known: roll moves by ~0, yaw by about +177 ppm.
+        own, known = dit["scale_factor_error_ppm"], dit["scale_factor_error_same_misalignment_ppm"]
+        assert known["roll"] == pytest.approx(own["roll"], abs=5.0)
+        assert known["yaw"] - own["yaw"] == pytest.approx(177.0, abs=25.0)
+    target = {"programmed_roll_deg": 60.0, "programmed_yaw_deg": -120.0}
+    from allsky.studies.compare import slew_tracking_error_arcsec
+    # 1000 ppm over 60 deg = 216", 500 ppm over 120 deg = 216": 305" together.
+    assert slew_tracking_error_arcsec({"roll": 1000.0, "yaw": -500.0}, target) == \
+        pytest.approx(216.0 * np.sqrt(2.0))
+    for method in ("legacy", "dither"):
+        for key in ("pointing_error_same_misalignment_arcsec",
+                    "pointing_error_tracker_architecture_arcsec"):
+            assert set(two_pairs[method][key]) == {"mean", "std", "p95"}
+
+
+@pytest.mark.slow
+def test_known_misalignment_removes_the_yaw_bias_over_200_runs():
+    """Yaw dithered alone at 1000 µrad: -c rho = -177 ppm of bias, none with the words known."""
+    r = compare(load_scenario(overrides=["dither.amplitude_urad=[0,0,1000]"]), runs=200,
+                workers=2)
+    own = r["dither"]["scale_factor_error_ppm"]["yaw"]
+    known = r["dither"]["scale_factor_error_same_misalignment_ppm"]["yaw"]
+    standard_error = known["std"] / np.sqrt(200)
+    assert own["mean"] == pytest.approx(-177.0, abs=4 * standard_error)
+    assert abs(known["mean"]) < 3 * standard_error

@@ -146,7 +146,7 @@ def test_compare_caps_workers_and_says_so(monkeypatch, capsys):
 
     seen = {}
 
-    def fake(cfg, runs, workers, on_progress):
+    def fake(cfg, runs, workers, on_progress, **options):
         seen["workers"] = workers
         raise SystemExit(0)
 

@@ -24,7 +24,9 @@ def format_compare(result) -> str:
     leg, dit = result["legacy"], result["dither"]
     pred = result["predicted_scale_factor_sigma_ppm"]
     n = result["runs"]
-    head = (f"Calibration methods compared on the same vehicle ({n} run{'s' if n > 1 else ''},"
+    on = ("the same reaction-wheel vehicle" if result.get("vehicle") == "wheels"
+          else "the same vehicle")
+    head = (f"Calibration methods compared on {on} ({n} run{'s' if n > 1 else ''},"
             f" seeds {result['seeds'][0]}-{result['seeds'][1]})")
     if result.get("interrupted"):
         head += f"; interrupted after {n} of {result['runs_requested']} pairs"
@@ -36,6 +38,9 @@ def format_compare(result) -> str:
     for ax in AXES:
         line(f"scale-factor error {ax} [ppm]", leg.get("scale_factor_error_ppm", {}).get(ax),
              dit.get("scale_factor_error_ppm", {}).get(ax))
+    for ax in AXES:
+        line(f"  {ax}, legacy cross-coupling known", None,
+             dit.get("scale_factor_error_same_misalignment_ppm", {}).get(ax))
     for ax in AXES:
         line(f"  predicted 1-sigma {ax} [ppm]", pred["legacy"].get(ax), pred["dither"].get(ax))
         if n > 1:
@@ -51,6 +56,11 @@ def format_compare(result) -> str:
     line("calibration propellant [kg]", leg.get("propellant_kg"), dit.get("propellant_kg"), ".3f")
     line("final pointing error [arcsec]", leg.get("pointing_error_arcsec"),
          dit.get("pointing_error_arcsec"))
+    line("  same misalignment knowledge", leg.get("pointing_error_same_misalignment_arcsec"),
+         dit.get("pointing_error_same_misalignment_arcsec"))
+    line("  star-tracker architecture (slews)",
+         leg.get("pointing_error_tracker_architecture_arcsec"),
+         dit.get("pointing_error_tracker_architecture_arcsec"))
     if "tracking_ratio" in dit:
         for ax, v in dit["tracking_ratio"].items():
             rows.append(f"  dither tracking {ax}: optical amplitude / commanded = "
@@ -181,11 +191,14 @@ def run_from_cli(cfg, args) -> int:
     bar = tqdm(total=runs, desc="missions", unit="pair", file=sys.stderr,
                disable=None if show else True)
     try:
-        result = compare(cfg, runs=runs, workers=workers,
+        result = compare(cfg, runs=runs, workers=workers, vehicle=args.vehicle,
+                         methods=args.methods,
                          on_progress=lambda done, total: bar.update(done - bar.n))
     finally:
         bar.close()
     say(format_compare(result))
+    if "kalman" in result:
+        say(format_kalman(result))
     written = []
     if to_stdout:
         print(json.dumps(label_percentiles(result), indent=2))
@@ -196,7 +209,8 @@ def run_from_cli(cfg, args) -> int:
         say(f"wrote comparison {args.json}")
     if args.plot:
         pulse_weight = cfg.electronics.vfc_pulse_weight_arcsec
-        write_atomic(args.plot, writer=lambda tmp: plot(result, tmp, pulse_weight),
+        draw = plot_three_way if "kalman" in result else plot
+        write_atomic(args.plot, writer=lambda tmp: draw(result, tmp, pulse_weight),
                      option="--plot")
         written.append(args.plot)
         say(f"plot: {args.plot}")
@@ -205,3 +219,122 @@ def run_from_cli(cfg, args) -> int:
         raise Interrupted(f"after {result['runs']} of {result['runs_requested']} pairs (the "
                           f"table and JSON cover those, marked interrupted){files}")
     return 0
+
+
+# -- three methods: the Kalman filter beside the legacy turns and the dither -----------
+
+#: Columns of the three-way table and figure: result section -> heading.
+THREE_WAY = {"legacy": "legacy (Modes 4-5)", "dither": "dither",
+             "kalman": "Kalman, Modes 3-5", "kalman_dither": "Kalman, dither hold"}
+
+
+def _cell(v, spec=".2f"):
+    if isinstance(v, dict) and "mean" in v:
+        return f"{v['mean']:{spec}} ± {v['std']:{spec}}"
+    return "-" if v is None else f"{v:{spec}}"
+
+
+def format_kalman(result) -> str:
+    """Legacy, dither and the Kalman filter's two flights, side by side.
+
+    Cells are one run's value or mean ± standard deviation over the runs;
+    "predicted" is each method's analytic 1-sigma (for the filter, the RMS
+    of its own sigma over the runs), "measured" the spread of the errors.
+    """
+    cols = [c for c in THREE_WAY if c in result]
+    pred = result["predicted_scale_factor_sigma_ppm"]
+    n = result["runs"]
+    rows = ["", ("Three methods: the three-axis Kalman filter (counters 14/16/18, sun sensor "
+                 "104, star tracker 105) beside the others"),
+            f"  {'figure':<32}" + "".join(f"{THREE_WAY[c]:>22}" for c in cols)]
+
+    def line(name, values, spec=".2f"):
+        rows.append(f"  {name:<32}" + "".join(f"{_cell(v, spec):>22}" for v in values))
+
+    def get(c, key, sub=None):
+        v = result[c].get(key)
+        return v.get(sub) if isinstance(v, dict) and sub is not None else v
+
+    for ax in AXES:
+        line(f"scale-factor error {ax} [ppm]", [get(c, "scale_factor_error_ppm", ax)
+                                                for c in cols])
+        line(f"  predicted 1-sigma {ax} [ppm]", [pred.get(c, {}).get(ax) for c in cols])
+        if n > 1:
+            line(f"  measured 1-sigma {ax} [ppm]",
+                 [(get(c, "scale_factor_error_ppm", ax) or {}).get("std") for c in cols])
+    for k in CC_KEYS:
+        line(f"{k} error [arcsec]", [get(c, "cross_coupling_error_arcsec", k) for c in cols])
+    for ax in ("roll", "pitch", "yaw"):
+        line(f"drift error {ax} [deg/h]", [get(c, "drift_error_deg_h", ax) for c in cols],
+             ".4f")
+    line("calibration time [s]", [get(c, "time_s") for c in cols], ".1f")
+    line("largest excursion [arcsec]", [get(c, "max_excursion_arcsec") for c in cols], ".0f")
+    line("calibration propellant [kg]", [get(c, "propellant_kg") for c in cols], ".3f")
+    line("final pointing error [arcsec]", [get(c, "pointing_error_arcsec") for c in cols])
+    for c in ("kalman", "kalman_dither"):
+        v = result[c].get("nees")
+        if isinstance(v, dict):
+            rows.append(f"  {THREE_WAY[c]}: mean NEES {v['mean']:.2f} over "
+                        f"{result[c]['complete']} runs, 95 % bounds {v['bounds_95'][0]:.2f}-"
+                        f"{v['bounds_95'][1]:.2f} ({v['states']} states)")
+        elif v is not None:
+            rows.append(f"  {THREE_WAY[c]}: NEES {v:.2f} (15 states)")
+    return "\n".join(rows)
+
+
+def three_way_figure(result):
+    """Scale-factor errors and final pointing of the three methods (log scale).
+
+    Left: |scale-factor error| of every complete run, roll and yaw, per
+    method, with each method's predicted 1-sigma as a bar. Right: the final
+    pointing error of every run (Mode 6 flown with each method's register 23).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(9.5, 4.6), layout="constrained")
+    ax_sf, ax_pt = fig.subplots(1, 2, width_ratios=(3, 2))
+    cols = [c for c in THREE_WAY if c in result]
+    pred = result["predicted_scale_factor_sigma_ppm"]
+    rng = np.random.default_rng(0)  # horizontal jitter of the dots only
+    for i, c in enumerate(cols):
+        ok = [r[c] for r in result["rows"] if r[c]["status"] == "complete"
+              and "scale_factor_error_ppm" in r[c]]
+        for j, (a, mk) in enumerate((("roll", "o"), ("yaw", "s"))):
+            x = 3 * i + j + rng.uniform(-0.25, 0.25, len(ok))
+            e = np.array([abs(r["scale_factor_error_ppm"][a]) for r in ok])
+            ax_sf.scatter(x, np.maximum(e, 1e-4), marker=mk, s=8, alpha=0.45,
+                          color=f"C{j}", label=a if i == 0 else None)
+            if a in pred.get(c, {}):
+                ax_sf.hlines(pred[c][a], 3 * i + j - 0.4, 3 * i + j + 0.4, color="k", lw=1.5,
+                             label="predicted 1-sigma" if i == 0 and j == 0 else None)
+        pts = [r[c]["pointing_error_arcsec"] for r in result["rows"]
+               if r[c]["status"] == "complete"]
+        ax_pt.scatter(i + rng.uniform(-0.25, 0.25, len(pts)), pts, s=8, alpha=0.45, color="C2")
+    ax_sf.set_xticks([3 * i + 0.5 for i in range(len(cols))],
+                     [THREE_WAY[c] for c in cols], fontsize=8)
+    ax_sf.set_yscale("log")
+    ax_sf.set_ylabel("|scale-factor error| [ppm]")
+    ax_sf.set_title("Gyro scale factor: three methods")
+    ax_sf.legend(fontsize=8)
+    ax_sf.grid(True, which="both", axis="y", alpha=0.3)
+    ax_pt.set_xticks(range(len(cols)), [THREE_WAY[c] for c in cols], fontsize=8,
+                     rotation=20)
+    ax_pt.set_yscale("log")
+    ax_pt.set_ylabel("final pointing error [arcsec]")
+    ax_pt.set_title("Mode 6 with each calibration")
+    ax_pt.grid(True, which="both", axis="y", alpha=0.3)
+    return fig
+
+
+def plot_three_way(result, path, pulse_weight_arcsec: float | None = None) -> Path:
+    """PNG of :func:`three_way_figure` at ``path``; returns the path.
+
+    ``pulse_weight_arcsec`` is unused (the signature of :func:`plot`).
+    """
+    path = Path(path)
+    three_way_figure(result).savefig(path, dpi=120)
+    return path

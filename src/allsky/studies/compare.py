@@ -22,7 +22,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from allsky import units
-from allsky.sequencer.dither_mode import analyse
+from allsky.computer import word_registers as wr
+from allsky.sequencer.dither_mode import analyse, cross_coupling_words
 from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
 from allsky.sim.results import CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES, calibration_errors
 from allsky.units import FRACTION2PPM
@@ -36,9 +37,12 @@ HOLD_JITTER_ARCSEC = 0.3
 PREFIX_PERIODS = (2, 4, 8, 16)
 
 
-def _fly(cfg, plan):
+def _fly(cfg, plan, cross_coupling=None):
     """Fly one mission; returns (mission, calibration time [s], excursion [arcsec],
-    calibration propellant [kg], duration of each calibration mode [s])."""
+    calibration propellant [kg], duration of each calibration mode [s]).
+
+    ``cross_coupling`` (register 23's words by name) is loaded into register
+    23 as the calibration starts: misalignment known from elsewhere."""
     m = Mission(cfg, telemetry=False, plan=plan)
     cal_modes = ("4", "5") if plan is LEGACY_PLAN else ("dither",)
     t_cal, prop = 0.0, 0.0
@@ -47,6 +51,8 @@ def _fly(cfg, plan):
         name = m.plan[m.next_mode]
         if name == cal_modes[0]:
             m.state.excursion_ref_q[:] = m.state.x[0:4]
+            if cross_coupling is not None:
+                load_cross_coupling(m.state.word23, cross_coupling)
         p0 = m.state.propellant_kg[0]
         rec = m.run_mode()
         if name in cal_modes:
@@ -69,7 +75,37 @@ def _metrics(m, t_cal, excursion, prop, durations):
         err = calibration_errors(s["calibration"], s["truth"])
         out["scale_factor_error_ppm"] = err["scale_factor_ppm"]
         out["cross_coupling_error_arcsec"] = err["cross_coupling_arcsec"]
+        out["pointing_error_tracker_architecture_arcsec"] = slew_tracking_error_arcsec(
+            err["scale_factor_ppm"], s["target"])
     return out, s
+
+
+def slew_tracking_error_arcsec(scale_factor_error_ppm, target) -> float | None:
+    """[arcsec] Slew error of a scale-factor error, the star tracker holding attitude.
+
+    On the dither document's architecture the star tracker, not the gyro
+    count, holds the attitude; the gyros carry it only through the slews,
+    where a scale-factor error dSF makes a tracking error dSF x the angle
+    turned. It is largest on arrival, before the tracker pulls it in:
+    ``dSF_roll |roll| (+) dSF_yaw |yaw|`` (root sum of squares; the two
+    turns are about orthogonal axes) for the target's roll and yaw turns
+    (``target`` of the mission summary). Once held on the tracker both
+    methods point to the optical hold's jitter. None without a target.
+    """
+    roll, yaw = target.get("programmed_roll_deg"), target.get("programmed_yaw_deg")
+    if roll is None or yaw is None:
+        return None
+    deg = 3600.0 / FRACTION2PPM
+    return float(math.hypot(scale_factor_error_ppm["roll"] * roll * deg,
+                            scale_factor_error_ppm["yaw"] * yaw * deg))
+
+
+def load_cross_coupling(word23, cross_coupling) -> None:
+    """Put the cross-coupling words ``{"roll_into_pitch": ...}`` into register 23."""
+    slots = {"roll_into_pitch": wr.ROLL_INTO_PITCH, "roll_into_yaw": wr.ROLL_INTO_YAW,
+             "yaw_into_pitch": wr.YAW_INTO_PITCH, "yaw_into_roll": wr.YAW_INTO_ROLL}
+    for name, slot in slots.items():
+        word23[slot] = float(cross_coupling[name])
 
 
 def fly_pair(args):
@@ -79,9 +115,22 @@ def fly_pair(args):
     data, seed = args
     cfg = scenario_from_dict(data, [f"mission.seed={seed}"])
     m, *rest = _fly(cfg, LEGACY_PLAN)
-    legacy, _ = _metrics(m, *rest)
+    legacy, s_legacy = _metrics(m, *rest)
+    # Same misalignment knowledge for both: the legacy turns' cross-coupling words, given
+    # to the dither as the separate misalignment correction its method assumes.
+    words = (s_legacy["calibration"] or {}).get("cross_coupling")
+    legacy["pointing_error_same_misalignment_arcsec"] = legacy["pointing_error_arcsec"]
     m, *rest = _fly(cfg, DITHER_PLAN)
     dith, s = _metrics(m, *rest)
+    if words is not None and legacy["status"] == "complete":
+        known, *rest_known = _fly(cfg, DITHER_PLAN, cross_coupling=words)
+        with_words, _ = _metrics(known, *rest_known)
+        dith["pointing_error_same_misalignment_arcsec"] = with_words["pointing_error_arcsec"]
+        if "scale_factor_error_ppm" in with_words:
+            dith["scale_factor_error_same_misalignment_ppm"] = with_words[
+                "scale_factor_error_ppm"]
+    else:
+        dith["pointing_error_same_misalignment_arcsec"] = None
     if m.dither_estimates is not None:
         truth = s["truth"]["scale_factor"]
         est = m.dither_estimates
@@ -110,7 +159,9 @@ def _prefix_errors(m, truth):
             continue
         est = analyse(m.dither_record, d.sample_s, d.lead_in_s, rec_s, p.amplitude_arcsec,
                       p.omega_rad_s, "lsq" if d.detector == "lsq" else "hann"
-                      if d.detector == "hann" else "fft")
+                      if d.detector == "hann" else "fft",
+                      optics_frames=m.params.dither_sample_frames,
+                      cross_coupling=cross_coupling_words(m.state.word23))
         key = "scale_factor_optical" if d.estimator == "optical" else "scale_factor_command"
         out[f"{rec_s:g}"] = {a: FRACTION2PPM * (est[a][key] - truth[a]) for a in AXES if a in est}
     return out
@@ -163,12 +214,21 @@ def _aggregate(rows, method):
     if not ok:
         return out
     for key in ("scale_factor_error_ppm", "cross_coupling_error_arcsec",
-                "scale_factor_error_command_ppm", "tracking_ratio"):
-        if key in ok[0]:
-            out[key] = {a: _stats([r[key][a] for r in ok]) for a in ok[0][key]}
+                "scale_factor_error_command_ppm", "tracking_ratio",
+                "scale_factor_error_same_misalignment_ppm"):
+        have = [r[key] for r in ok if r.get(key) is not None]
+        if have:
+            out[key] = {a: _stats([h[a] for h in have]) for a in have[0]}
     for key in ("time_s", "max_excursion_arcsec", "propellant_kg", "mission_propellant_kg",
                 "pointing_error_arcsec"):
         out[key] = _stats([r[key] for r in ok])
+    # Figures that need the other method's flight (same misalignment) or a target: over
+    # the runs that have them.
+    for key in ("pointing_error_same_misalignment_arcsec",
+                "pointing_error_tracker_architecture_arcsec"):
+        have = [r[key] for r in ok if r.get(key) is not None]
+        if have:
+            out[key] = _stats(have)
     if "prefix_error_ppm" in ok[0]:
         out["prefix_rms_ppm"] = {
             t: {a: float(np.sqrt(np.mean([r["prefix_error_ppm"][t][a] ** 2 for r in ok])))
@@ -183,9 +243,10 @@ def predicted(cfg, legacy_time_s=None) -> dict:
     Dither (estimator "optical"): gyro angle random walk and optical-sensor
     noise, each through a least-squares/DFT amplitude estimate::
 
-        sigma^2 = (N sqrt(2/T) / (A w))^2 + (sigma_opt sqrt(2/n) / A)^2
+        sigma^2 = (N sqrt(2/T) / (A w))^2 + (sigma_opt sqrt(2/(n M)) / A)^2
 
-    (N ARW density, T record length, n samples, A amplitude, w frequency;
+    (N ARW density, T record length, n samples of M frames' mean optics each,
+    sigma_opt the optics' white noise per frame, A amplitude, w frequency;
     the "command" estimator has only the first term, plus its tracking bias).
     Legacy: the counted 360 deg is off by the drift residual over the count,
     the ARW over the count and the hold jitter at both ends::
@@ -197,14 +258,15 @@ def predicted(cfg, legacy_time_s=None) -> dict:
     d = cfg.dither
     opt_noise = {"roll": cfg.star_tracker.noise_arcsec, "yaw": cfg.sun_sensor.noise_arcsec}
     out = {"dither": {}, "legacy": {}}
-    n_samples = d.record_s / d.sample_s
+    # Each optical sample is the mean of the frames since the last (sim.recorder.record_dither).
+    n_frames = d.record_s / d.sample_s * max(1, round(d.sample_s / cfg.mission.frame_s))
     for i, a in ((0, "roll"), (2, "yaw")):
         amp = d.amplitude_urad[i] * units.URAD2RAD * units.RAD2ARCSEC
         if amp == 0:
             continue
         w = 2 * math.pi / d.period_s[i]
         gyro_term = n_arw * math.sqrt(2.0 / d.record_s) / (amp * w)
-        opt_term = opt_noise[a] * math.sqrt(2.0 / n_samples) / amp
+        opt_term = opt_noise[a] * math.sqrt(2.0 / n_frames) / amp
         out["dither"][a] = FRACTION2PPM * math.hypot(gyro_term, opt_term if d.estimator == "optical"
                                             else 0.0)
     j, t_d = HOLD_JITTER_ARCSEC, cfg.sequencer.drift_count_s
@@ -217,7 +279,20 @@ def predicted(cfg, legacy_time_s=None) -> dict:
     return out
 
 
-def compare(cfg, runs=1, workers=2, on_progress=None) -> dict:
+def on_vehicle(cfg, vehicle=None):
+    """The scenario flown on ``vehicle``: "jets", "wheels" or None (as it says).
+
+    The vehicle is ``actuators.kind``: both methods fly the same one.
+    """
+    if vehicle is None or vehicle == cfg.actuators.kind:
+        return cfg
+    from allsky.config import scenario_from_dict
+
+    return scenario_from_dict(cfg.as_dict(), [f'actuators.kind="{vehicle}"'])
+
+
+def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
+            methods=("legacy", "dither")) -> dict:
     """Fly both methods over ``runs`` seeds from the scenario's; return the results.
 
     Parameters
@@ -231,30 +306,42 @@ def compare(cfg, runs=1, workers=2, on_progress=None) -> dict:
         than ``runs``.
     on_progress : callable, optional
         ``on_progress(done, total)`` after each pair, in seed order.
+    vehicle : {"jets", "wheels"}, optional
+        Fly both methods on the jets (PWPF modulators and jets 39-41) or on
+        the reaction wheels (:func:`on_vehicle`); None: the scenario's
+        ``actuators.kind``.
+    methods : sequence of str
+        :data:`METHODS` to fly: legacy and dither always, and ``"kalman"``
+        for the three-axis Kalman filter's two flights (:func:`fly_three`).
 
     Returns
     -------
     dict
+        ``vehicle`` ("wheels"; absent on the jets, the default vehicle),
         ``runs``, ``seeds`` (first, last), ``legacy`` and ``dither`` (one
         run's metrics, or statistics over the runs),
-        ``predicted_scale_factor_sigma_ppm`` and ``rows`` (per seed). After a
+        ``predicted_scale_factor_sigma_ppm`` and ``rows`` (per seed); with
+        ``"kalman"``, ``kalman`` and ``kalman_dither`` too
+        (:func:`kalman_sections`). After a
         Ctrl-C (or SIGTERM) with pairs finished: those pairs, ``runs`` their
         number, ``interrupted`` True and ``runs_requested``; with none
         finished, the KeyboardInterrupt goes on.
     """
     from allsky.studies.montecarlo import interrupts_held, stop_pool, worker_process_setup
 
+    cfg = on_vehicle(cfg, vehicle)
     data = cfg.as_dict()
     seeds = [int(cfg.mission.seed) + k for k in range(runs)]
     jobs = [(data, s) for s in seeds]
+    fly_row = fly_three if "kalman" in methods else fly_pair
     workers = max(1, min(int(workers), runs))  # no idle processes
     if workers == 1:
-        it = map(fly_pair, jobs)
+        it = map(fly_row, jobs)
         pool = None
     else:
         pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
                                    initargs=(os.getpid(),))
-        it = pool.map(fly_pair, jobs)
+        it = pool.map(fly_row, jobs)
     rows, interrupted = [], False
     try:
         for row in it:
@@ -271,6 +358,8 @@ def compare(cfg, runs=1, workers=2, on_progress=None) -> dict:
                 stop_pool(pool, interrupted or len(rows) < runs)
     done = len(rows)
     result = {"runs": done, "seeds": [seeds[0], seeds[done - 1]]}
+    if cfg.actuators.kind != "jets":
+        result = {"vehicle": cfg.actuators.kind, **result}
     if interrupted:
         result["interrupted"] = True
         result["runs_requested"] = runs
@@ -280,6 +369,8 @@ def compare(cfg, runs=1, workers=2, on_progress=None) -> dict:
         result["legacy"], result["dither"] = _aggregate(rows, "legacy"), _aggregate(rows,
                                                                                      "dither")
     result["predicted_scale_factor_sigma_ppm"] = predicted(cfg, _legacy_times(rows))
+    if "kalman" in methods:
+        kalman_sections(result, rows)
     result["rows"] = rows
     return result
 
@@ -291,3 +382,96 @@ def _legacy_times(rows):
         return None
     return {"roll": float(np.mean([t["4"] for t in ok])),
             "yaw": float(np.mean([t["5"] for t in ok]))}
+
+
+# -- the third method: the three-axis Kalman filter (allsky.studies.kalman_mekf) -------
+
+#: Methods :func:`compare` flies: legacy and dither always, the Kalman filter on request.
+METHODS = ("legacy", "dither", "kalman")
+#: What ``allsky compare`` flies unless ``--methods`` says otherwise.
+DEFAULT_METHODS = ("legacy", "dither")
+#: The filter's two flights: section of the result -> the plan whose manoeuvres it filters.
+KALMAN_SECTIONS = {"kalman": "legacy", "kalman_dither": "dither"}
+
+
+def fly_three(args):
+    """:func:`fly_pair` and the Kalman filter's two flights for one seed.
+
+    ``(scenario_dict, seed)`` -> metrics by method. ``kalman``: the filter
+    through the legacy Modes 3-5, ``kalman_dither``: through Mode 3 and the
+    dither hold; each loads its estimate into register 23 and the drift
+    counters and flies Mode 6 with it (:func:`allsky.studies.kalman_mekf.fly`).
+    """
+    from allsky.config import scenario_from_dict
+
+    row = fly_pair(args)
+    data, seed = args[0], args[1]
+    cfg = scenario_from_dict(data, [f"mission.seed={seed}"])
+    for section, plan in KALMAN_SECTIONS.items():
+        row[section] = kalman_metrics(cfg, plan)
+    return row
+
+
+def kalman_metrics(cfg, plan_name) -> dict:
+    """The other methods' rows for the filter flown on ``plan_name``'s manoeuvres.
+
+    Besides them: ``drift_error_deg_h`` (drift counters 13/15/17 as loaded,
+    minus the truth), ``filter_sigma`` (the filter's own 1-sigma of the same
+    quantities, :func:`allsky.studies.kalman_mekf.sigmas`), ``nees`` at the
+    end of the calibration and ``filter_s``, the wall time of the filter.
+    """
+    from allsky.studies import kalman_mekf
+
+    f = kalman_mekf.fly(cfg, plan_name)
+    out, s = _metrics(f.mission, f.time_s, f.excursion_arcsec, f.propellant_kg, f.durations)
+    if f.estimate is not None and s["calibration"] is not None:
+        est = f.estimate
+        out["drift_error_deg_h"] = calibration_errors(s["calibration"], s["truth"])["drift_deg_h"]
+        sig = kalman_mekf.sigmas(est.params[-1], est.covariances[-1])
+        out["filter_sigma"] = {"scale_factor_ppm": sig["scale_factor_ppm"],
+                               "cross_coupling_arcsec": sig["cross_coupling_arcsec"],
+                               "drift_deg_h": sig["drift_deg_h"]}
+        out["nees"] = float(kalman_mekf.nees(f.mission, est)[-1])
+        out["filter_s"] = f.filter_s
+    return out
+
+
+def kalman_sections(result, rows) -> None:
+    """Add ``kalman`` and ``kalman_dither`` to a :func:`compare` result, in place.
+
+    One run: its metrics. Several: the statistics of :func:`_aggregate`, the
+    drift errors' too, ``filter_sigma`` as the RMS over the runs of the
+    filter's 1-sigma (its analytic prediction, beside the measured spread),
+    the mean NEES with its two-sided 95 % bounds for 15 states over the
+    complete runs, and the filter's mean wall time. The predicted
+    scale-factor sigmas go into ``predicted_scale_factor_sigma_ppm`` too.
+    """
+    from scipy.stats import chi2
+
+    from allsky.studies.kalman_mekf import N_STATE
+
+    pred = result["predicted_scale_factor_sigma_ppm"]
+    for section in KALMAN_SECTIONS:
+        ok = [r[section] for r in rows if r[section]["status"] == "complete"
+              and "nees" in r[section]]
+        if len(rows) == 1:
+            result[section] = rows[0][section]
+            if ok:
+                pred[section] = dict(ok[0]["filter_sigma"]["scale_factor_ppm"])
+            continue
+        out = _aggregate(rows, section)
+        if ok:
+            out["drift_error_deg_h"] = {a: _stats([r["drift_error_deg_h"][a] for r in ok])
+                                        for a in ok[0]["drift_error_deg_h"]}
+            out["filter_sigma"] = {
+                group: {k: float(np.sqrt(np.mean([r["filter_sigma"][group][k] ** 2
+                                                  for r in ok])))
+                        for k in ok[0]["filter_sigma"][group]}
+                for group in ok[0]["filter_sigma"]}
+            n = len(ok)
+            lo, hi = chi2.ppf([0.025, 0.975], N_STATE * n) / n
+            out["nees"] = {"mean": float(np.mean([r["nees"] for r in ok])),
+                           "bounds_95": [float(lo), float(hi)], "states": N_STATE}
+            out["filter_s"] = _stats([r["filter_s"] for r in ok])
+            pred[section] = dict(out["filter_sigma"]["scale_factor_ppm"])
+        result[section] = out

@@ -278,7 +278,8 @@ def test_a_draw_that_cannot_be_made_gives_an_invalid_row():
     from allsky.config import Scenario
 
     ok = load_scenario(overrides=["mission.seed=100"])
-    sections = {name: dict(getattr(ok, name)._values) for name in ok._sections}
+    sections = {name: dict(getattr(ok, name)._values) for name in ok._sections
+                if name != "faults"}  # the faults are a tuple, not a section
     sections["dispersions"] = {"mission.date_utc": {"dist": "uniform", "half_width_days": 1e6}}
     row = montecarlo.fly_one(Scenario(sections), 3, 103)
     assert (row["run"], row["seed"], row["status"]) == (3, 103, "invalid")

@@ -60,6 +60,7 @@ from datetime import datetime, timedelta
 import numpy as np
 
 from allsky.config.dispersion_table import DATE_KEY, TARGET_KEY, value_shape
+from allsky.config.faults import is_fault_key
 from allsky.config.rules import ConfigError
 from allsky.config.scenario import scenario_from_dict
 from allsky.config.toml_io import iso_utc, toml_value
@@ -142,6 +143,30 @@ def _draw_target(e, seed):
             "dec_deg": math.degrees(math.asin(2.0 * float(u[1]) - 1.0))}
 
 
+def _draw_fault(key, e, seed):
+    """Whether fault ``faults.N`` flies in this run (1.0 or 0.0), and its drawn onset [s]."""
+    u = rng_for(seed, key).random(2)
+    out = {"present": 1.0 if u[0] < e["probability"] else 0.0}
+    if "low" in e:
+        out["start_s"] = e["low"] + (e["high"] - e["low"]) * float(u[1])
+    return out
+
+
+def _kept_faults(faults, drawn):
+    """The ``[[faults]]`` a run flies: those drawn present, with their drawn onsets."""
+    out = []
+    for i, f in enumerate(faults):
+        d = drawn.get(f"faults.{i + 1}")
+        if d is None:
+            out.append(f)
+        elif d["present"] and "start_s" in d:  # the drawn onset replaces the file's
+            out.append({**{k: v for k, v in f.items() if k not in ("start_s", "start_mode")},
+                        "start_s": d["start_s"]})
+        elif d["present"]:
+            out.append(f)
+    return out
+
+
 def draw(cfg, seed=None) -> dict:
     """The values of the scenario's dispersions for mission seed ``seed``.
 
@@ -154,6 +179,8 @@ def draw(cfg, seed=None) -> dict:
     for key, e in spec(cfg).items():
         if key == TARGET_KEY:
             out[key] = _draw_target(e, seed)
+        elif is_fault_key(key):
+            out[key] = _draw_fault(key, e, seed)
         elif key == DATE_KEY:
             out[key] = _draw_date(e, cfg.mission.date_utc, seed)
         else:
@@ -196,10 +223,11 @@ def disperse(cfg, seed=None):
     data = cfg.as_dict()
     data["mission"]["seed"] = seed
     data["dispersions"] = {}
+    data["faults"] = _kept_faults(data.get("faults", []), drawn)
     for key, v in drawn.items():
         if key == TARGET_KEY:
             data["target"] = dict(v)
-        else:
+        elif not is_fault_key(key):
             sec, name = key.split(".")
             data[sec][name] = v
     try:
@@ -218,6 +246,8 @@ def flat_inputs(cfg, drawn: Mapping) -> dict:
     for key, v in drawn.items():
         if key == TARGET_KEY:
             out.update({f"target.{k}": x for k, x in v.items()})
+        elif is_fault_key(key):
+            out.update({f"{key}.{k}": x for k, x in v.items()})
         elif isinstance(v, list):
             arr = np.array(v, dtype=float)
             free = _free_mask(key, arr.shape)
@@ -236,6 +266,8 @@ def input_columns(cfg) -> list:
         if key == TARGET_KEY:
             cols += ["target.star"] if e["dist"] == "choice" else ["target.ra_deg",
                                                                    "target.dec_deg"]
+        elif is_fault_key(key):
+            cols += [f"{key}.present"] + ([f"{key}.start_s"] if "low" in e else [])
         elif key == DATE_KEY:
             cols.append(key)
         else:

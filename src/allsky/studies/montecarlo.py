@@ -34,6 +34,7 @@ import numpy as np
 from allsky.config import ConfigError, dispersions, scenario_from_dict
 from allsky.sequencer.master_sequencer import MODES
 from allsky.sim import results
+from allsky.sim.faults import symptom
 from allsky.sim.results import calibration_errors
 
 AXES = results.AXES
@@ -499,4 +500,19 @@ def summarize(rows, runs=None, base_seed=None) -> dict:
             "base_seed": base_seed, "complete": status.get("complete", 0),
             "aborted": status.get("aborted", 0), "invalid": status.get("invalid", 0),
             "error": status.get("error", 0),
-            "abort_reasons": dict(reasons.most_common()), "metrics": metrics}
+            "abort_reasons": dict(reasons.most_common()),
+            "outcomes": outcome_probabilities(rows), "metrics": metrics}
+
+
+def outcome_probabilities(rows) -> dict:
+    """Share of the runs ending in each outcome: "complete", or the abort's symptom.
+
+    The symptom is the abort reason without the fault and its onset time
+    (:func:`allsky.sim.faults.symptom`), so that runs whose faults started at
+    drawn times fall in one outcome.
+    """
+    n = len(rows) or 1
+    counts = Counter("complete" if r["status"] == "complete"
+                     else symptom(r["abort_reason"]) if r["status"] == "aborted"
+                     else r["status"] for r in rows)
+    return {k: {"runs": v, "probability": v / n} for k, v in counts.most_common()}

@@ -1,0 +1,118 @@
+"""``allsky faults`` (the fault matrix) and ``allsky scenarios``.
+
+The matrix is computed by :func:`allsky.studies.faults.fault_matrix`; this
+module prints it as a table (rows: fault kinds; columns: the mode the fault
+starts in; a cell: the final pointing error of a complete mission, or the
+number of its abort reason, listed under the table) and writes its JSON.
+"""
+
+import json
+import sys
+import time
+
+#: Width of a matrix cell [characters].
+CELL = 9
+
+
+def _cell(row, notes) -> str:
+    if row["status"] == "complete":
+        pe = row["pointing_error_arcsec"]
+        return f'{pe:.0f}"' if pe >= 10 else f'{pe:.1f}"'
+    if row["outcome"] not in notes:
+        notes[row["outcome"]] = len(notes) + 1
+    mark = "E" if row["status"] == "error" else "A"
+    return f"{mark}{notes[row['outcome']]}"
+
+
+def format_matrix(result, wall_s=None) -> str:
+    """The matrix as text: a table of outcomes, the abort reasons, the counts."""
+    modes, kinds = result["modes"], result["kinds"]
+    ref = result["reference"]
+    notes = {}
+    lines = [(f"Fault matrix: {len(result['cases'])} missions, each with one fault starting at "
+             "the start of a mode"),
+             f"Fault-free reference: {ref['status']}"
+             + (f', pointing {ref["pointing_error_arcsec"]:.1f}"'
+                if ref["status"] == "complete" else f": {ref['abort_reason']}"), "",
+             f"  {'fault':<24}" + "".join(f"{'Mode ' + m:>{CELL}}" for m in modes)]
+    by = {(r["kind"], r["mode"]): r for r in result["cases"]}
+    for k in kinds:
+        cells = [_cell(by[(k, m)], notes) if (k, m) in by else "-" for m in modes]
+        lines.append(f"  {k:<24}" + "".join(f"{c:>{CELL}}" for c in cells))
+    lines += ["", ('  x": complete, final pointing error [arcsec]; An: aborted (below); '
+              "En: the case raised (a defect)")]
+    lines += [f"  A{n}  {text}" for text, n in notes.items()]
+    lines += ["", "  faults flown: " + "; ".join(f"{k}: {result['faults'][k]}" for k in kinds)]
+    c = result["counts"]["status"]
+    tail = f" in {wall_s:.0f} s" if wall_s is not None else ""
+    lines.append(f"  {c.get('complete', 0)} complete, {c.get('aborted', 0)} aborted, "
+                 f"{c.get('error', 0)} errors{tail}")
+    if result.get("interrupted"):
+        lines.append("  (interrupted: the cases finished so far)")
+    return "\n".join(lines)
+
+
+def run_from_cli(cfg, args) -> int:
+    """``allsky faults``: fly the matrix, print it, write its JSON (``--json``)."""
+    from tqdm import tqdm
+
+    from allsky.apps.output import Interrupted, cap_workers, check_output, write_atomic
+    from allsky.studies.faults import MATRIX_FAULTS, MATRIX_MODES, fault_matrix
+
+    check_output("--json", args.json)
+    kinds = args.kinds or list(MATRIX_FAULTS)
+    modes = args.modes or list(MATRIX_MODES)
+    total = len(kinds) * len(modes) + 1
+    workers, note = cap_workers(args.workers, total)
+    if note:
+        print(f"allsky: {note}", file=sys.stderr)
+    to_stdout = args.json == "-"
+    bar = tqdm(total=total, desc="fault matrix", unit="mission", file=sys.stderr,
+               disable=True if args.quiet else None)
+    t0 = time.perf_counter()
+    try:
+        result = fault_matrix(cfg, kinds, modes, workers,
+                              on_progress=lambda done, n: bar.update(done - bar.n))
+    finally:
+        bar.close()
+    wall_s = time.perf_counter() - t0
+    body = json.dumps({**result, "wall_s": wall_s, "workers": workers}, indent=2) + "\n"
+    if to_stdout:
+        sys.stdout.write(body)
+    else:
+        print(format_matrix(result, wall_s))
+        if args.json:
+            write_atomic(args.json, body, option="--json")
+            print(f"wrote {args.json}")
+    if result.get("interrupted"):
+        raise Interrupted(f"after {len(result['cases'])} of {total - 1} cases (the table and "
+                          "JSON cover those)")
+    return 0
+
+
+def format_scenarios(entries) -> str:
+    """The packaged scenarios: name and the first line of each file's story."""
+    width = max(len(e["name"]) for e in entries)
+    lines = ["Packaged scenarios (allsky run NAME):"]
+    lines += [f"  {e['name']:<{width}}  {e['title']}" for e in entries]
+    return "\n".join(lines)
+
+
+def scenarios_from_cli(cfg, args) -> int:
+    """``allsky scenarios [--json PATH]``: list the packaged scenarios."""
+    from allsky.apps.output import check_output, write_atomic
+    from allsky.config.faults import packaged_scenarios
+
+    check_output("--json", args.json)
+    entries = []
+    for e in packaged_scenarios():  # the title: the file's first comment line
+        with open(e["path"], encoding="utf-8") as f:
+            entries.append({**e, "title": f.readline().lstrip("# ").strip()})
+    if args.json:
+        body = json.dumps(entries, indent=2) + "\n"
+        if args.json == "-":
+            sys.stdout.write(body)
+            return 0
+        write_atomic(args.json, body, option="--json")
+    print(format_scenarios(entries))
+    return 0

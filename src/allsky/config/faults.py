@@ -1,0 +1,257 @@
+"""A scenario's ``[[faults]]``: hardware failures injected into a mission.
+
+Each ``[[faults]]`` table names one failure (``kind``), where it acts and
+when it starts::
+
+    [[faults]]
+    kind = "tracker_dropout"     # star tracker 105 sees nothing
+    start_mode = "4"             # at the start of Mode 4 (or start_s = 512.0)
+    duration_s = 60.0            # absent: permanent
+
+The kinds (:data:`KINDS`) and the fields each needs:
+
+* ``jet_stuck_open``, ``jet_failed_off``: ``axis`` and ``sign`` (+1 or -1,
+  the jet of that axis's couple that fires the positive or negative way);
+* ``gyro_stuck`` (output frozen at its value at the onset), ``gyro_dead``
+  (output zero): ``axis``; ``gyro_bias_step``: ``axis``, ``size_deg_h``;
+  ``gyro_scale_factor_step``: ``axis``, ``size_ppm``;
+* ``sun_sensor_blind`` (sun sensor 104 sees no Sun), ``tracker_dropout``
+  (star tracker 105 sees no star): no field;
+* ``tracker_stray_light``: ``offset_deg``, where a false target sits in the
+  tracker's field (its yaw output, body-fixed: a glint off dust or the
+  vehicle), within the narrow half-field;
+* ``wrong_star``: ``star``, a catalog star the magnitude window also passes;
+* ``counter_upset``: ``register`` (the numeral as a string: "13"-"18" up/down
+  and drift counters, "25"-"27" storage registers) and ``bit`` (0 = least
+  significant, below the word length): the bit flips once, at the onset;
+* ``propellant_leak``: ``rate_kg_s``.
+
+``start_s`` [s] (mission time) or ``start_mode`` (a mode name: the fault
+starts when that mode starts) gives the onset; neither means ``start_s =
+0``. ``duration_s`` [s] ends it; absent, the fault is permanent. ``axis``
+is "roll", "pitch" or "yaw". A scenario holds at most :data:`MAX_FAULTS`.
+Anything else is a :class:`~allsky.config.rules.ConfigError` naming the key
+(``faults[2].axis``).
+
+In ``[dispersions]``, ``faults.N = { dist = "fault", probability = P, low =
+T0, high = T1 }`` (N counts the ``[[faults]]`` tables from 1) keeps fault N
+in a run with probability P and, with ``low`` and ``high`` [s], draws its
+onset uniformly in that span (:func:`validate_dispersion`,
+:func:`allsky.config.dispersions.draw`).
+"""
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from allsky.config.checkers import star_name
+from allsky.config.rules import (
+    MODE_KEYS,
+    NON_NEGATIVE,
+    POSITIVE,
+    ConfigError,
+    as_float,
+    check_conds,
+    in_closed,
+    number,
+    type_name,
+)
+from allsky.config.schema import DEFAULT_SCENARIO_PATH
+
+#: Most faults one scenario may hold (the frame loop's fixed-size fault arrays).
+MAX_FAULTS = 8
+AXES = ("roll", "pitch", "yaw")
+#: Fault kind -> the fields it needs beyond the timing (in this order).
+KINDS = {
+    "jet_stuck_open": ("axis", "sign"),
+    "jet_failed_off": ("axis", "sign"),
+    "gyro_stuck": ("axis",),
+    "gyro_dead": ("axis",),
+    "gyro_bias_step": ("axis", "size_deg_h"),
+    "gyro_scale_factor_step": ("axis", "size_ppm"),
+    "sun_sensor_blind": (),
+    "tracker_dropout": (),
+    "tracker_stray_light": ("offset_deg",),
+    "wrong_star": ("star",),
+    "counter_upset": ("register", "bit"),
+    "propellant_leak": ("rate_kg_s",),
+}
+TIMING = ("start_s", "start_mode", "duration_s")
+#: Modes a fault may start with: the patent's, the hold on target, the dither mode.
+START_MODES = (*MODE_KEYS, "hold", "dither")
+#: Counter or register numeral -> the scenario key giving its word length [bit].
+REGISTER_BITS_KEY = {
+    **dict.fromkeys(("13", "15", "17"), "electronics.drift_counter_bits"),
+    **dict.fromkeys(("14", "16", "18"), "electronics.counter_bits"),
+    **dict.fromkeys(("25", "26", "27"), "electronics.register_bits"),
+}
+#: [deg/h] largest bias step, [ppm] largest scale-factor step, [kg/s] largest leak.
+BIAS_STEP_MAX_DEG_H = 3600.0
+SCALE_STEP_MAX_PPM = 1e6
+LEAK_MAX_KG_S = 1.0
+DISPERSION_DIST = "fault"
+
+
+def _quoted(names) -> str:
+    return ", ".join(f'"{n}"' for n in names)
+
+
+def _string(key, v, choices):
+    if not isinstance(v, str) or v not in choices:
+        raise ConfigError(key, v, f"must be one of {_quoted(choices)}")
+    return v
+
+
+def _sign(key, v):
+    if isinstance(v, bool) or v not in (1, -1, 1.0, -1.0):
+        raise ConfigError(key, v, "must be +1 or -1 (the jet of the couple)")
+    return int(v)
+
+
+def _bit(key, v, bits, word):
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ConfigError(key, v, f"must be an integer, not {type_name(v)}")
+    check_conds((in_closed(0, bits - 1, f"{word} has {bits} bits"),), key, v, v)
+    return v
+
+
+def validate_fault(where: str, entry, values: Mapping) -> dict:
+    """One ``[[faults]]`` table, checked; returns its fields normalised.
+
+    ``where`` is its name in errors (``faults[1]``); ``values`` the
+    scenario's validated values by dotted key (for word lengths, the
+    tracker's field and the star catalog).
+    """
+    if not isinstance(entry, Mapping):
+        raise ConfigError(where, entry, f"must be a table, not {type_name(entry)}")
+    kind = entry.get("kind")
+    if kind is None:
+        raise ConfigError(f"{where}.kind", rule=f"missing: one of {_quoted(KINDS)}")
+    _string(f"{where}.kind", kind, tuple(KINDS))
+    need = KINDS[kind]
+    for k in entry:
+        if k not in ("kind", *need, *TIMING):
+            raise ConfigError(f"{where}.{k}", entry[k], f'unknown field for kind = "{kind}"; '
+                              f"valid: {', '.join((*need, *TIMING))}")
+    for k in need:
+        if k not in entry:
+            raise ConfigError(f"{where}.{k}", rule=f'missing: kind = "{kind}" needs '
+                              f"{', '.join(need)}")
+    out = {"kind": kind}
+    for k in need:
+        key, v = f"{where}.{k}", entry[k]
+        if k == "axis":
+            out[k] = _string(key, v, AXES)
+        elif k == "sign":
+            out[k] = _sign(key, v)
+        elif k == "size_deg_h":
+            out[k] = number(in_closed(-BIAS_STEP_MAX_DEG_H, BIAS_STEP_MAX_DEG_H))(key, v)
+        elif k == "size_ppm":
+            out[k] = number(in_closed(-SCALE_STEP_MAX_PPM, SCALE_STEP_MAX_PPM))(key, v)
+        elif k == "offset_deg":
+            half = values["star_tracker.fov_narrow_half_deg"]
+            out[k] = number(in_closed(-half, half, "inside the tracker's narrow half-field, "
+                                      "star_tracker.fov_narrow_half_deg"))(key, v)
+        elif k == "star":
+            out[k] = star_name(key, v)
+        elif k == "register":
+            out[k] = _string(key, v, tuple(REGISTER_BITS_KEY))
+        elif k == "bit":
+            reg = out["register"]
+            out[k] = _bit(key, v, values[REGISTER_BITS_KEY[reg]],
+                          f"{'register' if reg >= '25' else 'counter'} {reg}")
+        elif k == "rate_kg_s":
+            out[k] = number(POSITIVE, in_closed(0, LEAK_MAX_KG_S))(key, v)
+    if "start_s" in entry and "start_mode" in entry:
+        raise ConfigError(where, rule="give start_s or start_mode, not both")
+    if "start_mode" in entry:
+        out["start_mode"] = _string(f"{where}.start_mode", entry["start_mode"], START_MODES)
+    else:
+        out["start_s"] = number(NON_NEGATIVE)(f"{where}.start_s", entry.get("start_s", 0.0))
+    if "duration_s" in entry:
+        out["duration_s"] = number(POSITIVE)(f"{where}.duration_s", entry["duration_s"])
+    return out
+
+
+def validate(faults, values: Mapping) -> list:
+    """The whole ``faults`` array, checked (:func:`validate_fault` for each table)."""
+    if not isinstance(faults, list):
+        raise ConfigError("faults", faults, "must be an array of tables ([[faults]])")
+    if len(faults) > MAX_FAULTS:
+        raise ConfigError("faults", f"{len(faults)} tables", f"at most {MAX_FAULTS} faults")
+    return [validate_fault(f"faults[{i}]", f, values) for i, f in enumerate(faults)]
+
+
+def is_fault_key(key: str) -> bool:
+    """Whether a ``[dispersions]`` key names a fault (``faults.N``)."""
+    return key.split(".", 1)[0] == "faults"
+
+
+def validate_dispersion(key: str, entry, faults: list) -> dict:
+    """A ``faults.N`` entry of ``[dispersions]``, checked against the faults."""
+    where = f"dispersions.{key}"
+    n = key.split(".", 1)[1] if "." in key else ""
+    if not n.isdigit() or not 1 <= int(n) <= len(faults):
+        raise ConfigError(where, rule=f"faults.N names the N-th [[faults]] table, N in "
+                          f"1..{len(faults)}" if faults else "the scenario has no [[faults]]")
+    if not isinstance(entry, Mapping):
+        raise ConfigError(where, entry, 'must be a table such as { dist = "fault", '
+                          "probability = 0.1 }")
+    if entry.get("dist") != DISPERSION_DIST:
+        raise ConfigError(f"{where}.dist", entry.get("dist"), f'must be "{DISPERSION_DIST}"')
+    for p in entry:
+        if p not in ("dist", "probability", "low", "high"):
+            raise ConfigError(f"{where}.{p}", rule='unknown parameter for dist = "fault"; '
+                              "valid: probability, low, high")
+    if "probability" not in entry:
+        raise ConfigError(f"{where}.probability", rule="missing")
+    out = {"dist": DISPERSION_DIST,
+           "probability": number(in_closed(0, 1))(f"{where}.probability",
+                                                  entry["probability"])}
+    if ("low" in entry) != ("high" in entry):
+        raise ConfigError(where, rule="give low and high (the onset span [s]) together")
+    if "low" in entry:
+        lo = number(NON_NEGATIVE)(f"{where}.low", entry["low"])
+        hi, why = as_float(entry["high"])
+        if why or hi < lo:
+            raise ConfigError(f"{where}.high", entry["high"], why or f"must be >= low ({lo:g})")
+        out.update(low=lo, high=hi)
+    return out
+
+
+def describe(fault: Mapping) -> str:
+    """A fault in words, as abort reasons and tables name it ("roll gyro stuck")."""
+    kind = fault["kind"]
+    axis = fault.get("axis", "")
+    sign = "+" if fault.get("sign", 1) > 0 else "-"
+    return {
+        "jet_stuck_open": f"{sign}{axis} jet stuck open",
+        "jet_failed_off": f"{sign}{axis} jet failed off",
+        "gyro_stuck": f"{axis} gyro stuck",
+        "gyro_dead": f"{axis} gyro dead",
+        "gyro_bias_step": f"{axis} gyro bias step {fault.get('size_deg_h', 0):+g} deg/h",
+        "gyro_scale_factor_step": f"{axis} gyro scale step {fault.get('size_ppm', 0):+g} ppm",
+        "sun_sensor_blind": "sun sensor blind",
+        "tracker_dropout": "tracker dropout",
+        "tracker_stray_light": f"stray light {fault.get('offset_deg', 0):g} deg off boresight",
+        "wrong_star": f"wrong star {fault.get('star', '')}",
+        "counter_upset": f"bit {fault.get('bit', 0)} of {fault.get('register', '')} upset",
+        "propellant_leak": f"propellant leak {fault.get('rate_kg_s', 0):g} kg/s",
+    }[kind]
+
+
+def packaged_scenarios() -> list:
+    """The scenarios packaged with allsky: ``{"name", "path"}``, by name.
+
+    ``name`` runs it (``allsky run mariner4-star-hopping``). The historical
+    fault scenarios are among them (docs/faults.md).
+    """
+    return [{"name": f.stem, "path": str(f)}
+            for f in sorted(DEFAULT_SCENARIO_PATH.parent.glob("*.toml"))]
+
+
+def packaged_or_path(path):
+    """A packaged scenario's file for its name; any other ``path`` as it is."""
+    if path is None or Path(path).exists():
+        return path
+    found = [e["path"] for e in packaged_scenarios() if e["name"] == str(path)]
+    return found[0] if found else path

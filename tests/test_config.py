@@ -66,9 +66,10 @@ def test_every_default_key_has_its_unit_in_its_name():
     units = ("_s", "_deg", "_deg_h", "_ppm", "_arcsec", "_kg_m2", "_n", "_m", "_kg", "_v",
              "_pps", "_bits", "_frames", "_per_s", "_deg_s", "_rt_h", "_arcsec_s", "_utc", "_urad")
     unitless = {"seed", "attitude", "magnitude_window", "counter_overflow", "star",
-                "reference_star", "apply",
+                "reference_star", "apply", "between_targets",
                 "filter_gain", "feedforward", "inertia_estimate_scale", "estimator", "detector",
-                "store_cross_coupling"}
+                "store_cross_coupling", "kind", "axes", "unload_fraction",
+                "unload_end_fraction", "recovery"}
     for sec, table in DEFAULT.items():
         for k in table:
             assert k in unitless or k.endswith(units), f"{sec}.{k} has no unit in its name"
@@ -76,7 +77,7 @@ def test_every_default_key_has_its_unit_in_its_name():
 
 def test_rule_table_covers_exactly_the_schema():
     schema = {f"{s}.{k}" for s, t in DEFAULT.items() for k in t}
-    assert set(RULES) == schema | {"target.ra_deg", "target.dec_deg"}
+    assert set(RULES) == schema | {"target.ra_deg", "target.dec_deg", "target.sequence"}
     assert set(DEFAULT["sequencer"]["timeout_s"]) == set(MODE_KEYS)
 
 
@@ -169,7 +170,8 @@ def test_config_error_is_one_line_key_value_rule():
     assert (e.key, e.value, e.rule) == ("gyro.arw_deg_rt_h", -1.0, "must be >= 0")
     assert pickle.loads(pickle.dumps(e)).args == e.args
     assert str(pickle.loads(pickle.dumps(error(["target.ra_deg=1"])))) == \
-        "target.dec_deg: missing: give target.star, or both target.ra_deg and target.dec_deg"
+        ("target.dec_deg: missing: give target.star, both target.ra_deg and target.dec_deg, "
+         "or target.sequence")
     assert "\n" not in str(error(['target.star="Ve\nga"']))
     assert "\n" not in str(error(data={"a\nb": {}}))
 

@@ -429,8 +429,14 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
 # Table, histograms, command line
 # ---------------------------------------------------------------------------
 
-def format_summary(s: dict) -> str:
-    """The summary (:func:`allsky.studies.montecarlo.summarize`) as a text table."""
+def format_summary(s: dict, outcomes=False) -> str:
+    """The summary (:func:`allsky.studies.montecarlo.summarize`) as a text table.
+
+    ``outcomes``: list the probability of each outcome (complete, or an abort's
+    symptom without the fault's onset time) in place of the abort reasons one
+    by one: a campaign whose scenario has faults, drawn or not, has a reason
+    per onset time.
+    """
     seeds = ("" if s["base_seed"] is None else
              f", seeds {s['base_seed']}..{s['base_seed'] + s['runs'] - 1}")
     head = f"Monte Carlo campaign: {s['recorded']} of {s['runs']} runs recorded{seeds}"
@@ -443,7 +449,11 @@ def format_summary(s: dict) -> str:
         for col, st in s["metrics"].items():
             cells = "".join(f"{st[k]:>11.4g}" for k in ("mean", "std", "p5", "p50", "p95"))
             lines.append(f"  {METRICS[col]:<36}{cells}")
-    if s["abort_reasons"]:
+    if outcomes and s["outcomes"]:
+        lines += ["", "Outcomes (runs, probability, outcome)"]
+        lines += [f"  {o['runs']:>5}  {o['probability']:>6.1%}  {name}"
+                  for name, o in s["outcomes"].items()]
+    elif s["abort_reasons"]:
         lines += ["", "Missions not complete (count, reason)"]
         lines += [f"  {n:>5}  {reason}" for reason, n in s["abort_reasons"].items()]
     return "\n".join(lines)
@@ -574,7 +584,7 @@ def run_from_cli(cfg, args) -> int:
         print(f"allsky: error: {e}", file=sys.stderr)
         return 2
     s = result["summary"]
-    text = format_summary(s)
+    text = format_summary(s, outcomes=bool(cfg.faults))
     to_stdout_json = args.json == "-"
     if not to_stdout_json:
         print(text)

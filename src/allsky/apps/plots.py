@@ -20,6 +20,9 @@ jets.png               valve commands of modulators 34-36 (jets 39-41) and
                        propellant remaining [kg]
 calibration.png        stored calibration against the truth, with the errors
                        (needs the summary)
+hold.png               each hold on target: the attitude's drift per body axis
+                       [arcsec] since the hold began, with its least-squares
+                       rate [arcsec/min] (only when the telemetry holds a hold)
 =====================  ==========================================================
 """
 
@@ -36,6 +39,7 @@ from allsky.config import ConfigError
 from allsky.hardware import switch_bank, wiring
 from allsky.sequencer.modes import MODE_CODE
 from allsky.sim.telemetry import INDEX, switch_closed
+from allsky.vehicle import quaternion
 
 AXES = ("roll", "pitch", "yaw")
 AXIS_COLOURS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
@@ -561,6 +565,74 @@ def analysis(result: dict, frequency_responses: dict) -> Figure:
     return fig
 
 
+def hold_spans(table: np.ndarray) -> list:
+    """``[(t_start_s, t_end_s), ...]`` of every hold on target in the telemetry."""
+    return [(t0, t1) for name, t0, t1 in mode_spans(table) if name == "hold"]
+
+
+def hold_drift_arcsec(table: np.ndarray, span):
+    """Minutes into the hold ``span`` and the attitude's turn per body axis [arcsec].
+
+    The turn is ``2 q_vec`` of ``q_0^-1 (x) q`` from the first sample of the
+    hold, as the summary measures the drift
+    (:func:`allsky.sequencer.master_sequencer.measure_hold`); each row is the
+    rotation about roll, pitch or yaw.
+    """
+    t = _col(table, "time")
+    rows = (t >= span[0]) & (t <= span[1]) & np.isclose(_col(table, "mode"), MODE_CODE["hold"])
+    q = table[rows][:, [INDEX[c] for c in ("q_w", "q_x", "q_y", "q_z")]]
+    conj = q[0] * np.array([1.0, -1.0, -1.0, -1.0])
+    turn = np.array([quaternion.multiply(conj, qk) for qk in q])
+    turn[turn[:, 0] < 0] *= -1.0  # the short way round
+    return (t[rows] - t[rows][0]) / 60.0, 2.0 * turn[:, 1:4].T * RAD2ARCSEC
+
+
+def _summary_holds(summary) -> list:
+    """The hold measurements of a summary, one per target (None where none)."""
+    if summary is None:
+        return []
+    if summary.get("targets"):
+        return [t.get("hold") for t in summary["targets"]]
+    return [summary.get("hold")]
+
+
+def hold_drift(table: np.ndarray, summary=None) -> Figure:
+    """Each hold on target: the attitude's drift per body axis and its fitted rate.
+
+    On the gyros alone the vehicle turns at the rate its drift store errs
+    (docs/theory_of_operation.md); pitch and yaw are the roll axis walking
+    off the target. A least-squares line gives each axis's rate
+    [arcsec/min]; with the ``summary``, its end-to-end figure is shown too.
+    """
+    spans = hold_spans(table)
+    if not spans:
+        raise ValueError("the telemetry holds no hold on target")
+    measured = _summary_holds(summary)
+    fig, axes = _new_figure(3, "Hold on target on the gyros alone: attitude drift since the "
+                               "hold began")
+    styles = ("-", "--", ":", "-.")
+    for k, span in enumerate(spans):
+        minutes, turn = hold_drift_arcsec(table, span)
+        hold = measured[k] if k < len(measured) else None
+        for axis, ax, values in zip(AXES, axes, turn):
+            rate, offset = np.polyfit(minutes, values, 1) if len(minutes) > 1 else (0.0, 0.0)
+            label = f"hold {k + 1}: fit {rate:+.3f}″/min"
+            if hold is not None:
+                label += f" (summary {hold['drift_arcsec_per_min'][axis]:+.3f})"
+            ax.plot(minutes, values, lw=0.9, ls=styles[k % len(styles)],
+                    color=AXIS_COLOURS[axis], alpha=0.9 if k == 0 else 0.6, label=label)
+            ax.plot(minutes, offset + rate * minutes, lw=1.4, color="black",
+                    ls=styles[k % len(styles)], alpha=0.7)
+    for axis, ax in zip(AXES, axes):
+        ax.set_ylabel(f"{axis} [arcsec]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[0].set_title("turn about each body axis since the hold's start; black: "
+                      "least-squares line", fontsize=10, loc="left")
+    axes[-1].set_xlabel("minutes into the hold")
+    return fig
+
+
 #: Figure name -> (file name, function of the telemetry table).
 TELEMETRY_FIGURES = {
     "attitude_errors": ("attitude_errors.png", attitude_errors),
@@ -571,6 +643,7 @@ TELEMETRY_FIGURES = {
 #: Telemetry figures that also draw from the mission summary when it is given.
 USES_SUMMARY = (attitude_errors,)
 CALIBRATION_FILE = "calibration.png"
+HOLD_FILE = "hold.png"
 
 
 class PlotSet(NamedTuple):
@@ -622,6 +695,8 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
         skipped[CALIBRATION_FILE] = "the mission stored no calibration"
     else:
         jobs.append((CALIBRATION_FILE, lambda: calibration(summary)))
+    if hold_spans(table):  # drawn only for a mission that held a target
+        jobs.append((HOLD_FILE, lambda: hold_drift(table, summary)))
     with tqdm(jobs, desc="figures", unit="figure", leave=False,
               disable=None if progress else True) as bar:
         for file_name, draw in bar:

@@ -59,6 +59,7 @@ def format_report(summary: dict, tracker_star=None) -> str:
     if tgt["pointing_error_arcsec"] is not None:
         applied = "" if summary["calibration_applied"] else " (calibration NOT applied)"
         lines.append(f"  final pointing error {tgt['pointing_error_arcsec']:.1f} arcsec{applied}")
+    lines += _targets_lines(summary.get("targets"))
     hold = summary.get("hold")
     if hold is not None:
         drift = hold["drift_arcsec_per_min"]
@@ -73,6 +74,28 @@ def format_report(summary: dict, tracker_star=None) -> str:
     if flagged:
         lines.append(f"Counter overflow flagged: {', '.join(flagged)}")
     return "\n".join(lines)
+
+
+def _targets_lines(targets) -> list:
+    """The table of a sequence's targets: angles, pointing errors [arcsec], times [s]."""
+    if not targets:
+        return []
+    head = ("#", "target", "roll deg", "yaw deg", "6-2 err\"", "hold end\"", "start s", "end s")
+    lines = ["", (f"Targets ({len(targets)}): programmed angles, true pointing error at the "
+                 "end of Mode 6-2 and of the hold"),
+             (f"  {head[0]:>2} {head[1]:<26}{head[2]:>10}{head[3]:>10}{head[4]:>10}"
+              f"{head[5]:>11}{head[6]:>9}{head[7]:>9}")]
+
+    def cell(v, spec, width):
+        return f"{'-':>{width}}" if v is None else f"{format(v, spec):>{width}}"
+
+    for i, t in enumerate(targets, 1):
+        lines.append(f"  {i:>2} {t['name'][:25]:<26}{cell(t['programmed_roll_deg'], '+.3f', 10)}"
+                     f"{cell(t['programmed_yaw_deg'], '+.3f', 10)}"
+                     f"{cell(t['pointing_error_arcsec'], '.1f', 10)}"
+                     f"{cell(t['hold_end_pointing_error_arcsec'], '.1f', 11)}"
+                     f"{cell(t['start_s'], '.1f', 9)}{cell(t['end_s'], '.1f', 9)}")
+    return lines
 
 
 def tracker_star(cfg):
@@ -109,7 +132,7 @@ def write_outputs(outputs) -> tuple[list, list]:
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky run``: fly, print the report, write --json, --telemetry and --plots.
+    """``allsky run``: fly, report, write --json, --telemetry, --plots and --html.
 
     Every output path is checked before flying. Interrupted (Ctrl-C, SIGTERM),
     the report, ``--json`` and ``--telemetry`` of the part flown are still
@@ -132,16 +155,18 @@ def run_from_cli(cfg, args) -> int:
     say = (lambda *a, **k: None) if to_stdout else print
     tlm_path = getattr(args, "telemetry", None)
     plots_dir = getattr(args, "plots", None)
+    html_path = getattr(args, "html", None)
     quiet = getattr(args, "quiet", False) or to_stdout
     check_output("--json", json_path)  # before flying: no mission lost to a typo
     check_output("--telemetry", tlm_path, suffixes=TELEMETRY_SUFFIXES)
     if tlm_path:
         telemetry_files.file_format(tlm_path)
     check_output("--plots", plots_dir, directory=True)
+    check_output("--html", html_path, suffixes=(".html", ".htm"))
     cfg, drawn = disperse(cfg)  # the scenario's [dispersions], drawn for its mission.seed
     if drawn:
         say(format_drawn(cfg.mission.seed, drawn) + "\n")
-    m = Mission(cfg, telemetry=bool(tlm_path or plots_dir))
+    m = Mission(cfg, telemetry=bool(tlm_path or plots_dir or html_path))
     interrupted = False
     try:
         summary = fly(m, quiet=quiet)
@@ -160,6 +185,11 @@ def run_from_cli(cfg, args) -> int:
     if tlm_path:
         outputs.append((f"telemetry {tlm_path}", lambda: telemetry_files.write(
             tlm_path, m.telemetry(), option="--telemetry")))
+    if html_path and len(m.telemetry()):
+        from allsky.apps.replay import write_replay
+
+        outputs.append((f"replay {html_path}", lambda: write_replay(
+            html_path, m.telemetry(), summary, cfg, option="--html")))
     written, failed = write_outputs(outputs)
     for what in written:
         say(f"wrote {what}" + (" (the part flown)" if interrupted else ""))

@@ -22,9 +22,10 @@ import numpy as np
 from allsky.config import ConfigError, scenario_from_dict
 from allsky.config.toml_io import os_reason
 from allsky.hardware.wiring import SELECTORS
-from allsky.sequencer.modes import PLANS
+from allsky.sequencer.modes import PLANS, mission_plan
+from allsky.sim import faults as sim_faults
 from allsky.sim import state as sim_state
-from allsky.sim.mission import STATE_FORMAT, Mission
+from allsky.sim.mission import STATE_FORMAT, Mission, newer_state_arrays
 
 #: Prefix of the state arrays' names in the archive.
 ARRAY_PREFIX = "state_"
@@ -67,8 +68,9 @@ MEMBER_MAX_BYTES = 16 * 2**20
 #: Largest departure of the saved quaternion from unit norm (the plant keeps 1e-15).
 QUATERNION_NORM_TOLERANCE = 1e-6
 #: State arrays added since files of this format were first written, with the value an
-#: older file stands for (-1: which star the tracker held was not recorded).
-NEWER_ARRAYS = {"locked_star": np.full(1, -1, dtype=np.int64)}
+#: older file stands for (:func:`allsky.sim.mission.newer_state_arrays`): ``locked_star``
+#: -1 (not recorded), ``fault_state`` no fault started, the reaction wheels at rest.
+NEWER_ARRAYS = newer_state_arrays()
 #: Statuses a saved mission can have.
 STATUSES = ("running", "complete", "aborted")
 
@@ -78,7 +80,8 @@ def load(path, telemetry=True) -> Mission:
 
     Everything is checked before the mission is built: the archive, the
     history (format :data:`~allsky.sim.mission.STATE_FORMAT`, a plan of
-    :data:`allsky.sequencer.modes.PLANS`, the next mode inside it, the
+    :data:`allsky.sequencer.modes.PLANS` as the scenario extends it with holds
+    and further targets, the next mode inside it, the
     timeline of the modes flown, the scenario by its rules) and every state
     array (shape, dtype, finite; propellant within the tank, a unit
     quaternion, switches, valves and flags within their values).
@@ -145,7 +148,7 @@ def _checked_history(h):
     if h.get("format") != STATE_FORMAT or type(h.get("format")) is not int:
         raise StateError(f"format {_shown(h.get('format'))}, not {STATE_FORMAT}")
     plan = tuple(h["plan"]) if isinstance(h.get("plan"), list) else None
-    if plan not in PLANS.values():
+    if plan not in _known_plans(h):
         known = "; ".join(f"{k}: {' '.join(v)}" for k, v in PLANS.items())
         raise StateError(f"plan {_shown(h.get('plan'))} is not a plan ({known})")
     n = h.get("next_mode")
@@ -185,6 +188,20 @@ def _checked_history(h):
     except ConfigError as e:
         raise StateError(f"its scenario: {e}") from None
     return cfg, plan
+
+
+def _known_plans(h) -> list:
+    """The plans of ``PLANS``, and each as the history's scenario extends it.
+
+    A scenario extends a plan with the hold on target and with the modes
+    that fly each further target (:func:`allsky.sequencer.modes.mission_plan`).
+    """
+    plans = list(PLANS.values())
+    try:
+        cfg = scenario_from_dict(h.get("scenario"))
+    except ConfigError:  # reported with the scenario's own words below
+        return plans
+    return plans + [mission_plan(p, cfg) for p in PLANS.values()]
 
 
 def _shown(v, limit=60) -> str:
@@ -229,6 +246,12 @@ def _check_arrays(arrays, cfg):
         k = int(np.flatnonzero(sw > limits)[0])
         raise StateError(f"{ARRAY_PREFIX}switches: S{k} = {int(sw[k])} (an on/off switch is "
                          "0 or 1, a selector 0, 1 or 2)")
+    fs = arrays["fault_state"]
+    onsets = fs[sim_faults.ONSET]
+    if not np.all((onsets == sim_faults.UNKNOWN_S) | (onsets >= 0.0)) \
+            or not np.all(np.isin(fs[sim_faults.LATCHED], (0.0, 1.0))):
+        raise StateError(f"{ARRAY_PREFIX}fault_state: onsets must be >= 0 s or "
+                         f"{sim_faults.UNKNOWN_S:g} (not started), latches 0 or 1")
     for name, allowed in (("rate_sign", (-1, 1)), ("pwpf_out", (-1, 0, 1)),
                           ("overflow", (0, 1))):
         if not np.all(np.isin(arrays[name], allowed)):

@@ -1,8 +1,10 @@
 """``allsky step``: fly a mission stop by stop and show the hardware at each stop.
 
 A *stop* is a mode boundary (and, with ``every_s``, every so many simulated
-seconds inside a mode). At each stop :func:`snapshot` reads the mission
-state the way an engineer on the console would: switch bank S1-S19, up/down
+seconds inside a mode); with several targets (``target.sequence``) the move
+to the next target is a mode of its own, so each target's end is a stop. At
+each stop :func:`snapshot` reads the mission state the way an engineer on
+the console would: switch bank S1-S19, up/down
 counters 14/16/18, drift counters 13/15/17 and drift DACs 7/9/11, storage
 registers 25-27 and DACs 28-30, the sensor outputs, body rates, computed and
 programmed word registers 23 and 24, propellant. :func:`format_stop` turns
@@ -26,7 +28,7 @@ from allsky.hardware import switch_bank
 from allsky.hardware.dac import dac
 from allsky.hardware.star_tracker import star_tracker
 from allsky.hardware.sun_sensor import sun_sensor
-from allsky.sequencer.modes import MODE_TITLE, PLANS
+from allsky.sequencer.modes import MODE_TITLE, PLANS, target_count
 from allsky.vehicle import quaternion
 
 AXES = ("roll", "pitch", "yaw")
@@ -86,6 +88,8 @@ def snapshot(m, kind, reason) -> dict:
         "mode": mode,
         "mode_title": MODE_TITLE[mode],
         "reason": reason,
+        "target": {"name": m.targets()[-1]["name"], "number": m.target_index + 1,
+                   "of": target_count(m.cfg)},
         "status": m.status,
         "switches": {f"S{k}": k in closed for k in range(1, switch_bank.N_SWITCHES + 1)
                      if k not in switch_bank.SELECTORS},
@@ -120,8 +124,11 @@ def format_stop(snap, number=None) -> str:
     """The terminal block of one stop."""
     head = f"Stop {number} - " if number is not None else ""
     where = "end of" if snap["kind"] == "mode end" else "inside"
+    target = snap.get("target")
+    aim = (f" - target {target['name']} ({target['number']} of {target['of']})"
+           if target and target["of"] > 1 else "")
     lines = [(f"== {head}t = {snap['time_s']:.2f} s - {where} Mode {snap['mode']} "
-              f"({snap['mode_title']}) =="),
+              f"({snap['mode_title']}){aim} =="),
              f"  {snap['reason']}"]
     sw = snap["switches"]
     names = list(sw)
@@ -178,7 +185,8 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
         Show no stop before this mode (inside it only the ``every_s`` stops)
         and end the session at its end.
     save_dir : path, optional
-        Save the mission at every mode boundary, as ``after_mode_<MODE>.npz``.
+        Save the mission at every mode boundary, as ``after_mode_<MODE>.npz``
+        (from the second target of a sequence on, ``after_target<N>_mode_<MODE>.npz``).
 
     Returns
     -------
@@ -205,7 +213,7 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
     try:
         while not m.finished:
             rec = m.run_mode()
-            saved = (states.save(m, Path(save_dir) / f"after_mode_{rec.mode}.npz") if save_dir
+            saved = (states.save(m, Path(save_dir) / state_file_name(m, rec.mode)) if save_dir
                      else None)
             if until is None or rec.mode == until or m.finished:
                 snap = snapshot(m, "mode end", rec.exit)
@@ -220,6 +228,12 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
         m.pause_every_s = None
         m.on_pause = None
     return shown
+
+
+def state_file_name(m, mode) -> str:
+    """File name for the state saved after ``mode`` (and target, from the second on)."""
+    target = f"target{m.target_index + 1}_" if m.target_index else ""
+    return f"after_{target}mode_{mode}.npz"
 
 
 def _interactive_stop(out, ask):

@@ -109,6 +109,24 @@ def _fft_whole_periods(v):
                               'record (or use "hann" or "lsq")')
 
 
+def _one_limit_per_wheel(v):
+    """`wheels.max_torque_n_m`, `max_momentum_n_m_s`, `inertia_kg_m2`: one number or one per wheel."""
+    n = len(v["wheels.axes"])
+    for key in ("wheels.max_torque_n_m", "wheels.max_momentum_n_m_s", "wheels.inertia_kg_m2"):
+        if isinstance(v[key], tuple) and len(v[key]) != n:
+            raise ConfigError(key, v[key], f"must be one number or {n} numbers, one per wheel "
+                              f"of wheels.axes ({len(v[key])} given)")
+
+
+def _unload_hysteresis(v):
+    """`wheels.unload_end_fraction` < `wheels.unload_fraction` (unloading stops below it)."""
+    start, end = v["wheels.unload_fraction"], v["wheels.unload_end_fraction"]
+    if not end < start:
+        raise ConfigError("wheels.unload_end_fraction", end,
+                          f"must be < wheels.unload_fraction ({start:g}): unloading runs from "
+                          "that fraction of the momentum limit down to this one")
+
+
 def _converters_follow_the_turns(v):
     """Converters 8, 10, 12 follow the calibration turns: max rate x pulse weight > rate command."""
     pps, weight = v["electronics.vfc_max_rate_pps"], v["electronics.vfc_pulse_weight_arcsec"]
@@ -129,13 +147,22 @@ def plan_durations_s(v) -> dict:
 
     The dither mode, in place of Modes 4 and 5, is allowed its lead-in and record and
     :data:`DITHER_SETTLE_ALLOWANCE_S`; a hold on target (`target.hold_s` > 0), flown after
-    either plan, its hold and :data:`HOLD_TIMEOUT_ALLOWANCE_S`."""
+    either plan, its hold and :data:`HOLD_TIMEOUT_ALLOWANCE_S`. Each further target of
+    `target.sequence` adds Modes 1, 2, 6-1, 6-2 and the hold
+    (`sequencer.between_targets = "reacquire"`) or the whole plan again ("recycle")."""
     t = v["sequencer.timeout_s"]
     hold = v["target.hold_s"] + HOLD_TIMEOUT_ALLOWANCE_S if v["target.hold_s"] > 0 else 0.0
     legacy = math.fsum([*(t[m] for m in MODE_KEYS), hold])
     dither = math.fsum([*(t[m] for m in MODE_KEYS if m not in ("4", "5")),
                         v["dither.lead_in_s"], v["dither.record_s"], DITHER_SETTLE_ALLOWANCE_S,
                         hold])
+    further = len(v.get("target.sequence") or ((),)) - 1
+    if further:
+        if v["sequencer.between_targets"] == "recycle":
+            legacy, dither = legacy * (1 + further), dither * (1 + further)
+        else:
+            again = further * math.fsum([*(t[m] for m in ("1", "2", "6-1", "6-2")), hold])
+            legacy, dither = legacy + again, dither + again
     return {"legacy": legacy, "dither": dither}
 
 
@@ -155,6 +182,10 @@ def _mission_within_a_day(v):
     plans = plan_durations_s(v)
     why = f"must fit in {MISSION_MAX_S:g} s, a day: the Sun moves on a line good to 1.4 arcsec"
     if plans["legacy"] > MISSION_MAX_S:
+        if len(v.get("target.sequence") or ()) > 1:
+            raise ConfigError("target.sequence", f"{len(v['target.sequence'])} targets",
+                              f"the modes' timeouts for every target (and the holds) add up "
+                              f"to {plans['legacy']:g} s; a mission {why}")
         if v["target.hold_s"] > 0:
             raise ConfigError("target.hold_s", v["target.hold_s"],
                               f"the modes' timeouts and the hold (+ {HOLD_TIMEOUT_ALLOWANCE_S:g}"
@@ -203,13 +234,13 @@ def _mission_ends_inside_the_ephemeris(v):
 
 
 def _one_target_form(v):
-    """`target.star`, or both `target.ra_deg` and `target.dec_deg`."""
-    if v["target.star"] is not None:
+    """`target.star`, both `target.ra_deg` and `target.dec_deg`, or `target.sequence`."""
+    if v["target.star"] is not None or v.get("target.sequence") is not None:
         return
     for k in TARGET_RADEC_FORM:
         if v[f"target.{k}"] is None:
-            raise ConfigError(f"target.{k}", rule="missing: give target.star, or both "
-                              "target.ra_deg and target.dec_deg")
+            raise ConfigError(f"target.{k}", rule="missing: give target.star, both "
+                              "target.ra_deg and target.dec_deg, or target.sequence")
 
 
 def _reference_star_in_window(v):
@@ -224,6 +255,7 @@ def _reference_star_in_window(v):
 
 #: Cross-key rules, in the order they are checked.
 CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
-               _dither_sampling, _dither_record, _fft_whole_periods, _converters_follow_the_turns,
+               _dither_sampling, _dither_record, _fft_whole_periods, _one_limit_per_wheel,
+               _unload_hysteresis, _converters_follow_the_turns,
                _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
                _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window)

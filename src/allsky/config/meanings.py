@@ -16,7 +16,7 @@ UNIT_SUFFIXES = (
     ("_v_per_arcsec_s", "V/(arcsec/s)"), ("_v_per_arcsec", "V/arcsec"),
     ("_deg_h_rt_h", "deg/h/sqrt(h)"), ("_deg_rt_h", "deg/sqrt(h)"), ("_deg_h", "deg/h"),
     ("_deg_s", "deg/s"), ("_arcsec", "arcsec"), ("_urad", "urad"), ("_ppm", "ppm"),
-    ("_kg_m2", "kg m^2"), ("_kg", "kg"), ("_deg", "deg"), ("_per_s", "1/s"), ("_pps", "pulse/s"),
+    ("_n_m_s", "N m s"), ("_n_m", "N m"), ("_kg_m2", "kg m^2"), ("_kg", "kg"), ("_deg", "deg"), ("_per_s", "1/s"), ("_pps", "pulse/s"),
     ("_frames", "frames"), ("_bits", "bit"), ("_utc", "UTC"), ("_s", "s"), ("_n", "N"),
     ("_m", "m"), ("_v", "V"),
 )
@@ -26,6 +26,10 @@ SPECIAL_UNITS = {"star_tracker.magnitude_window": "mag", "target.ra_deg": "deg",
 UNSET_KEY_MEANINGS = {
     "target.ra_deg": "target right ascension (J2000), with dec_deg, in place of star",
     "target.dec_deg": "target declination (J2000), with ra_deg, in place of star",
+    "target.sequence": ("targets flown one after the other (catalog star names or "
+                        "{ ra_deg, dec_deg } tables), in place of star or ra_deg + dec_deg; "
+                        "sequencer.between_targets says how the vehicle goes from one to "
+                        "the next"),
 }
 KEY_LINE = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=")
 

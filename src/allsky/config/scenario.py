@@ -13,11 +13,12 @@ order, by the same merge. KEY is a dotted path (``gyro.drift_deg_h``,
 (``[800,-300,1500]``, ``2027-03-01T00:00:00Z``, ``"Vega"``, ``{ "1" = 600 }``);
 a VALUE that is not TOML is taken as a plain string (``target.star=Vega``).
 
-The target is given in exactly one of two forms: ``target.star`` (a name in
-PyEphem's catalog, any case) or ``target.ra_deg`` + ``target.dec_deg`` (J2000,
-degrees). A table that sets both forms is an error; setting either form (in a
-file or by an override) removes the other form inherited from the default,
-the file or an earlier override. In the result the unused form is ``None``.
+The target is given in exactly one of three forms: ``target.star`` (a name in
+PyEphem's catalog, any case), ``target.ra_deg`` + ``target.dec_deg`` (J2000,
+degrees) or ``target.sequence`` (a list of either, flown one after the other).
+A table that sets two forms is an error; setting a form (in a file or by an
+override) removes the others inherited from the default, the file or an
+earlier override. In the result the unused forms are ``None``.
 
 ``mission.date_utc`` may be a TOML date-time (with an offset, or local, which
 is read as UTC), a TOML date (midnight UTC) or an ISO-8601 string; it becomes
@@ -46,12 +47,14 @@ from datetime import datetime
 from types import MappingProxyType
 
 from allsky.config import dispersion_table
+from allsky.config import faults as fault_table
 from allsky.config.cross_rules import CROSS_RULES
 from allsky.config.meanings import describe
 from allsky.config.rules import ConfigError, type_name
 from allsky.config.schema import (
     RULES,
     TARGET_RADEC_FORM,
+    TARGET_SEQUENCE_FORM,
     TARGET_STAR_FORM,
     default_tables,
     key_tree,
@@ -72,6 +75,9 @@ def _merge(base: dict, incoming: dict, schema: dict, path=()) -> None:
         if not path and k == "dispersions":  # entries by key
             base[k] = dispersion_table.merge(base.get(k) or {}, v)
             continue
+        if not path and k == "faults":  # an array of tables: replaced whole
+            base[k] = v
+            continue
         if k not in schema:
             raise unknown_key(here, schema)
         if isinstance(schema[k], dict):
@@ -85,13 +91,16 @@ def _merge(base: dict, incoming: dict, schema: dict, path=()) -> None:
 
 
 def _replace_target_form(base: dict, incoming: dict) -> None:
-    star = [k for k in TARGET_STAR_FORM if k in incoming]
-    radec = [k for k in TARGET_RADEC_FORM if k in incoming]
-    if star and radec:
+    forms = (TARGET_STAR_FORM, TARGET_RADEC_FORM, TARGET_SEQUENCE_FORM)
+    given = [form for form in forms if any(k in incoming for k in form)]
+    if len(given) > 1:
+        keys = ", ".join(f"target.{k}" for form in given for k in form if k in incoming)
         raise ConfigError("target", incoming, "set either target.star or target.ra_deg + "
-                          "target.dec_deg, not both")
-    for k in TARGET_RADEC_FORM if star else TARGET_STAR_FORM if radec else ():
-        base.pop(k, None)
+                          f"target.dec_deg or target.sequence, not both (sets {keys})")
+    for form in forms if given else ():
+        if form is not given[0]:
+            for k in form:
+                base.pop(k, None)
 
 
 def parse_override(item: str) -> dict:
@@ -173,7 +182,7 @@ class Section:
 
 
 class Scenario:
-    """A validated, frozen scenario, read as ``cfg.section.key``.
+    """A validated, frozen scenario: ``cfg.section.key``, and ``cfg.faults``.
 
     Build it with :func:`load_scenario`.
 
@@ -186,7 +195,8 @@ class Scenario:
 
     def __init__(self, sections: Mapping[str, Mapping]):
         object.__setattr__(self, "_sections",
-                           {name: Section(name, values) for name, values in sections.items()})
+                           {name: Section(name, values) if isinstance(values, Mapping)
+                            else _freeze(values) for name, values in sections.items()})
 
     def __getattr__(self, name):
         if name.startswith("_"):
@@ -211,16 +221,24 @@ class Scenario:
         return self._sections == other._sections
 
     def __reduce__(self):
-        return Scenario, ({n: _thaw(s._values) for n, s in self._sections.items()},)
+        return Scenario, ({n: _thaw(getattr(s, "_values", s))
+                           for n, s in self._sections.items()},)
 
     def __repr__(self):
         t = self.target
-        what = t.star or f"RA {t.ra_deg:g} deg, Dec {t.dec_deg:g} deg"
+        if t.sequence is not None:
+            what = f"{len(t.sequence)} targets"
+        else:
+            what = t.star or f"RA {t.ra_deg:g} deg, Dec {t.dec_deg:g} deg"
         return f"<Scenario {iso_utc(self.mission.date_utc)} seed {self.mission.seed}: {what}>"
 
     def _export(self, date_as_text: bool) -> dict:
         out = {}
         for name, sec in self._sections.items():
+            if not isinstance(sec, Section):  # the faults: written only when there are some
+                if sec:
+                    out[name] = _thaw(sec)
+                continue
             table = out[name] = {}
             for k, v in sec._values.items():
                 if v is None:  # the target form not in use
@@ -275,11 +293,18 @@ def _validate(data: dict) -> dict:
     for key, v in flat.items():
         sec, name = key.split(".")
         sections.setdefault(sec, {})[name] = v
-    sections["dispersions"] = dispersion_table.validate(data.get("dispersions") or {}, flat)
+    faults = fault_table.validate(data.get("faults", []), flat)
+    table = data.get("dispersions") or {}
+    sections["dispersions"] = {
+        **dispersion_table.validate({k: e for k, e in table.items()
+                                     if not fault_table.is_fault_key(k)}, flat),
+        **{k: fault_table.validate_dispersion(k, e, faults) for k, e in table.items()
+           if fault_table.is_fault_key(k)}}
+    sections["faults"] = faults
     # A key just added to the default but not yet to RULES is kept as read (frozen), so
     # the simulator can use it; test_config checks that RULES covers the whole schema.
     for sec, table in data.items():
-        for name, v in table.items():
+        for name, v in (table.items() if isinstance(table, Mapping) else ()):
             sections.setdefault(sec, {}).setdefault(name, v)
     return sections
 
@@ -317,7 +342,8 @@ def load_scenario(path=None, overrides=(), disperse=None) -> Scenario:
     Parameters
     ----------
     path : str or path-like, optional
-        Scenario TOML file; None for the packaged default alone.
+        Scenario TOML file, or the name of a packaged one
+        (:func:`allsky.config.faults.packaged_scenarios`); None for the default alone.
     overrides : iterable of str
         ``KEY=VALUE`` strings (dotted KEY, VALUE in TOML syntax), applied in order.
     disperse : str or path-like, optional
@@ -335,6 +361,7 @@ def load_scenario(path=None, overrides=(), disperse=None) -> Scenario:
         For an unreadable or missing file, a TOML syntax error (with its line),
         an unknown key or any value that breaks its rule.
     """
+    path = fault_table.packaged_or_path(path)
     data = {} if path is None else read_toml(path)
     if disperse is not None:
         extra = read_toml(disperse, what="--disperse file")

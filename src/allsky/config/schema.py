@@ -2,10 +2,11 @@
 
 The packaged default (``scenarios/default.toml``, :data:`DEFAULT_SCENARIO_PATH`)
 names every key, with the unit in the key's name, and nothing else; only the
-two forms of ``[target]`` (:data:`TARGET_STAR_FORM`, :data:`TARGET_RADEC_FORM`)
-may hold keys the default leaves unset. :data:`RULES` gives each key its
-checker (:mod:`allsky.config.rules`); :data:`CROSS_RULES` tie keys together
-and run after every key passed its own rule.
+three forms of ``[target]`` (:data:`TARGET_STAR_FORM`, :data:`TARGET_RADEC_FORM`,
+:data:`TARGET_SEQUENCE_FORM`) may hold keys the default leaves unset.
+:data:`RULES` gives each key its checker (:mod:`allsky.config.rules`);
+:data:`CROSS_RULES` tie keys together and run after every key passed its own
+rule.
 """
 
 import difflib
@@ -13,6 +14,8 @@ import functools
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
+
+import numpy as np
 
 from allsky.config.checkers import (
     attitude,
@@ -38,6 +41,8 @@ from allsky.config.rules import (
     magnitude_at_most,
     number,
     one_of,
+    real_array,
+    type_name,
     vector,
 )
 from allsky.config.toml_io import copy_tables, parse_toml
@@ -45,9 +50,13 @@ from allsky.units import DEG2ARCSEC
 
 #: The packaged default scenario; it also defines the schema.
 DEFAULT_SCENARIO_PATH = Path(str(resources.files("allsky") / "scenarios" / "default.toml"))
-#: The two forms of ``[target]``; keys the default need not contain.
+#: The forms of ``[target]``; keys the default need not contain.
 TARGET_STAR_FORM = ("star",)
 TARGET_RADEC_FORM = ("ra_deg", "dec_deg")
+#: A list of targets flown one after the other, in place of the two single forms.
+TARGET_SEQUENCE_FORM = ("sequence",)
+#: Most targets a sequence may list (each takes minutes; a mission lasts at most a day).
+TARGET_SEQUENCE_MAX = 100
 
 #: [s] Shortest frame: 1/100 of the default 10 ms valve pulse; nothing modelled is faster.
 FRAME_MIN_S = 1e-4
@@ -91,7 +100,8 @@ def key_tree() -> dict:
     Read only (the result is cached and shared).
     """
     tree = default_tables()
-    tree["target"] = {**tree["target"], **dict.fromkeys(TARGET_STAR_FORM + TARGET_RADEC_FORM)}
+    tree["target"] = {**tree["target"], **dict.fromkeys(
+        TARGET_STAR_FORM + TARGET_RADEC_FORM + TARGET_SEQUENCE_FORM)}
     return tree
 
 
@@ -132,8 +142,88 @@ def unknown_key(path: tuple, here: dict) -> ConfigError:
 
 #: [deg/h] Largest integrator drift accepted (1 deg/h = 1 arcsec/s at the converter input).
 INTEGRATOR_DRIFT_MAX_DEG_H = 100.0
+#: Most reaction wheels an array may have (the envelope has a facet per pair of them).
+WHEELS_MAX = 12
+#: A spin axis is normalised when its length is within this of 1, refused otherwise.
+WHEEL_AXIS_LENGTH_TOL = 0.01
+#: Smallest singular value of the spin axes, relative to the largest, to span 3-D.
+WHEEL_SPAN_TOL = 1e-6
+
+
+def wheel_axes(key, v):
+    """Spin axes of 3 to WHEELS_MAX wheels: unit vectors (normalised) that span 3-D."""
+    rows = v if isinstance(v, list) else None
+    if rows is None or not 3 <= len(rows) <= WHEELS_MAX:
+        got = f"{len(v)} rows" if isinstance(v, list) else type_name(v)
+        raise ConfigError(key, v, f"must be an array of 3 to {WHEELS_MAX} spin axes "
+                          f"[x, y, z] (one per wheel), not {got}")
+    g = np.array(real_array(key, v, (len(rows), 3)))
+    length = np.linalg.norm(g, axis=1)
+    for i, n in enumerate(length):
+        if abs(n - 1.0) > WHEEL_AXIS_LENGTH_TOL:
+            raise ConfigError(key, v, f"row {i} has length {n:.6g}: spin axes are unit "
+                              f"vectors (lengths within {WHEEL_AXIS_LENGTH_TOL:g} of 1 are "
+                              "normalised)")
+    s = np.linalg.svd(g, compute_uv=False)
+    if s[-1] <= WHEEL_SPAN_TOL * s[0]:
+        raise ConfigError(key, v, "the spin axes lie in one plane (or on one line): they "
+                          "must span 3-D to give torque about every axis")
+    # Rows already of unit length are kept bit for bit (a saved scenario loads unchanged).
+    return tuple(tuple(float(x) for x in (r if abs(float(r @ r) - 1.0) <= 4e-16 else r / n))
+                 for r, n in zip(g, length, strict=True))
+
+
+wheel_axes.allowed = (f"an array of 3 to {WHEELS_MAX} spin axes [x, y, z] spanning 3-D, "
+                      f"each of length 1 (to {WHEEL_AXIS_LENGTH_TOL:g}; normalised)")
+
+
+def per_wheel(*conds):
+    """One number for all wheels or an array of one per wheel, each obeying ``conds``."""
+    one = number(*conds)
+
+    def check(key, v):
+        if isinstance(v, list):
+            return vector(len(v), *conds)(key, v) if v else one(key, v)
+        return one(key, v)
+    check.allowed = one.allowed + "; or an array of one such number per wheel"
+    return check
+
 
 _MOST_FRAMES = "the most frames a mission may take"
+_RA_DEG = number(in_closed_open(0, 360))
+_DEC_DEG = number(in_closed(-90, 90))
+
+
+def target_sequence(key, v):
+    """Targets in flight order: each a catalog star name or ``{ ra_deg, dec_deg }``.
+
+    Returned as a tuple of star names (catalog spelling) and
+    ``{"ra_deg": ..., "dec_deg": ...}`` tables; an entry that is neither is
+    refused naming it (``target.sequence[2]``, counted from 0).
+    """
+    if not isinstance(v, list) or not v:
+        raise ConfigError(key, v, "must be a non-empty array of targets (star names or "
+                          "{ ra_deg = ..., dec_deg = ... } tables)")
+    if len(v) > TARGET_SEQUENCE_MAX:
+        raise ConfigError(key, f"{len(v)} targets", f"at most {TARGET_SEQUENCE_MAX} targets")
+    out = []
+    for i, entry in enumerate(v):
+        where = f"{key}[{i}]"
+        if isinstance(entry, str):
+            out.append(star_name(where, entry))
+        elif isinstance(entry, dict):
+            if set(entry) != set(TARGET_RADEC_FORM):
+                raise ConfigError(where, entry, "must be a table of exactly ra_deg and dec_deg")
+            out.append({"ra_deg": _RA_DEG(f"{where}.ra_deg", entry["ra_deg"]),
+                        "dec_deg": _DEC_DEG(f"{where}.dec_deg", entry["dec_deg"])})
+        else:
+            raise ConfigError(where, entry, "must be a star name or a table "
+                              "{ ra_deg = ..., dec_deg = ... }")
+    return tuple(out)
+
+
+target_sequence.allowed = (f"an array of 1 to {TARGET_SEQUENCE_MAX} targets, each a star name "
+                           "of the PyEphem catalog or { ra_deg = [0, 360), dec_deg = [-90, 90] }")
 _A_DAY = "a mission lasts at most a day"
 
 #: One checker per key, in the order of the default file.
@@ -177,6 +267,13 @@ RULES: dict[str, Callable] = {
     "control.output_limit_v": number(POSITIVE),
     "control.integral_time_s": number(POSITIVE),
     "control.integral_limit_arcsec": number(POSITIVE),
+    "actuators.kind": one_of("jets", "wheels"),
+    "wheels.axes": wheel_axes,
+    "wheels.max_torque_n_m": per_wheel(POSITIVE),
+    "wheels.max_momentum_n_m_s": per_wheel(POSITIVE),
+    "wheels.inertia_kg_m2": per_wheel(POSITIVE),
+    "wheels.unload_fraction": number(in_open(0, 1)),
+    "wheels.unload_end_fraction": number(in_open(0, 1)),
     "electronics.vfc_pulse_weight_arcsec": number(in_open_closed(
         0, DEG2ARCSEC, "1 deg: a 360 deg calibration turn counts 360 pulses or more")),
     "electronics.vfc_max_rate_pps": number(POSITIVE),
@@ -200,9 +297,12 @@ RULES: dict[str, Callable] = {
     "sequencer.mode1_slew_rate_deg_s": number(POSITIVE),
     "sequencer.mode1_slew_gain_per_s": number(POSITIVE),
     "sequencer.timeout_s": mode_timeouts(in_open_closed(0, MISSION_MAX_S, _A_DAY)),
+    "sequencer.between_targets": one_of("reacquire", "recycle"),
+    "sequencer.recovery": boolean,
     "target.star": star_name,
-    "target.ra_deg": number(in_closed_open(0, 360)),
-    "target.dec_deg": number(in_closed(-90, 90)),
+    "target.ra_deg": _RA_DEG,
+    "target.dec_deg": _DEC_DEG,
+    "target.sequence": target_sequence,
     "target.hold_s": number(in_closed(0, MISSION_MAX_S, _A_DAY)),
     "calibration.apply": boolean,
     "dither.amplitude_urad": vector(3, NON_NEGATIVE),

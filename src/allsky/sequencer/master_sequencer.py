@@ -7,14 +7,19 @@ bank, hands each leg to the frame loop through the mission (``m.leg``,
 calls the named actions of :data:`ACTIONS` for what is neither a switch
 nor a leg. A leg that does not finish within what is left of the mode's
 timeout ends the mission as aborted, with the reason (:class:`ModeAbort`).
+With ``sequencer.recovery = true`` (beyond the patent) a failed leg that
+names a recovery of :data:`allsky.sequencer.modes.RETRIES` for its failure
+is retried once instead (:func:`run_mode`).
 
 The mission object ``m`` the actions work on offers ``state``
 (:class:`allsky.sim.state.State`), ``cfg`` (the scenario), ``params``,
 ``switch(close, open_)``, ``leg(...)``, ``pulse_weight_arcsec``,
 ``apply_calibration``, the programmed angles, ``program_target()``
-(the ground computation of register 24) and ``pointing_error_arcsec()``,
-and keeps ``counted_arcsec``, ``dither_estimates``, ``dither_record`` and
-``hold`` (the measurements of the hold on target).
+(the ground computation of register 24), ``pointing_error_arcsec()``,
+``next_target()`` (turn to the next target of the sequence) and
+``extend_mode(seconds)`` (move the mode's deadline on, for a recovery), and keeps
+``counted_arcsec``, ``dither_estimates``, ``dither_record`` and ``hold``
+(the measurements of the hold on target).
 
 Calibration sequencer 19 (the counter reading and register 23 update at the
 end of Modes 4 and 5) is part of computer 111:
@@ -39,11 +44,26 @@ RATE_SIGN = {"roll": 0, "yaw": 1}
 
 
 class ModeAbort(Exception):
-    """A mode could not finish; the message is the abort reason."""
+    """A mode could not finish; the message is the abort reason.
+
+    ``failure`` says how the leg failed: "timeout", "Sun lost", "star lost"
+    or "propellant exhausted" ("" when not from a leg).
+    """
+
+    def __init__(self, reason, failure=""):
+        super().__init__(reason)
+        self.failure = failure
 
 
 def run_mode(m, name) -> str:
     """Fly mode ``name`` of the mode table on mission ``m``; return its exit text.
+
+    With ``sequencer.recovery``, a wait that fails and names a recovery for
+    its failure (:class:`~allsky.sequencer.modes.Retry`) is not the end:
+    the recovery's steps are flown, the mode's deadline moved on, and the
+    mode goes on from the recovery's step. Each recovery of a wait is flown
+    at most once per flight of the mode, so the mode still ends in bounded
+    time; the abort reason then says which recoveries were tried.
 
     Raises
     ------
@@ -52,16 +72,61 @@ def run_mode(m, name) -> str:
     """
     mode = modes.BY_NAME[name]
     records = {}
-    for step in mode.steps:
-        if isinstance(step, modes.Operate):
-            m.switch(close=step.close, open_=step.open_)
-        elif isinstance(step, modes.Wait):
-            out = fly_leg(m, name, step)
-            if step.record:
-                records[step.record] = out
-        else:
-            ACTIONS[step.action](m, records, *step.args)
-    return mode.exit.format(cfg=m.cfg)
+    recovery = bool(m.cfg.sequencer.recovery)
+    tried = []  # (step index, recovery name) flown in this flight of the mode
+    i = 0
+    while i < len(mode.steps):
+        step = mode.steps[i]
+        try:
+            _fly_step(m, name, step, records)
+        except ModeAbort as e:
+            key = _recovery_for(step, e.failure, i, tried) if recovery else None
+            if key is None:
+                raise _with_recoveries(e, tried) from None
+            tried.append((i, key))
+            rule = modes.RETRIES[key]
+            m.extend_mode(modes.DURATIONS[rule.extend].seconds(m.cfg, name))
+            try:
+                for s in rule.steps:
+                    _fly_step(m, name, s, records)
+            except ModeAbort as e2:
+                raise _with_recoveries(e2, tried) from None
+            if rule.resume is not None:
+                i = rule.resume
+            continue
+        i += 1
+    text = mode.exit.format(cfg=m.cfg)
+    if tried:
+        text += "; recovered: " + ", then ".join(modes.RETRIES[key].text for _, key in tried)
+    return text
+
+
+def _fly_step(m, name, step, records):
+    """One step: operate the bank, fly a leg (keeping its record), or call an action."""
+    if isinstance(step, modes.Operate):
+        m.switch(close=step.close, open_=step.open_)
+    elif isinstance(step, modes.Wait):
+        out = fly_leg(m, name, step)
+        if step.record:
+            records[step.record] = out
+    else:
+        ACTIONS[step.action](m, records, *step.args)
+
+
+def _recovery_for(step, failure, index, tried):
+    """The first recovery of ``step`` for ``failure`` not yet flown; None if none."""
+    for key in getattr(step, "retry", ()):
+        if failure in modes.RETRIES[key].on and (index, key) not in tried:
+            return key
+    return None
+
+
+def _with_recoveries(e, tried) -> ModeAbort:
+    """``e``, its reason saying which recoveries were flown before it (if any)."""
+    if not tried:
+        return e
+    done = ", then ".join(modes.RETRIES[key].text for _, key in tried)
+    return ModeAbort(f"{e}; recovery tried: {done}", e.failure)
 
 
 def fly_leg(m, name, step):
@@ -109,12 +174,27 @@ def yaw_rate_positive(m, records):
 def calibration_sequencer(m, records, axis):
     """Start calibration sequencer 19 for ``axis``: counters -> register 23.
 
-    ``axis`` is "roll" or "yaw".
+    ``axis`` is "roll" or "yaw". The turn is one full turn; with
+    ``sequencer.recovery`` it is the whole number of turns nearest the
+    angle the turned axis's counter holds (:func:`turns_counted`), so that a
+    turn flown on past a missed star or Sun is calibrated as two.
     """
     s = m.state
+    turns = turns_counted(m, axis) if m.cfg.sequencer.recovery else 1
     counts = cal19.calibrate(axis, s.switches, s.counters, m.pulse_weight_arcsec,
-                             s.rate_sign[RATE_SIGN[axis]], s.word23)
+                             s.rate_sign[RATE_SIGN[axis]] * turns, s.word23)
     m.counted_arcsec[axis] = counts.tolist()
+
+
+def turns_counted(m, axis) -> int:
+    """Whole turns about ``axis`` ("roll", "yaw") counter 14 or 18 holds, at least 1.
+
+    A scale-factor error is parts per thousand at most, far from the half
+    turn that would make the nearest whole number of turns a wrong one.
+    """
+    k = 0 if axis == "roll" else 2
+    angle_arcsec = abs(float(m.state.counters[k])) * m.pulse_weight_arcsec
+    return max(1, round(angle_arcsec / cal19.FULL_TURN_ARCSEC))
 
 
 def withhold_calibration(m, records):
@@ -211,10 +291,20 @@ def measure_hold(m, records):
                                        zip(("roll", "pitch", "yaw"), per_min)}}
 
 
+def next_target(m, records):
+    """Take the next target of ``target.sequence``; Mode 6-1 loads its angles.
+
+    The mission closes the record of the target just flown and clears the
+    programmed angles and the hold's measurements for the next
+    (``m.next_target()``); the calibration is left as it is.
+    """
+    m.next_target()
+
+
 #: Action name (as the mode table writes it) -> function.
 ACTIONS = {f.__name__: f for f in (
     clear_drift_counters, clear_counters, roll_rate_positive, yaw_rate_positive,
     calibration_sequencer, withhold_calibration, load_register_24, start_roll_computation,
     roll_rate_toward_target, preset_counters, start_yaw_computation, yaw_rate_toward_target,
-    record_hold_start, measure_hold, dither_analysis)}
+    record_hold_start, measure_hold, next_target, dither_analysis)}
 assert set(ACTIONS) == set(modes.ACTIONS), set(ACTIONS) ^ set(modes.ACTIONS)

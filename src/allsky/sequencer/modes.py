@@ -2,8 +2,8 @@
 
 Each :class:`Mode` is a name, the code the telemetry writes for it, a
 title and an ordered tuple of steps (SPEC section 4, patent US 4,012,018
-Modes 1 to 6-2, the hold on target that may follow 6-2, and the dither
-comparison mode of seed 000):
+Modes 1 to 6-2, what may follow 6-2: the hold on target and the move to a
+next target, and the dither comparison mode of seed 000):
 
 * :class:`Operate`: close and open switches of the bank, by number
   (coupled pairs S16+S18, S17+S19 named together);
@@ -59,6 +59,9 @@ class Wait(NamedTuple):
     record: str = ""  #: key of :data:`RECORDS`: keep the leg's samples under this name
     #: True: the settle time goes on from the previous wait's (which timed ``signals``)
     carry_settle: bool = False
+    #: keys of :data:`RETRIES`: what the sequencer may do once, with ``sequencer.recovery``,
+    #: when the leg fails (the first rule for the failure applies)
+    retry: tuple = ()
 
 
 class Do(NamedTuple):
@@ -66,6 +69,22 @@ class Do(NamedTuple):
 
     action: str
     args: tuple = ()
+
+
+class Retry(NamedTuple):
+    """A recovery: what master sequencer 20 does once when a leg fails, then goes on.
+
+    Flown only with ``sequencer.recovery = true`` (beyond the patent): the
+    ``steps`` in order, then the mode from step ``resume`` (None: the failed
+    wait again; 0: the mode from its start), its deadline moved on by
+    ``extend``.
+    """
+
+    text: str  #: what is done, in words (step display, abort reasons, documentation)
+    on: tuple  #: failures it answers: "timeout", "Sun lost", "star lost" (:data:`FAILURES`)
+    steps: tuple  #: :class:`Operate`, :class:`Wait` and :class:`Do` flown first
+    extend: str  #: key of :data:`DURATIONS`: the mode's deadline moves on by this
+    resume: int | None = None  #: step of the mode to go on from; None = the failed wait
 
 
 class Mode(NamedTuple):
@@ -154,6 +173,19 @@ def _hold_timeout_s(cfg, mode) -> float:
     return cfg.target.hold_s + HOLD_TIMEOUT_ALLOWANCE_S
 
 
+def _no_time_s(cfg, mode) -> float:
+    return 0.0
+
+
+def _revolution_s(cfg, mode) -> float:
+    return 360.0 / cfg.electronics.rate_command_deg_s
+
+
+def _sun_and_star_again_s(cfg, mode) -> float:
+    t = cfg.sequencer.timeout_s
+    return t["1"] + t["2"] + t[mode]
+
+
 #: Durations the table names.
 DURATIONS = {
     "settle": Duration("`sequencer.settle_time_s`",
@@ -170,6 +202,13 @@ DURATIONS = {
     "hold": Duration("`target.hold_s`", _hold_s),
     "hold timeout": Duration(f"`target.hold_s` + {HOLD_TIMEOUT_ALLOWANCE_S:g} s",
                              _hold_timeout_s),
+    "no time": Duration("none: the mode flies no leg", _no_time_s),
+    "revolution": Duration("one revolution at the commanded rate: 360 deg / "
+                           "`electronics.rate_command_deg_s`", _revolution_s),
+    "Sun acquisition": Duration("`sequencer.timeout_s` of Mode 1",
+                                lambda cfg, mode: cfg.sequencer.timeout_s["1"]),
+    "restart": Duration("`sequencer.timeout_s` of Modes 1, 2 and the mode",
+                        _sun_and_star_again_s),
 }
 
 
@@ -208,6 +247,8 @@ ACTIONS = {
                           "hold (for the drift measured at its end)"),
     "measure_hold": ("measure the hold: pointing error at its end and the attitude's drift "
                      "per body axis since its start"),
+    "next_target": ("take the next target of `target.sequence`: its programmed angles are "
+                    "computed when Mode 6-1 loads register 24"),
     "dither_analysis": ("analyse the dither record at each dither frequency; scale factors "
                         "(with `dither.store_cross_coupling`, cross-coupling too) into "
                         "register 23"),
@@ -219,12 +260,81 @@ def action_text(step: Do) -> str:
     return ACTIONS[step.action].format(*step.args)
 
 
+#: Failures of a leg a recovery can answer (the exits of the frame loop's watch).
+FAILURES = ("timeout", "Sun lost", "star lost")
+
+# Recoveries (beyond the patent): steps a 1970s sequencer could fly again from wherever the
+# vehicle is. The drift calibration (S1-S3, drift DACs 7/9/11) is kept through them.
+#: Mode 1's leg again: every loop switch but S1-S3 open, the Sun acquired, S14/S15 closed.
+SUN_AGAIN = (
+    Operate(open_=(4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
+    Wait("Sun acquired again and settled", "sun acquisition", "settle", ("sun pitch", "sun yaw")),
+    Operate(close=(14, 15)),
+)
+#: Mode 2's search again: roll at the commanded rate until a star is in the window, lock.
+STAR_SEARCH = (
+    Do("roll_rate_positive"),
+    Operate(open_=(12,), close=(16, 18)),
+    Wait("star in the magnitude window again", "none", "handover", ("tracker yaw",)),
+    Operate(open_=(16, 18), close=(12,)),
+)
+#: Mode 2's lock again, after :data:`STAR_SEARCH`.
+STAR_LOCK = Wait("locked on Sun and star again", "none", "settle", OPTICAL)
+#: Recovery name -> :class:`Retry`.
+RETRIES = {
+    "Sun acquisition again": Retry(
+        "go on acquiring the Sun for one more Mode 1 timeout", ("timeout",), (), "Sun acquisition"),
+    "search on": Retry("turn on for one more revolution", ("timeout",), (), "revolution"),
+    "star search again": Retry(
+        "roll for the star again, one more revolution allowed", ("star lost",),
+        STAR_SEARCH, "revolution"),
+    "Sun again, mode again": Retry(
+        "acquire the Sun again with Mode 1's leg, then fly the mode from its start",
+        ("Sun lost",), SUN_AGAIN, "restart", resume=0),
+    "Sun and star again, mode again": Retry(
+        "acquire the Sun with Mode 1's leg and the star with Mode 2's search again, then fly "
+        "the mode from its start", ("Sun lost",),
+        (*SUN_AGAIN, *STAR_SEARCH, STAR_LOCK), "restart", resume=0),
+    "Sun and star again, Mode 5 again": Retry(
+        "acquire the Sun with Mode 1's leg and the star with Mode 2's search again, then fly "
+        "the yaw calibration from its start", ("Sun lost", "star lost"),
+        (*SUN_AGAIN, *STAR_SEARCH, STAR_LOCK), "restart", resume=0),
+    "star again, count again": Retry(
+        "roll for the star again with S1-S6 open, lock, and count the drift from the start",
+        ("star lost",), (Operate(open_=(1, 2, 3, 4, 5, 6)), *STAR_SEARCH, STAR_LOCK),
+        "restart", resume=0),
+    "Sun and star again, count again": Retry(
+        "acquire the Sun and the star again with S1-S6 open, then count the drift anew",
+        ("Sun lost",), (Operate(open_=(1, 2, 3)), *SUN_AGAIN, *STAR_SEARCH, STAR_LOCK),
+        "restart", resume=0),
+    "roll again": Retry(
+        "roll on for one more revolution to the star, calibration sequencer 19 counting two "
+        "turns", ("star lost",),
+        (Operate(open_=(12,), close=(16, 18)),
+         Wait("star re-acquired after one more roll", "none", "handover", ("tracker yaw",),
+              blank="blanking"),
+         Operate(open_=(16, 18), close=(12,))), "revolution"),
+    "yaw again": Retry(
+        "yaw on for one more revolution to the Sun, calibration sequencer 19 counting two "
+        "turns", ("Sun lost",),
+        (Operate(open_=(15,), close=(17, 19)),
+         Wait("Sun re-acquired in yaw after one more yaw", "none", "handover", ("sun yaw",),
+              blank="blanking"),
+         Operate(open_=(17, 19), close=(15,))), "revolution"),
+}
+
+
+def retry_text(step: Wait) -> str:
+    """The recoveries of a wait, in words ("" for none)."""
+    return "; ".join(f"on {' or '.join(RETRIES[r].on)}: {RETRIES[r].text}" for r in step.retry)
+
+
 #: The mode table: the patent's six modes (SPEC section 4) and the hold after them, then
 #: the comparison mode.
 MODE_TABLE = (
     Mode("1", 1.0, "Sun orientation", (
         Wait("sun acquired and settled", "sun acquisition", "settle",
-             ("sun pitch", "sun yaw")),
+             ("sun pitch", "sun yaw"), retry=("Sun acquisition again",)),
         Operate(close=(14, 15)),
     ), "sun pitch and yaw settled; S14, S15 closed"),
     Mode("2", 2.0, "Canopus acquisition", (
@@ -232,19 +342,22 @@ MODE_TABLE = (
         Operate(close=(16, 18)),
         Wait("star in the magnitude window", "none", "handover", ("tracker yaw",),
              on_timeout="no star in the tracker's magnitude window during the acquisition "
-                        "roll"),
+                        "roll", retry=("search on", "Sun again, mode again")),
         Operate(open_=(16, 18), close=(12,)),
-        Wait("locked on Sun and star", "none", "settle", OPTICAL),
+        Wait("locked on Sun and star", "none", "settle", OPTICAL,
+             retry=("star search again", "Sun again, mode again")),
     ), "tracker yaw and sun pitch/yaw settled"),
     Mode("3", 3.0, "drift calibration", (
         Do("clear_drift_counters"),
         Operate(close=(4, 5, 6)),
         # Patent: Mode 4 starts when, S1-S3 closed, the optical errors "have remained
         # less than 50 arc-seconds for at least 10 seconds": timed through the count.
-        Wait("drift count", "none", "elapsed", OPTICAL, hold="drift count"),
+        Wait("drift count", "none", "elapsed", OPTICAL, hold="drift count",
+             retry=("star again, count again", "Sun and star again, count again")),
         Operate(open_=(4, 5, 6), close=(1, 2, 3)),
         Wait("optical errors have remained settled", "none", "settle", OPTICAL,
-             carry_settle=True),
+             carry_settle=True,
+             retry=("star again, count again", "Sun and star again, count again")),
     ), "drift counted over {cfg.sequencer.drift_count_s:g} s; S1-S3 closed"),
     Mode("4", 4.0, "roll calibration, 360 deg roll", (
         Do("clear_counters"),
@@ -252,24 +365,30 @@ MODE_TABLE = (
         Operate(open_=(12,), close=(16, 18)),
         Wait("star re-acquired after a full roll", "none", "handover", ("tracker yaw",),
              blank="blanking",
-             on_timeout="star not re-acquired after the calibration roll"),
+             on_timeout="star not re-acquired after the calibration roll",
+             retry=("search on", "Sun and star again, mode again")),
         Operate(open_=(16, 18), close=(12,)),
-        Wait("settled on Sun and star", "none", "settle", OPTICAL),
+        Wait("settled on Sun and star", "none", "settle", OPTICAL,
+             retry=("roll again", "Sun and star again, mode again")),
         Do("calibration_sequencer", ("roll",)),
     ), "roll scale factor and roll cross-coupling stored in register 23"),
     Mode("5", 5.0, "yaw calibration, 360 deg yaw", (
         Do("clear_counters"),
         Do("yaw_rate_positive"),
         Operate(close=(13,), open_=(14,)),
-        Wait("tracker pitch nulled", "none", "settle", ("tracker pitch",)),
+        Wait("tracker pitch nulled", "none", "settle", ("tracker pitch",),
+             retry=("Sun and star again, Mode 5 again",)),
         Operate(open_=(15,), close=(17, 19)),
         Wait("Sun re-acquired in yaw after a full yaw", "none", "handover", ("sun yaw",),
-             blank="blanking", on_timeout="Sun not re-acquired after the calibration yaw"),
+             blank="blanking", on_timeout="Sun not re-acquired after the calibration yaw",
+             retry=("search on", "Sun and star again, Mode 5 again")),
         Operate(open_=(17, 19), close=(15,)),
         Wait("settled on star (yaw, pitch) and Sun yaw", "none", "settle",
-             ("tracker yaw", "tracker pitch", "sun yaw")),
+             ("tracker yaw", "tracker pitch", "sun yaw"),
+             retry=("yaw again", "Sun and star again, Mode 5 again")),
         Operate(close=(14,), open_=(13,)),
-        Wait("pitched back, settled on Sun and star", "none", "settle", OPTICAL),
+        Wait("pitched back, settled on Sun and star", "none", "settle", OPTICAL,
+             retry=("Sun and star again, Mode 5 again",)),
         Do("calibration_sequencer", ("yaw",)),
     ), "yaw scale factor and yaw cross-coupling stored in register 23"),
     Mode("6-1", 6.1, "target acquisition, roll", (
@@ -280,10 +399,10 @@ MODE_TABLE = (
         Do("roll_rate_toward_target"),
         Operate(open_=(12,), close=(16, 18)),
         Wait("roll error inside the hand-over threshold", "target roll", "handover",
-             ("roll error",)),
+             ("roll error",), retry=("Sun and star again, mode again",)),
         Operate(open_=(16, 18), close=(9,)),
         Wait("roll error and Sun errors settled", "target roll", "settle",
-             ("roll error", "sun pitch", "sun yaw")),
+             ("roll error", "sun pitch", "sun yaw"), retry=("Sun and star again, mode again",)),
         Do("preset_counters"),
     ), "roll settled; pitch and yaw counters preset"),
     Mode("6-2", 6.2, "target acquisition, yaw", (
@@ -302,6 +421,19 @@ MODE_TABLE = (
         Wait("hold on target elapsed", "target", "elapsed", hold="hold"),
         Do("measure_hold"),
     ), "held on target for {cfg.target.hold_s:g} s on the gyros", timeout="hold timeout"),
+    # Or it may move to a new target with new programmed angles. Those angles are measured
+    # from the Sun-star reference attitude, so the vehicle first goes back to it: the Sun
+    # (Mode 1) and the star (Mode 2), calibration kept; or it recycles through every mode.
+    # Neither mode flies a leg: each sets the bank for the modes that follow (BETWEEN_TARGETS).
+    Mode("reacquire", 6.4, "next target: back to the Sun and the star, calibration kept", (
+        Do("next_target"),
+        Operate(open_=(9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
+    ), "next target; S1-S3 stay closed (drift DACs 7/9/11 and register 23 kept)",
+        timeout="no time"),
+    Mode("recycle", 6.5, "next target: every mode again, calibration included", (
+        Do("next_target"),
+        Operate(open_=(1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
+    ), "next target; every switch open, as at ejection", timeout="no time"),
     Mode("dither", 7.0, "dither calibration (comparison method)", (
         Wait("dither record complete", "dither", "elapsed", hold="dither record",
              record="dither record"),
@@ -326,6 +458,12 @@ DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
 PLANS = {"legacy": LEGACY_PLAN, "dither": DITHER_PLAN}
 #: Flown after a plan when the scenario asks for a hold (``target.hold_s`` > 0).
 HOLD_MODE = "hold"
+#: The modes that fly Mode 6 to a target once the vehicle is back on its references.
+TARGET_MODES = ("6-1", "6-2")
+#: Modes flown before Mode 6-1 for each target after the first, by
+#: ``sequencer.between_targets``: "reacquire" goes back to the Sun and the star (Modes 1
+#: and 2); "recycle" flies every mode of the plan before 6-1 again (None: the plan's).
+BETWEEN_TARGETS = {"reacquire": ("reacquire", "1", "2"), "recycle": ("recycle", None)}
 
 
 def with_hold(plan, cfg) -> tuple:
@@ -338,6 +476,43 @@ def with_hold(plan, cfg) -> tuple:
     if cfg.target.hold_s > 0 and plan[-1:] != (HOLD_MODE,):
         return (*plan, HOLD_MODE)
     return plan
+
+
+def next_target_modes(plan, how) -> tuple:
+    """Modes flown for each target after the first: ``how``, then 6-1 and 6-2.
+
+    ``how`` is "reacquire" or "recycle" (:data:`BETWEEN_TARGETS`).
+
+    ``plan`` is the plan flown for the first target (without the hold); with
+    ``how = "recycle"`` its modes before 6-1 are flown again.
+    """
+    plan = tuple(m for m in plan if m != HOLD_MODE)
+    first_6 = plan.index(TARGET_MODES[0])
+    before = []
+    for name in BETWEEN_TARGETS[how]:
+        before += plan[:first_6] if name is None else [name]
+    return (*before, *plan[first_6:])
+
+
+def target_count(cfg) -> int:
+    """How many targets the scenario flies: the length of ``target.sequence``, else 1."""
+    return len(cfg.target.sequence) if cfg.target.sequence is not None else 1
+
+
+def mission_plan(plan, cfg) -> tuple:
+    """Every mode a mission flies: ``plan`` for the first target, then the others.
+
+    The hold follows each target's 6-2 when ``target.hold_s`` > 0
+    (:func:`with_hold`); each target after the first of ``target.sequence``
+    is flown as :func:`next_target_modes` says for ``sequencer.between_targets``.
+    A plan that already holds a move to a next target is returned as given.
+    """
+    first = with_hold(plan, cfg)
+    n = target_count(cfg)
+    if n == 1 or TARGET_MODES[0] not in first or any(m in BETWEEN_TARGETS for m in first):
+        return first
+    further = with_hold(next_target_modes(plan, cfg.sequencer.between_targets), cfg)
+    return first + further * (n - 1)
 
 
 def signal_mask(signals) -> int:
@@ -377,7 +552,8 @@ def check(table=MODE_TABLE) -> None:
     A settle watch needs at least one signal, a hand-over exactly one (an
     elapsed wait may time any); a wait carries a settle time on only after a
     wait that timed the same signals; names, codes and plans must be unique
-    and known.
+    and known; a recovery (:data:`RETRIES`) answers known failures, flies
+    valid steps and goes on from a step of the mode.
     """
     def fail(mode, msg):
         raise ValueError(f"mode table, Mode {mode.name}: {msg}")
@@ -385,41 +561,58 @@ def check(table=MODE_TABLE) -> None:
     if len({m.name for m in table}) != len(table) or len({m.code for m in table}) != len(table):
         raise ValueError("mode table: mode names and codes must be unique")
     for mode in table:
-        previous = None  # the mode's last wait
         if mode.timeout not in DURATIONS:
             fail(mode, f"unknown timeout {mode.timeout!r}")
+        _check_steps(mode, mode.steps, fail)
         for step in mode.steps:
-            if isinstance(step, Operate):
-                if not (step.close or step.open_):
-                    fail(mode, "a switch step operates no switch")
-            elif isinstance(step, Wait):
-                if step.program not in PROGRAMS or step.watch not in WATCHES:
-                    fail(mode, f"{step.what}: unknown program or watch")
-                unknown = [s for s in step.signals if s not in SIGNALS]
-                if unknown:
-                    fail(mode, f"{step.what}: unknown signals {unknown}")
-                n = len(step.signals)
-                if (step.watch == "settle" and n == 0) or (step.watch == "handover" and n != 1):
-                    fail(mode, f"{step.what}: {n} signals for a {step.watch} watch")
-                if step.carry_settle and not (
-                        step.watch == "settle" and previous is not None
-                        and previous.watch != "handover" and previous.signals == step.signals):
-                    fail(mode, f"{step.what}: carries a settle time no wait before timed")
-                previous = step
-                for d in (step.blank, step.hold):
-                    if d and d not in DURATIONS:
-                        fail(mode, f"{step.what}: unknown duration {d!r}")
-                if step.record and step.record not in RECORDS:
-                    fail(mode, f"{step.what}: unknown record {step.record!r}")
-            elif isinstance(step, Do):
-                if step.action not in ACTIONS:
-                    fail(mode, f"unknown action {step.action!r}")
-            else:
-                fail(mode, f"not a step: {step!r}")
+            for key in getattr(step, "retry", ()):
+                rule = RETRIES.get(key)
+                if rule is None:
+                    fail(mode, f"{step.what}: unknown recovery {key!r}")
+                if not rule.on or not set(rule.on) <= set(FAILURES) \
+                        or rule.extend not in DURATIONS \
+                        or not (rule.resume is None or 0 <= rule.resume < len(mode.steps)):
+                    fail(mode, f"{step.what}: recovery {key!r} is not a valid rule")
+                if any(getattr(s, "retry", ()) for s in rule.steps):
+                    fail(mode, f"recovery {key!r}: its steps must not recover again")
+                _check_steps(mode, rule.steps, fail)
     names = {m.name for m in table}
     for plan in PLANS.values():
         if not set(plan) <= names:
             raise ValueError(f"plan {plan} names modes not in the table")
+
+
+def _check_steps(mode, steps, fail) -> None:
+    """The checks of :func:`check` on one sequence of steps of ``mode``."""
+    previous = None  # the last wait
+    for step in steps:
+        if isinstance(step, Operate):
+            if not (step.close or step.open_):
+                fail(mode, "a switch step operates no switch")
+        elif isinstance(step, Wait):
+            if step.program not in PROGRAMS or step.watch not in WATCHES:
+                fail(mode, f"{step.what}: unknown program or watch")
+            unknown = [s for s in step.signals if s not in SIGNALS]
+            if unknown:
+                fail(mode, f"{step.what}: unknown signals {unknown}")
+            n = len(step.signals)
+            if (step.watch == "settle" and n == 0) or (step.watch == "handover" and n != 1):
+                fail(mode, f"{step.what}: {n} signals for a {step.watch} watch")
+            if step.carry_settle and not (
+                    step.watch == "settle" and previous is not None
+                    and previous.watch != "handover" and previous.signals == step.signals):
+                fail(mode, f"{step.what}: carries a settle time no wait before timed")
+            previous = step
+            for d in (step.blank, step.hold):
+                if d and d not in DURATIONS:
+                    fail(mode, f"{step.what}: unknown duration {d!r}")
+            if step.record and step.record not in RECORDS:
+                fail(mode, f"{step.what}: unknown record {step.record!r}")
+        elif isinstance(step, Do):
+            if step.action not in ACTIONS:
+                fail(mode, f"unknown action {step.action!r}")
+        else:
+            fail(mode, f"not a step: {step!r}")
 
 
 check()

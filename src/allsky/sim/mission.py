@@ -4,8 +4,11 @@
 scenario, runs the modes one at a time (:meth:`Mission.run_mode`) or all of
 them (:meth:`Mission.run`), and gives a snapshot at any mode boundary to
 resume from (:meth:`Mission.snapshot`, :meth:`Mission.from_snapshot`; the
-state files are :mod:`allsky.apps.states`). :func:`run_mission` is the
-library function behind ``allsky run``.
+state files are :mod:`allsky.apps.states`). A scenario with several targets
+(``target.sequence``) flies them one after the other in one plan
+(:func:`allsky.sequencer.modes.mission_plan`); the mission keeps a record of
+each (:meth:`Mission.targets`). :func:`run_mission` is the library function
+behind ``allsky run``.
 """
 
 import math
@@ -32,10 +35,11 @@ from allsky.hardware import (
 )
 from allsky.sequencer import dither, legs, modes
 from allsky.sequencer import master_sequencer as ms
+from allsky.sim import faults as sim_faults
 from allsky.sim import frame_loop
 from allsky.sim import state as sim_state
 from allsky.sim.telemetry import COLUMNS
-from allsky.vehicle import plant, quaternion, sky
+from allsky.vehicle import plant, quaternion, sky, wheels
 
 EXIT_TEXT = {
     legs.EXIT_PROPELLANT: "propellant exhausted",
@@ -81,12 +85,16 @@ def build_params(cfg) -> sim_state.Params:
     stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
     stars_inertial = np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars],
                               dtype=float).reshape(-1, 3)
+    tracker = star_tracker.StarTrackerParams(
+        cfg.star_tracker.fov_long_half_deg * units.DEG2RAD,
+        cfg.star_tracker.fov_narrow_half_deg * units.DEG2RAD,
+        float(cfg.star_tracker.noise_arcsec), stars_inertial)
     el = cfg.electronics
     return sim_state.Params(
         frame_s=dt,
         telemetry_every=int(cfg.mission.telemetry_every_frames),
         sun0_inertial=s0, sun_rate_inertial=sdot,
-        plant=plant.make_params(cfg.vehicle.inertia_kg_m2),
+        plant=plant_params(cfg),
         gyro=gyro.make_params(cfg.gyro.drift_deg_h, cfg.gyro.scale_factor_error_ppm,
                               cfg.gyro.misalignment_arcsec, cfg.gyro.arw_deg_rt_h,
                               cfg.gyro.rrw_deg_h_rt_h, cfg.gyro.range_deg_s),
@@ -94,10 +102,7 @@ def build_params(cfg) -> sim_state.Params:
             float(cfg.sun_sensor.linear_range_arcsec),
             math.cos(cfg.sun_sensor.presence_half_angle_deg * units.DEG2RAD),
             float(cfg.sun_sensor.noise_arcsec), cfg.sun_sensor.coarse_noise_deg * units.DEG2RAD),
-        tracker=star_tracker.StarTrackerParams(
-            cfg.star_tracker.fov_long_half_deg * units.DEG2RAD,
-            cfg.star_tracker.fov_narrow_half_deg * units.DEG2RAD,
-            float(cfg.star_tracker.noise_arcsec), stars_inertial),
+        tracker=tracker,
         vfc=vfc.VfcParams(float(el.vfc_pulse_weight_arcsec), float(el.vfc_max_rate_pps),
                           tuple(float(d) * units.DEG_H2ARCSEC_S
                                 for d in el.integrator_drift_deg_h)),
@@ -130,7 +135,43 @@ def build_params(cfg) -> sim_state.Params:
         dither=dither_params(cfg),
         dither_sample_frames=max(1, round(cfg.dither.sample_s / dt)),
         routing=wiring.ROUTING,
+        actuator=wheels.ACTUATOR_CODE[cfg.actuators.kind],
+        wheels=wheel_params(cfg),
+        faults=sim_faults.compile_faults(
+            cfg, tracker, [s.name for s in stars],
+            lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc)),
     )
+
+
+def plant_params(cfg) -> plant.RigidBodyParams:
+    """The plant's mass properties from the scenario.
+
+    The vehicle's tensor; on the wheel vehicle less the wheels' spin inertia
+    about their axes, which the wheels carry as their momentum.
+    """
+    if cfg.actuators.kind == "wheels":
+        return plant.gyrostat_params(cfg.vehicle.inertia_kg_m2,
+                                     wheels.spin_inertia_tensor_kg_m2(wheel_params(cfg)))
+    return plant.make_params(cfg.vehicle.inertia_kg_m2)
+
+
+def wheel_params(cfg) -> wheels.WheelParams:
+    """The reaction-wheel array from the scenario's [wheels] section.
+
+    The control amplifiers' volts become a body torque at the describing gain
+    of modulator and jets in their linear region, couple torque / ``full_on_v``
+    [N m/V] per axis: the wheel vehicle's attitude loops then have the jet
+    vehicle's gain, bandwidth and damping (within the jets' linear range,
+    +-``full_on_v``), and the dither's feed-forward (:func:`dither_params`,
+    the inverse gain) reaches the wheels as the torque ``J_est a(t)`` itself.
+    """
+    couple_n_m = 2.0 * np.asarray(cfg.jets.thrust_n, dtype=float) \
+        * np.asarray(cfg.jets.moment_arm_m, dtype=float)
+    w = cfg.wheels
+    return wheels.make_params(
+        w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.inertia_kg_m2,
+        couple_n_m / float(cfg.pwpf.full_on_v), w.unload_fraction, w.unload_end_fraction,
+        couple_n_m, max(1, math.ceil(cfg.jets.min_on_time_s / float(cfg.mission.frame_s) - 1e-9)))
 
 
 def dither_params(cfg) -> dither.DitherParams:
@@ -152,14 +193,56 @@ def ejection_state(cfg) -> sim_state.State:
     att = cfg.ejection.attitude
     q0 = quaternion.random_unit(rng) if isinstance(att, str) else np.asarray(att, dtype=float)
     w0 = rng.uniform(-1.0, 1.0, 3) * cfg.ejection.tipoff_rate_max_deg_s * units.DEG2RAD
-    return sim_state.new_state(q0, w0, cfg.jets.propellant_kg)
+    state = sim_state.new_state(q0, w0, cfg.jets.propellant_kg)
+    sim_faults.arm(state.fault_state, cfg.faults)
+    return state
 
 
-def target_inertial(cfg) -> np.ndarray:
-    """Unit vector to the scenario's target."""
-    if cfg.target.star is not None:
-        return sky.star_direction_inertial(cfg.target.star, cfg.mission.date_utc)
-    return sky.radec_to_unit(cfg.target.ra_deg, cfg.target.dec_deg)
+def target_specs(cfg) -> list:
+    """The scenario's targets in flight order: a star's name or an RA and Dec each.
+
+    Each is ``{"star": name}`` or ``{"ra_deg": ..., "dec_deg": ...}``, from
+    ``target.sequence`` when given, else the one target of ``target.star``
+    or ``target.ra_deg`` + ``target.dec_deg``.
+    """
+    t = cfg.target
+    if t.sequence is not None:
+        return [{"star": e} if isinstance(e, str)
+                else {"ra_deg": float(e["ra_deg"]), "dec_deg": float(e["dec_deg"])}
+                for e in t.sequence]
+    if t.star is not None:
+        return [{"star": t.star}]
+    return [{"ra_deg": t.ra_deg, "dec_deg": t.dec_deg}]
+
+
+def target_name(spec) -> str:
+    """A target's name: the star's, or its RA and Dec [deg]."""
+    if "star" in spec:
+        return spec["star"]
+    return f"RA {spec['ra_deg']:g} deg, Dec {spec['dec_deg']:+g} deg"
+
+
+def target_inertial(cfg, index=0) -> np.ndarray:
+    """Unit vector to target ``index`` (from 0) of the scenario."""
+    spec = target_specs(cfg)[index]
+    if "star" in spec:
+        return sky.star_direction_inertial(spec["star"], cfg.mission.date_utc)
+    return sky.radec_to_unit(spec["ra_deg"], spec["dec_deg"])
+
+
+def new_target_record(cfg, index, start_s) -> dict:
+    """The record of target ``index`` as its flight begins at ``start_s`` [s].
+
+    Keys: name, the target (star, or ra_deg and dec_deg), start_s and end_s
+    [s], programmed_roll_deg and programmed_yaw_deg, pointing_error_arcsec
+    (true, at the end of its Mode 6-2), hold (the hold's measurements) and
+    hold_end_pointing_error_arcsec, locked_star; None until known.
+    """
+    spec = target_specs(cfg)[index]
+    return {"name": target_name(spec), **spec, "start_s": float(start_s), "end_s": None,
+            "programmed_roll_deg": None, "programmed_yaw_deg": None,
+            "pointing_error_arcsec": None, "hold_end_pointing_error_arcsec": None,
+            "hold": None, "locked_star": None}
 
 
 def reference_star_inertial(cfg) -> np.ndarray:
@@ -175,7 +258,9 @@ def reference_star_inertial(cfg) -> np.ndarray:
 def tracker_star_names(cfg) -> list:
     """Names of the stars the tracker can lock, in the order of ``Params.tracker``."""
     lo, hi = cfg.star_tracker.magnitude_window
-    return [s.name for s in sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)]
+    names = [s.name for s in sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)]
+    # A wrong star (a fault) is tracked after the window's own (allsky.sim.faults).
+    return names + [s for s in sim_faults.wrong_stars(cfg.faults) if s not in names]
 
 
 class Mission:
@@ -184,14 +269,19 @@ class Mission:
     def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None,
                  plan=LEGACY_PLAN):
         self.cfg = cfg
-        # A restored mission flies the plan it saved; a new one gets the hold on target
-        # appended to the plan given when the scenario asks for one (target.hold_s > 0).
+        # A restored mission flies the plan it saved; a new one gets the hold on target after
+        # each 6-2 when the scenario asks for one (target.hold_s > 0), and the way to each
+        # further target of target.sequence (sequencer.between_targets).
         if history is not None and "plan" in history:
             self.plan = tuple(history["plan"])
         else:
-            self.plan = modes.with_hold(plan, cfg)
+            self.plan = modes.mission_plan(plan, cfg)
         if any(name not in modes.BY_NAME for name in self.plan):
             raise ValueError(f"unknown mode in plan {self.plan}")
+        moves = sum(name in modes.BETWEEN_TARGETS for name in self.plan)
+        if moves >= modes.target_count(cfg) and moves:
+            raise ValueError(f"plan {self.plan} moves to {moves} next targets; the scenario "
+                             f"has {modes.target_count(cfg)}")
         self.dither_estimates = None
         self.dither_record = None
         self.params = build_params(cfg)
@@ -209,11 +299,16 @@ class Mission:
         self.programmed_yaw_deg = h.get("programmed_yaw_deg")
         #: Measurements of the hold on target (master_sequencer.measure_hold); None if not flown.
         self.hold = h.get("hold")
+        #: One record per target begun (:func:`new_target_record`); the last is being flown.
+        self.target_log = [dict(r) for r in h.get("targets", [])] or [
+            new_target_record(cfg, 0, 0.0)]
         self.settle_s = float(cfg.sequencer.settle_time_s)
         self.pulse_weight_arcsec = float(cfg.electronics.vfc_pulse_weight_arcsec)
         self.apply_calibration = bool(cfg.calibration.apply)
         self._tlm = []
         self._mode_deadline = None
+        self._allowed_s = None
+        self.mode_start_s = None  #: [s] when the mode being flown started
         self._mode = None
         #: Stepping hooks (:mod:`allsky.apps.step`): call ``on_pause(self, leg_text)`` every
         #: ``pause_every_s`` of mission time inside legs [s]; None = fly straight through.
@@ -255,10 +350,19 @@ class Mission:
         if code == legs.EXIT_DONE:
             return rec[: rec_filled[0]]
         if code == legs.EXIT_TIMEOUT:
-            limit = self.mode_timeout_s(self._mode)
             raise ms.ModeAbort(f"Mode {self._mode}: {on_timeout or what + ' not achieved'}"
-                               f" within the mode timeout of {limit:g} s")
-        raise ms.ModeAbort(f"Mode {self._mode}: {EXIT_TEXT[code]} while waiting for: {what}")
+                               f" within the mode timeout of {self._allowed_s:g} s", "timeout")
+        raise ms.ModeAbort(f"Mode {self._mode}: {EXIT_TEXT[code]} while waiting for: {what}",
+                           EXIT_TEXT[code])
+
+    def extend_mode(self, seconds):
+        """Move the mode's deadline on by ``seconds`` [s] (from now, if it has passed).
+
+        A recovery of the master sequencer does so (``sequencer.recovery``).
+        """
+        now = float(self.state.time_s[0])
+        self._mode_deadline = max(self._mode_deadline, now) + float(seconds)
+        self._allowed_s = self._mode_deadline - self.mode_start_s
 
     def _run_leg(self, leg, what, buf, filled, rec, rec_filled):
         """The frame loop over one leg, in slices, pausing for ``on_pause`` if stepping asks.
@@ -314,14 +418,22 @@ class Mission:
         self._mode = name
         start = float(self.state.time_s[0])
         self._mode_deadline = start + self.mode_timeout_s(name)
+        #: [s] the time the mode is allowed (a recovery extends it), for abort reasons
+        self._allowed_s = self.mode_timeout_s(name)
+        self.mode_start_s = start
+        sim_faults.on_mode_start(self.state.fault_state, self.cfg.faults, name, start)
         try:
             exit_text = ms.run_mode(self, name)
         except ms.ModeAbort as e:
-            exit_text = f"aborted: {e}"
+            reason = str(e) + sim_faults.blame(self.state.fault_state, self.cfg.faults,
+                                               float(self.state.time_s[0]))
+            exit_text = f"aborted: {reason}"
             self.status = "aborted"
-            self.abort_reason = str(e)
+            self.abort_reason = reason
         rec = ModeRecord(name, start, float(self.state.time_s[0]), exit_text)
         self.timeline.append(rec)
+        if self.status == "running" and name == modes.TARGET_MODES[-1]:
+            self.target_log[-1]["pointing_error_arcsec"] = self.pointing_error_arcsec()
         self.next_mode += 1
         if self.status == "running" and self.next_mode == len(self.plan):
             self.status = "complete"
@@ -345,7 +457,7 @@ class Mission:
         6-1*; the angles are computed for the Sun predicted at that time
         (roll at the commanded rate plus a settle allowance), two passes.
         """
-        star, target = reference_star_inertial(self.cfg), target_inertial(self.cfg)
+        star, target = reference_star_inertial(self.cfg), self.target_direction()
         t0 = float(self.state.time_s[0])
         rate_deg_s = float(self.cfg.electronics.rate_command_deg_s)
         roll = 0.0
@@ -355,6 +467,46 @@ class Mission:
             roll, yaw = targeting.programmed_angles_deg(sun, star, target)
         self.programmed_roll_deg, self.programmed_yaw_deg = roll, yaw
 
+    # -- targets ---------------------------------------------------------------
+    @property
+    def target_index(self) -> int:
+        """Index (from 0) of the target being flown in ``target.sequence``."""
+        return len(self.target_log) - 1
+
+    def target_direction(self) -> np.ndarray:
+        """Unit vector to the target being flown."""
+        return target_inertial(self.cfg, self.target_index)
+
+    def next_target(self):
+        """Close the record of the target flown and begin the next one's.
+
+        Its programmed angles and hold go into its record and are cleared,
+        so that Mode 6-1 computes the next target's angles.
+        """
+        now = float(self.state.time_s[0])
+        self.target_log[-1] = {**self.targets()[-1], "end_s": now}
+        self.target_log.append(new_target_record(self.cfg, len(self.target_log), now))
+        self.programmed_roll_deg = self.programmed_yaw_deg = None
+        self.hold = None
+
+    def targets(self) -> list:
+        """The record of every target begun (:func:`new_target_record`), in flight order.
+
+        The last one's is completed with what the mission holds now; its
+        ``end_s`` is the mission time once the mission is finished.
+        """
+        out = [dict(r) for r in self.target_log]
+        cur = out[-1]
+        hold = self.hold if self.hold is not None and "hold_s" in self.hold else None
+        cur.update(programmed_roll_deg=self.programmed_roll_deg,
+                   programmed_yaw_deg=self.programmed_yaw_deg, hold=hold,
+                   hold_end_pointing_error_arcsec=(hold["end_pointing_error_arcsec"]
+                                                   if hold else None),
+                   locked_star=self.locked_star())
+        if self.finished:
+            cur["end_s"] = float(self.state.time_s[0])
+        return out
+
     # -- results ---------------------------------------------------------------
     def telemetry(self) -> np.ndarray:
         """The decimated telemetry recorded so far (this process), one row per record."""
@@ -363,9 +515,9 @@ class Mission:
         return np.vstack(self._tlm)
 
     def pointing_error_arcsec(self) -> float:
-        """True angle between the roll axis and the target."""
+        """True angle between the roll axis and the target being flown."""
         x_body = quaternion.dcm_body_from_inertial(self.state.x[0:4])[0]
-        return sky.separation_deg(x_body, target_inertial(self.cfg)) * units.DEG2ARCSEC
+        return sky.separation_deg(x_body, self.target_direction()) * units.DEG2ARCSEC
 
     def locked_star(self):
         """Name of the star tracker 105 last held while in use; None before a lock."""
@@ -381,16 +533,25 @@ class Mission:
         return out
 
     def summary(self) -> dict:
-        """The ``--json`` summary (a stable contract)."""
+        """The ``--json`` summary (a stable contract).
+
+        ``target`` is the first target: its programmed angles and its true
+        pointing error at the end of its flight (after its hold, if any).
+        With ``target.sequence``, ``targets`` lists every target begun
+        (:meth:`targets`).
+        """
         done = [r.mode for r in self.timeline]
-        target = {"programmed_roll_deg": self.programmed_roll_deg,
-                  "programmed_yaw_deg": self.programmed_yaw_deg,
-                  "pointing_error_arcsec": (self.pointing_error_arcsec()
-                                            if self.status == "complete" else None)}
-        if self.cfg.target.star is not None:
-            target["star"] = self.cfg.target.star
-        else:
-            target["ra_deg"], target["dec_deg"] = self.cfg.target.ra_deg, self.cfg.target.dec_deg
+        records = self.targets()
+        first = records[0]
+        if len(records) == 1:
+            pointing = self.pointing_error_arcsec() if self.status == "complete" else None
+        else:  # the first target's flight has ended
+            pointing = (first["hold_end_pointing_error_arcsec"] if first["hold"] is not None
+                        else first["pointing_error_arcsec"])
+        target = {"programmed_roll_deg": first["programmed_roll_deg"],
+                  "programmed_yaw_deg": first["programmed_yaw_deg"],
+                  "pointing_error_arcsec": pointing}
+        target.update(target_specs(self.cfg)[0])
         out = {
             "status": self.status,
             "abort_reason": self.abort_reason,
@@ -411,9 +572,28 @@ class Mission:
                     ("counter14", "counter16", "counter18", "drift13", "drift15", "drift17"),
                     self.state.overflow)},
         }
-        if "hold" in done and self.hold is not None and "hold_s" in self.hold:
-            out["hold"] = self.hold
+        if first["hold"] is not None:
+            out["hold"] = first["hold"]
+        if self.cfg.faults:
+            out["faults"] = [{**f, "onset_s": float(onset) if onset >= 0.0 else None}
+                             for f, onset in zip(self.cfg.as_dict()["faults"],
+                                                 self.state.fault_state[sim_faults.ONSET])]
+        if self.cfg.target.sequence is not None:
+            out["targets"] = records
+        if self.cfg.actuators.kind == "wheels":
+            out["wheels"] = self.wheel_summary()
         return out
+
+    def wheel_summary(self) -> dict:
+        """The reaction wheels at the end: momenta, the largest fraction of a limit held."""
+        n = len(self.cfg.wheels.axes)
+        h = self.state.wheel_h[:n]
+        return {"momentum_n_m_s": [float(x) for x in h],
+                "speed_rad_s": [float(x) for x in wheels.wheel_speeds_rad_s(
+                    self.params.wheels, h, self.state.x[4:7])],
+                "peak_momentum_fraction": float(self.state.wheel_peak_fraction[0]),
+                "unloading_propellant_kg": float(self.cfg.jets.propellant_kg
+                                                 - self.state.propellant_kg[0])}
 
     # -- snapshot / resume ---------------------------------------------------------
     def snapshot(self):
@@ -426,8 +606,9 @@ class Mission:
         history : dict
             JSON-serialisable: ``format`` (:data:`STATE_FORMAT`), plan, timeline,
             next mode, leg count, counted angles, status, abort reason,
-            programmed angles, the scenario (:meth:`Scenario.as_dict`) and, once
-            flown, the hold's measurements.
+            programmed angles, the scenario (:meth:`Scenario.as_dict`), once
+            flown, the hold's measurements and, with several targets, their
+            records (:meth:`targets`).
         arrays : dict of numpy.ndarray
             Copies of the state arrays, by :class:`allsky.sim.state.State` field.
         """
@@ -440,6 +621,8 @@ class Mission:
                    "scenario": self.cfg.as_dict()}
         if self.hold is not None:
             history["hold"] = self.hold
+        if len(self.target_log) > 1 or self.cfg.target.sequence is not None:
+            history["targets"] = [dict(r) for r in self.target_log]
         arrays = {k: v.copy() for k, v in self.state._asdict().items()}
         return history, arrays
 
@@ -458,9 +641,9 @@ class Mission:
 
         if history.get("format") != STATE_FORMAT:
             raise ValueError(f"not an allsky mission state (format {STATE_FORMAT})")
-        # Copies, so that one snapshot can be resumed any number of times.
-        # A state saved before the tracker told its star has no locked_star: none recorded.
-        arrays = {"locked_star": np.full(1, -1, dtype=np.int64), **arrays}
+        # Copies, so that one snapshot can be resumed any number of times; the arrays
+        # added since the format's first files stand for what an older file meant.
+        arrays = {**newer_state_arrays(), **arrays}
         state = sim_state.State(**{k: np.array(arrays[k], copy=True)
                                    for k in sim_state.State._fields})
         cfg = scenario_from_dict(history["scenario"])
@@ -468,8 +651,21 @@ class Mission:
                    history=history)
 
 
+def newer_state_arrays() -> dict:
+    """State arrays added since files of :data:`STATE_FORMAT` were first written.
+
+    Each with the value a file saved before it stands for: ``locked_star``
+    -1 (which star the tracker held was not recorded); ``fault_state`` no
+    onset known (a mission of those days had no faults); the wheels' arrays
+    zero (it flew the jets).
+    """
+    blank = sim_state.new_state(np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), 0.0)
+    return {k: getattr(blank, k) for k in ("locked_star", "fault_state", "wheel_h",
+                                           "wheel_unload", "wheel_peak_fraction")}
+
+
 def run_mission(cfg, telemetry=True) -> Mission:
-    """Fly a whole mission (Modes 1 to 6-2, then the hold if asked for) and return it."""
+    """Fly a whole mission (Modes 1 to 6-2, holds, every target) and return it."""
     m = Mission(cfg, telemetry=telemetry)
     m.run()
     return m

@@ -1,0 +1,372 @@
+"""Faults: validation, each kind's effect at its block, the outcomes, the matrix, dispersion."""
+
+import math
+
+import numpy as np
+import pytest
+
+from allsky.apps.cli import main
+from allsky.config import ConfigError, load_scenario
+from allsky.config import dispersions as disp
+from allsky.config.faults import KINDS, packaged_scenarios
+from allsky.hardware.star_tracker import star_tracker
+from allsky.sim import faults as sf
+from allsky.sim.mission import Mission, build_params
+from allsky.studies.faults import fault_matrix
+from allsky.units import ARCSEC2RAD, DEG2ARCSEC
+from allsky.vehicle import quaternion, sky
+
+
+def _cfg(*faults, extra=()):
+    return load_scenario(overrides=[f"faults=[{', '.join(faults)}]", *extra])
+
+
+def _params(*faults, extra=()):
+    cfg = _cfg(*faults, extra=extra)
+    fs = sf.new_fault_state()
+    sf.arm(fs, cfg.faults)
+    return cfg, build_params(cfg), fs
+
+
+# -- validation -----------------------------------------------------------------------
+
+@pytest.mark.parametrize("fault, key", [
+    ('{kind="gyro_ded", axis="roll"}', "faults[0].kind"),
+    ('{kind="gyro_dead"}', "faults[0].axis"),
+    ('{kind="gyro_dead", axis="roll", duration_s=-1}', "faults[0].duration_s"),
+    ('{kind="jet_stuck_open", axis="roll", sign=2}', "faults[0].sign"),
+    ('{kind="counter_upset", register="19", bit=0}', "faults[0].register"),
+    ('{kind="counter_upset", register="14", bit=28}', "faults[0].bit"),
+    ('{kind="wrong_star", star="Canopuss"}', "faults[0].star"),
+    ('{kind="tracker_stray_light", offset_deg=9}', "faults[0].offset_deg"),
+    ('{kind="gyro_dead", axis="roll", start_mode="7"}', "faults[0].start_mode"),
+    ('{kind="gyro_dead", axis="roll", size_ppm=3}', "faults[0].size_ppm"),
+])
+def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):
+    with pytest.raises(ConfigError) as e:
+        _cfg(fault)
+    assert e.value.key == key
+    assert main(["config", "check", "--set", f"faults=[{fault}]"]) == 2
+    assert key in capsys.readouterr().err
+
+
+def test_faults_load_from_a_file_and_round_trip(tmp_path):
+    p = tmp_path / "f.toml"
+    p.write_text('[[faults]]\nkind = "tracker_dropout"\nstart_mode = "4"\nduration_s = 60\n'
+                 '[[faults]]\nkind = "gyro_bias_step"\naxis = "yaw"\nsize_deg_h = 2\n')
+    cfg = load_scenario(p)
+    assert [f["kind"] for f in cfg.faults] == ["tracker_dropout", "gyro_bias_step"]
+    assert cfg.faults[1]["start_s"] == 0.0
+    again = tmp_path / "again.toml"
+    again.write_text(cfg.to_toml())
+    assert load_scenario(again) == cfg
+
+
+def test_the_fault_free_mission_has_no_fault_arrays_in_use():
+    cfg = load_scenario()
+    assert cfg.faults == () and build_params(cfg).faults.n == 0
+    assert "faults" not in cfg.as_dict()
+
+
+# -- each kind at its block --------------------------------------------------------------
+
+def _sense(p, fs, t, gyro=(10.0, 20.0, 30.0), dtheta=(1e-4, 0.0, 0.0)):
+    fine = np.array([5.0, 6.0, 1.0])
+    trk = np.array([7.0, 8.0, 1.0])
+    g = np.array(gyro)
+    star = sf.fault_sense(p.faults, fs, t, 0.01, np.array(dtheta), fine, trk, g, 3)
+    return fine, trk, g, star
+
+
+def test_a_stuck_gyro_holds_the_output_of_its_onset_frame():
+    _, p, fs = _params('{kind="gyro_stuck", axis="pitch", start_s=1.0}')
+    assert _sense(p, fs, 0.5)[2][1] == 20.0  # before the onset: untouched
+    assert _sense(p, fs, 1.0, gyro=(0, 20.0, 0))[2][1] == 20.0
+    for rate in (-500.0, 0.0, 900.0):  # whatever the vehicle does, the output stays
+        assert _sense(p, fs, 2.0, gyro=(0, rate, 0))[2][1] == 20.0
+
+
+def test_a_stuck_gyro_counter_stops_following_the_vehicle():
+    """Stuck in the Mode 4 roll: counter 14 creeps at the frozen rate while the vehicle rolls."""
+    from allsky.sim.telemetry import COLUMNS
+
+    cfg = _cfg('{kind="gyro_stuck", axis="roll", start_mode="4"}')
+    m = Mission(cfg, telemetry=True)
+    while m.plan[m.next_mode] != "4":
+        m.run_mode()
+    m.run_mode()
+    tlm = m.telemetry()
+    col = [c.name for c in COLUMNS]
+    t = tlm[:, col.index("time")]
+    start = m.timeline[-1].start_s
+    window = (t > start + 1) & (t < start + 20)
+    counted_arcsec = np.ptp(tlm[window, col.index("counter14")]) * 0.1
+    rolled_arcsec = np.sum(np.abs(tlm[window, col.index("rate_x")])) * 0.1 / ARCSEC2RAD
+    assert rolled_arcsec > 10 * DEG2ARCSEC  # the vehicle rolls ...
+    assert counted_arcsec < 1e-3 * rolled_arcsec  # ... the counter hardly moves
+
+
+def test_a_dead_gyro_reads_zero_and_steps_add_bias_and_scale():
+    _, p, fs = _params('{kind="gyro_dead", axis="roll"}',
+                       '{kind="gyro_bias_step", axis="pitch", size_deg_h=3}',
+                       '{kind="gyro_scale_factor_step", axis="yaw", size_ppm=1000}')
+    dtheta = (0.0, 0.0, 1e-5)
+    _, _, g, _ = _sense(p, fs, 0.0, dtheta=dtheta)
+    assert g[0] == 0.0
+    assert g[1] == pytest.approx(20.0 + 3.0)  # 1 deg/h = 1 arcsec/s
+    assert g[2] == pytest.approx(30.0 + 1e-3 * 1e-5 / 0.01 / ARCSEC2RAD)
+
+
+def test_blind_sun_sensor_dropout_and_stray_light():
+    _, p, fs = _params('{kind="sun_sensor_blind", duration_s=5}')
+    fine, trk, _, star = _sense(p, fs, 1.0)
+    assert list(fine) == [0.0, 0.0, 0.0] and trk[2] == 1.0 and star == 3
+    assert _sense(p, fs, 5.0)[0][2] == 1.0  # over after its duration
+    _, p, fs = _params('{kind="tracker_dropout"}')
+    fine, trk, _, star = _sense(p, fs, 1.0)
+    assert list(trk) == [0.0, 0.0, 0.0] and star == -1 and fine[2] == 1.0
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5}')
+    _, trk, _, star = _sense(p, fs, 1.0)
+    assert list(trk) == [1.5 * DEG2ARCSEC, 0.0, 1.0] and star == -1
+
+
+def test_a_wrong_star_joins_the_window_and_is_locked_on_boresight():
+    cfg, p, fs = _params('{kind="wrong_star", star="Rigil Kentaurus", start_s=10}')
+    names = [s.name for s in sky.stars_in_magnitude_window(*cfg.star_tracker.magnitude_window,
+                                                             cfg.mission.date_utc)]
+    assert "Rigil Kentaurus" not in names
+    before = sf.fault_tracker(p.faults, p.tracker, fs, 0.0)
+    assert before.stars_inertial.shape[0] == len(names)
+    extended = sf.fault_tracker(p.faults, p.tracker, fs, 10.0)
+    k = extended.stars_inertial.shape[0] - 1
+    assert k == len(names)
+    # An attitude with the wrong star on the tracker's boresight (+z).
+    w = sky.star_direction_inertial("Rigil Kentaurus", cfg.mission.date_utc)
+    x = np.cross([0.0, 0.0, 1.0], w)
+    x /= np.linalg.norm(x)
+    q = quaternion.from_dcm(np.array([x, np.cross(w, x), w]))  # rows: body axes, inertial
+    out = np.zeros(3)
+    assert star_tracker(extended, q, out, np.ones(1, dtype=np.uint64)) == k
+    assert star_tracker(p.tracker, q, out, np.ones(1, dtype=np.uint64)) != k
+
+
+@pytest.mark.parametrize("reg, bit, start, expect", [
+    ("14", 12, 5, 5 ^ (1 << 12)), ("14", 27, 3, 3 - (1 << 27)), ("16", 0, -1, -2),
+    ("13", 15, 0, -(1 << 15)), ("27", 3, 100, 100 ^ 8)])
+def test_an_upset_flips_exactly_that_bit_once(reg, bit, start, expect):
+    _, p, fs = _params(f'{{kind="counter_upset", register="{reg}", bit={bit}, start_s=2}}')
+    words = [np.zeros(3, dtype=np.int64) for _ in range(3)]  # drift, up/down, registers
+    index = sf.WORD_INDEX[reg]
+    words[index // 3][index % 3] = start
+    sf.fault_upset(p.faults, fs, 1.0, *words)
+    assert words[index // 3][index % 3] == start
+    sf.fault_upset(p.faults, fs, 2.0, *words)
+    sf.fault_upset(p.faults, fs, 3.0, *words)  # once only
+    assert words[index // 3][index % 3] == expect
+    flat = np.concatenate(words)
+    assert np.count_nonzero(flat) == (1 if expect else 0)
+
+
+def _actuate(p, fs, valve, kg=1.0):
+    """``fault_actuate`` after what jets 39-41 did for ``valve``: (ok, torque, gas used)."""
+    torque = np.array([v * p.jets.torque_n_m[i] for i, v in enumerate(valve)])
+    tank = np.array([kg - sum(abs(v) * f * 0.01 for v, f in zip(valve, p.jets.flow_kg_s))])
+    ok = sf.fault_actuate(p.faults, fs, 0.0, p.jets, 0.01, np.array(valve, dtype=np.int64),
+                          tank, torque, True)
+    return ok, torque, kg - tank[0]
+
+
+def test_a_stuck_open_jet_gives_its_torque_and_uses_its_gas():
+    _, p, fs = _params('{kind="jet_stuck_open", axis="yaw", sign=-1}')
+    t_yaw, flow = p.jets.torque_n_m[2], p.jets.flow_kg_s[2] * 0.01
+    ok, torque, used = _actuate(p, fs, [0, 0, 0])
+    assert ok and torque[2] == -t_yaw and used == pytest.approx(flow)
+    _, torque, used = _actuate(p, fs, [0, 0, 1])  # the opposite jet: the torques cancel
+    assert torque[2] == 0.0 and used == pytest.approx(2 * flow)
+    _, torque, used = _actuate(p, fs, [0, 0, -1])  # already firing that way
+    assert torque[2] == -t_yaw and used == pytest.approx(flow)
+
+
+def test_a_failed_jet_gives_nothing_when_commanded():
+    _, p, fs = _params('{kind="jet_failed_off", axis="roll", sign=1}')
+    _, torque, used = _actuate(p, fs, [1, 0, 0])
+    assert torque[0] == 0.0 and used == pytest.approx(0.0, abs=1e-15)
+    _, torque, _ = _actuate(p, fs, [-1, 0, 0])
+    assert torque[0] == -p.jets.torque_n_m[0]
+
+
+def test_a_leak_drains_the_tank_until_it_is_dry():
+    _, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.5}')
+    ok, _, used = _actuate(p, fs, [0, 0, 0])
+    assert ok and used == pytest.approx(0.005)
+    ok, _, _ = _actuate(p, fs, [0, 0, 0], kg=0.004)
+    assert not ok
+
+
+# -- outcomes -----------------------------------------------------------------------
+
+def _fly(*faults, extra=()):
+    m = Mission(_cfg(*faults, extra=extra), telemetry=False)
+    return m, m.run()
+
+
+def test_complete_with_degraded_figures():
+    _, s = _fly('{kind="gyro_bias_step", axis="yaw", size_deg_h=20, start_mode="6-1"}')
+    assert s["status"] == "complete" and s["target"]["pointing_error_arcsec"] > 1000
+    assert s["faults"][0]["onset_s"] == s["modes"][5]["start_s"]  # the start of Mode 6-1
+
+
+@pytest.mark.parametrize("fault, words", [
+    ('{kind="tracker_dropout", start_s=640, duration_s=60}',
+     ("Mode 5:", "star lost", "(tracker dropout at 640.0 s)")),
+    ('{kind="sun_sensor_blind", start_mode="3"}', ("Mode 3:", "Sun lost", "sun sensor blind")),
+    ('{kind="propellant_leak", rate_kg_s=0.01}', ("propellant exhausted", "propellant leak")),
+    ('{kind="gyro_dead", axis="yaw", start_mode="6-2"}',
+     ("Mode 6-2:", "mode timeout", "yaw gyro dead")),
+    ('{kind="jet_stuck_open", axis="roll", sign=1, start_mode="4"}',
+     ("Mode 4:", "+roll jet stuck open")),
+])
+def test_aborts_name_mode_symptom_and_fault(fault, words):
+    m, s = _fly(fault)
+    assert s["status"] == "aborted"
+    for w in words:
+        assert w in s["abort_reason"], s["abort_reason"]
+    assert sf.symptom(s["abort_reason"]) in s["abort_reason"]
+    assert "(" not in sf.symptom(s["abort_reason"])
+    # Bounded: no mode outlives its timeout.
+    for r in m.timeline:
+        assert r.end_s - r.start_s <= m.mode_timeout_s(r.mode) + 1.0
+
+
+def test_a_wrong_star_points_where_its_geometry_says():
+    """Locked on Avior instead of Canopus, the roll reference turns about the Sun line.
+
+    The programmed angles are Canopus's, so the vehicle points the target's
+    direction turned by the two stars' azimuth difference about the Sun.
+    """
+    m, s = _fly('{kind="wrong_star", star="Avior"}',
+                extra=["mission.date_utc=2026-06-04T00:00:00Z"])
+    assert s["status"] == "complete" and s["locked_star"] == "Avior"
+    assert s["reference_star"] == "Canopus"
+    cfg, d = m.cfg, m.cfg.mission.date_utc
+    sun = m.params.sun0_inertial + m.params.sun_rate_inertial * m.timeline[5].start_s
+    sun /= np.linalg.norm(sun)
+
+    def across(x):
+        v = x - (x @ sun) * sun
+        return v / np.linalg.norm(v)
+    a = across(sky.star_direction_inertial("Canopus", d))
+    b = across(sky.star_direction_inertial("Avior", d))
+    dphi = math.atan2(np.cross(a, b) @ sun, a @ b)
+    theta = math.acos(sun @ sky.star_direction_inertial(cfg.target.star, d))
+    predicted = 2 * math.asin(abs(math.sin(dphi / 2)) * math.sin(theta)) / ARCSEC2RAD
+    assert predicted > 20000
+    assert s["target"]["pointing_error_arcsec"] == pytest.approx(predicted, abs=50)
+
+
+# -- the matrix, the dispersion, the packaged scenarios -----------------------------
+
+def test_the_matrix_has_no_errors():
+    r = fault_matrix(load_scenario(), kinds=list(KINDS), modes=["5"], workers=1)
+    assert r["reference"]["status"] == "complete"
+    assert len(r["cases"]) == len(KINDS)
+    assert r["counts"]["status"].get("error", 0) == 0
+    assert {c["status"] for c in r["cases"]} <= {"complete", "aborted"}
+
+
+def test_faults_are_dispersed_with_a_probability_and_an_onset():
+    base = ['faults=[{kind="tracker_dropout", start_mode="4", duration_s=60}]']
+    never = load_scenario(overrides=[*base, ('dispersions.faults.1={dist="fault", '
+                                             'probability=0}')])
+    assert disp.disperse(never, 5)[0].faults == ()
+    cfg = load_scenario(overrides=[*base, ('dispersions.faults.1={dist="fault", '
+                                          'probability=0.5, low=100, high=200}')])
+    kept = []
+    for seed in range(40):
+        run, drawn = disp.disperse(cfg, seed)
+        assert drawn["faults.1"]["present"] == float(bool(run.faults))
+        if run.faults:
+            assert 100 <= run.faults[0]["start_s"] <= 200 and "start_mode" not in run.faults[0]
+            kept.append(seed)
+    assert 8 < len(kept) < 32
+    assert disp.input_columns(cfg) == ["faults.1.present", "faults.1.start_s"]
+    with pytest.raises(ConfigError) as e:
+        load_scenario(overrides=[*base, 'dispersions.faults.2={dist="fault", probability=1}'])
+    assert e.value.key == "dispersions.faults.2"
+
+
+def test_packaged_scenarios_are_listed_and_run_by_name(capsys):
+    names = {e["name"] for e in packaged_scenarios()}
+    assert {"voyager1-wrong-star", "mariner4-star-hopping", "stuck-jet-roll-calibration",
+            "gyro-failure-to-target"} <= names
+    for name in names:
+        load_scenario(name)
+    assert main(["scenarios"]) == 0
+    assert "mariner4-star-hopping" in capsys.readouterr().out
+
+
+def test_the_faults_command_prints_the_matrix(tmp_path, capsys):
+    out = tmp_path / "m.json"
+    assert main(["faults", "--kinds", "gyro_dead", "--modes", "6-2", "--workers", "1",
+                 "--json", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "gyro_dead" in text and "Mode 6-2" in text and out.exists()
+
+
+def test_the_campaign_table_gives_the_outcome_probabilities(tmp_path, capsys):
+    from allsky.apps.campaign import format_summary
+    from allsky.studies.montecarlo import summarize
+
+    lost = "Mode 4: star lost while waiting for: settled on Sun and star"
+    rows = [{"status": "complete", "abort_reason": None},
+            {"status": "aborted", "abort_reason": f"{lost} (tracker dropout at 512.0 s)"},
+            {"status": "aborted", "abort_reason": f"{lost} (tracker dropout at 530.5 s)"},
+            {"status": "complete", "abort_reason": None}]
+    s = summarize(rows)
+    text = format_summary(s, outcomes=True)
+    assert "Outcomes (runs, probability, outcome)" in text
+    assert "      2   50.0%  complete" in text and f"      2   50.0%  {lost}\n" in text + "\n"
+    assert "512.0" not in text  # one outcome, whatever the onsets
+    assert "512.0" in format_summary(s)  # without: the reasons, one by one
+    p = tmp_path / "f.toml"
+    p.write_text('[[faults]]\nkind = "tracker_dropout"\nstart_s = 600.0\nduration_s = 60.0\n')
+    assert main(["montecarlo", str(p), "--runs", "1", "--workers", "1", "--quiet"]) == 0
+    assert "100.0%  Mode 4: star lost" in capsys.readouterr().out
+
+
+def test_saved_states_keep_the_faults_and_older_files_load(tmp_path):
+    """A state saved mid-flight resumes its faults bit for bit; a file from before the
+    faults (no fault_state, no wheels) loads as a mission without faults."""
+    import json
+    import zipfile
+
+    from allsky.apps import states
+
+    fault = ('faults=[{kind="gyro_bias_step", axis="yaw", size_deg_h=2, start_s=10}, '
+             '{kind="gyro_dead", axis="roll", start_mode="6-2"}]')
+    m = Mission(load_scenario(overrides=[fault]), telemetry=False)
+    m.run_mode()
+    m.run_mode()
+    path = tmp_path / "after2.npz"
+    states.save(m, path)
+    resumed = states.load(path, telemetry=False)
+    assert np.all(np.isfinite(resumed.state.fault_state))
+    assert list(resumed.state.fault_state[sf.ONSET, :2]) == [10.0, sf.UNKNOWN_S]
+    assert resumed.run() == m.run()
+    plain = Mission(load_scenario(), telemetry=False)
+    plain.run_mode()
+    states.save(plain, path)
+    older = tmp_path / "older.npz"
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(older, "w") as dst:
+        for item in src.infolist():
+            if "fault_state" not in item.filename and "wheel" not in item.filename:
+                dst.writestr(item, src.read(item))
+    again = states.load(older, telemetry=False)
+    assert np.array_equal(again.state.fault_state, sf.new_fault_state())
+    bad = tmp_path / "bad.npz"
+    history, arrays = plain.snapshot()
+    arrays["fault_state"][sf.ONSET, 0] = -5.0
+    np.savez(bad, history=np.array(json.dumps(history)),
+             **{states.ARRAY_PREFIX + k: v for k, v in arrays.items()})
+    with pytest.raises(states.StateError, match="fault_state"):
+        states.load(bad)

@@ -3,9 +3,13 @@
 Commands::
 
     allsky run [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--telemetry PATH] [--plots DIR]
+               [--html PATH]
     allsky plot TELEMETRY [--out DIR] [--summary SUMMARY.json]
+    allsky replay TELEMETRY [--summary JSON] --html PATH [--scenario SCENARIO] [--set KEY=VALUE]
     allsky analyze [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--plot PNG]
                    [--envelope [--wheel-torque N_M] [--wheel-momentum N_M_S] [--wheel-beta DEG]]
+    allsky faults [SCENARIO] [--kinds KIND ...] [--modes MODE ...] [--json PATH] [--workers N]
+    allsky scenarios [--json PATH]
     allsky config show [SCENARIO] [--set KEY=VALUE ...]
     allsky config check FILE [--set KEY=VALUE ...]
     allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers K | --scheduler ADDRESS]
@@ -31,6 +35,9 @@ from allsky import __version__
 from allsky.apps.output import Interrupted, OutputError
 from allsky.apps.telemetry_files import TelemetryError
 from allsky.config import ConfigError, load_scenario
+from allsky.config.faults import KINDS, START_MODES
+
+FAULT_KINDS, FAULT_START_MODES = tuple(KINDS), START_MODES
 
 #: The exit codes of every command.
 EXIT_CODES = {
@@ -120,6 +127,9 @@ def _parser() -> argparse.ArgumentParser:
                           "columns in docs/telemetry.md")
     run.add_argument("--plots", metavar="DIR",
                      help="write the mission figures (PNG) into DIR, as allsky plot does")
+    run.add_argument("--html", metavar="PATH",
+                     help="write the mission replay: one self-contained HTML page, offline "
+                          "(docs/replay.md)")
 
     step = sub.add_parser(
         "step", help="fly the mission stop by stop, showing the hardware at each stop",
@@ -169,7 +179,11 @@ def _parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
                "  allsky compare\n"
                "  allsky compare --runs 200 --json cmp.json --plot cmp.png\n"
-               "  allsky compare --set dither.detector=\"lsq\" --runs 50")
+               "  allsky compare --set dither.detector=\"lsq\" --runs 50\n"
+               "  allsky compare --sweep amplitude_urad=100,1000,10000 --sweep record_s=204.8,819.2"
+               " --runs 20\n"
+               "  allsky compare --vehicle wheels --runs 20\n"
+               "  allsky compare --methods legacy,dither,kalman --runs 200")
     scenario_args(cmp_)
     cmp_.add_argument("--runs", type=_positive_int, default=1, metavar="N",
                       help="repeat over N seeds (from mission.seed on) and give statistics")
@@ -179,7 +193,51 @@ def _parser() -> argparse.ArgumentParser:
     cmp_.add_argument("--json", metavar="PATH",
                       help="write the comparison as JSON ('-': to stdout, instead of the table)")
     cmp_.add_argument("--plot", metavar="PNG",
-                      help="write scale-factor error against calibration time (PNG)")
+                      help="write scale-factor error against calibration time (PNG; with "
+                           "--sweep, the trade study's figure)")
+    cmp_.add_argument("--sweep", action="append", type=_sweep_axis, metavar="NAME=V1,V2,...",
+                      help="trade study of the dither instead of the comparison: NAME is "
+                           "amplitude_urad (on each dithered axis) or record_s; give one or "
+                           "both; --runs seeds per point, the legacy turns as reference "
+                           "(docs/comparison.md)")
+    cmp_.add_argument("--vehicle", choices=("jets", "wheels"),
+                      help="fly both methods on the jets (PWPF modulators, jets 39-41) or on "
+                           "the reaction wheels unloaded by the jets (default: the scenario's "
+                           "actuators.kind, jets unless set)")
+    cmp_.add_argument("--methods", type=_methods, default=("legacy", "dither"),
+                      metavar="M1,M2,...",
+                      help="methods to compare: legacy,dither (default) or "
+                           "legacy,dither,kalman to add the three-axis Kalman filter through "
+                           "the legacy turns and through the dither hold (docs/kalman.md)")
+
+    replay = sub.add_parser(
+        "replay", help="write the replay page (HTML) of a flown mission from its telemetry file",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Write one self-contained HTML page that plays a flown mission in any "
+                    "browser, offline: the block diagram with its switches and live values, "
+                    "the vehicle in 3-D, the sky map with the tracker's slit, the traces and "
+                    "the event log, on one mission clock (docs/replay.md). The scenario "
+                    "(SCENARIO, --set) gives the date, the stars and the tracker's slit; "
+                    "--summary gives the mode exits, registers 23 and 24 and the target.",
+        epilog="examples:\n"
+               "  allsky run --telemetry tlm.parquet --json summary.json\n"
+               "  allsky replay tlm.parquet --summary summary.json --html mission.html\n"
+               "  allsky run --html mission.html       # the same in one step")
+    replay.add_argument("telemetry", metavar="TELEMETRY",
+                        help="telemetry file written by allsky run --telemetry (.csv or "
+                             ".parquet)")
+    replay.add_argument("--summary", metavar="JSON",
+                        help="mission summary (allsky run --json): mode exits, registers 23 "
+                             "and 24, the target and the star locked")
+    replay.add_argument("--html", metavar="PATH", required=True,
+                        help="the page to write (.html)")
+    replay.add_argument("--scenario", metavar="SCENARIO", dest="scenario",
+                        help="the scenario flown, merged over the packaged default "
+                             "(default: the packaged default mission)")
+    replay.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        dest="overrides",
+                        help="override a key of the scenario flown (dotted path, TOML "
+                             "value); repeatable")
 
     plot = sub.add_parser(
         "plot", help="draw the figures of a flown mission from its telemetry file",
@@ -311,6 +369,39 @@ def _parser() -> argparse.ArgumentParser:
     stars.add_argument("--json", metavar="PATH",
                        help="write the list as JSON ('-': to stdout, instead of the table)")
 
+    faults = sub.add_parser(
+        "faults", help="fly every fault kind starting in every mode; the matrix of outcomes",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Fly the mission once without a fault and once per fault kind and "
+                    "mode, the fault starting at the start of that mode, on all cores. "
+                    "Print the matrix: the final pointing error of each complete mission, "
+                    "or the reason it aborted (mode, symptom, fault). Faults and their "
+                    "fields: docs/faults.md.",
+        epilog="examples:\n"
+               "  allsky faults\n"
+               "  allsky faults --kinds gyro_dead tracker_dropout --modes 4 5\n"
+               "  allsky faults --set sequencer.recovery=true --json matrix.json")
+    scenario_args(faults)
+    faults.add_argument("--kinds", nargs="+", metavar="KIND", choices=FAULT_KINDS,
+                        help="fault kinds (rows; default: all): " + ", ".join(FAULT_KINDS))
+    faults.add_argument("--modes", nargs="+", metavar="MODE", choices=FAULT_START_MODES,
+                        help="modes the fault starts in (columns; default: 1 2 3 4 5 6-1 6-2)")
+    faults.add_argument("--workers", type=_positive_int, metavar="N",
+                        help="worker processes (default: one per core)")
+    faults.add_argument("--json", metavar="PATH",
+                        help="write the matrix as JSON ('-': to stdout, instead of the table)")
+
+    scen = sub.add_parser(
+        "scenarios", help="list the packaged scenarios (allsky run NAME flies one)",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="The scenarios packaged with allsky, among them the historical "
+                    "anomalies of docs/faults.md; 'allsky run NAME' flies one.",
+        epilog="examples:\n"
+               "  allsky scenarios\n"
+               "  allsky run mariner4-star-hopping")
+    scen.add_argument("--json", metavar="PATH",
+                      help="write the list as JSON ('-': to stdout, instead of the table)")
+
     # The same flags on every command (EXIT_CODES and COMMON_FLAGS in the epilog).
     leaves = [sp for name, sp in sub.choices.items() if name != "config"]
     leaves += list(csub.choices.values())
@@ -341,6 +432,26 @@ def _pyramid_angle(text):
     return v
 
 
+def _sweep_axis(text):
+    from allsky.apps.dither_sweep import sweep_axis
+
+    return sweep_axis(text)
+
+
+def _methods(text):
+    from allsky.studies.compare import METHODS
+
+    names = tuple(n.strip() for n in text.split(","))
+    unknown = [n for n in names if n not in METHODS]
+    if unknown:
+        raise argparse.ArgumentTypeError(f"unknown method {unknown[0]!r} (known: "
+                                         f"{', '.join(METHODS)})")
+    if not {"legacy", "dither"} <= set(names):
+        raise argparse.ArgumentTypeError("legacy and dither are always compared: give "
+                                         "legacy,dither or legacy,dither,kalman")
+    return names
+
+
 def _positive_int(text):
     try:
         v = int(text)
@@ -353,7 +464,9 @@ def _positive_int(text):
 
 def _run(cfg, args) -> int:
     # Imported here so that `allsky config` never pays for compiling the simulator.
-    if args.command == "compare":
+    if args.command == "compare" and args.sweep:
+        from allsky.apps.dither_sweep import run_from_cli
+    elif args.command == "compare":
         from allsky.apps.compare import run_from_cli
     elif args.command == "step":
         from allsky.apps.step import run_from_cli
@@ -365,6 +478,12 @@ def _run(cfg, args) -> int:
         from allsky.apps.analyze import run_from_cli
     elif args.command == "stars":
         from allsky.apps.stars import run_from_cli
+    elif args.command == "replay":
+        from allsky.apps.replay import run_from_cli
+    elif args.command == "faults":
+        from allsky.apps.faults import run_from_cli
+    elif args.command == "scenarios":
+        from allsky.apps.faults import scenarios_from_cli as run_from_cli
     else:
         from allsky.apps.report import run_from_cli
 
@@ -419,8 +538,8 @@ def main(argv=None) -> int:
     except ValueError:  # not the main thread: leave SIGTERM alone
         pass
     try:
-        # `allsky plot` reads a telemetry file and needs no scenario.
-        cfg = None if args.command == "plot" else load_scenario(
+        # `allsky plot` reads a telemetry file, `allsky scenarios` lists files: no scenario.
+        cfg = None if args.command in ("plot", "scenarios") else load_scenario(
             args.scenario, args.overrides, getattr(args, "disperse", None))
         if args.command == "config":
             return _config(cfg, args)

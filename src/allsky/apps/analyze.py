@@ -2,22 +2,22 @@
 
 The numbers come from :func:`allsky.studies.analysis.analyze`; this module
 presents them. With ``--envelope`` it shows instead the torque and momentum
-envelopes of a reaction-wheel pyramid and of the jets
-(:mod:`allsky.vehicle.envelopes`) and checks the dither example in them.
+envelopes of the scenario's reaction-wheel array and of its jets
+(:func:`allsky.studies.envelope_check.scenario_envelopes`) and checks the
+dither example in them.
 """
 
 import json
 import math
+from types import MappingProxyType
 
 import numpy as np
 
 from allsky.studies.analysis import RATE_LOOP_AXES, analyze, frequency_responses, scenario_loops
-from allsky.studies.envelope_check import (  # noqa: F401 - the command's defaults
-    DEFAULT_PYRAMID_BETA_DEG,
-    DEFAULT_WHEEL_MOMENTUM_N_M_S,
-    DEFAULT_WHEEL_TORQUE_N_M,
-    DITHER_EXAMPLE,
-    envelope_analysis,
+from allsky.studies.envelope_check import (
+    FROM_SCENARIO,
+    SCENARIO_KEYS,
+    scenario_envelopes,
 )
 from allsky.vehicle.envelopes import facet_polygons
 
@@ -128,14 +128,60 @@ def _reach_row(label, reach, unit) -> str:
     return f"  {label:<26}{r:>10.4g}{m[0]:>12.4g}{m[1]:>12.4g}{m[2]:>12.4g}"
 
 
-def format_envelopes(result: dict) -> str:
-    """An :func:`envelope_analysis` result as text: reaches, then the dither check."""
-    arr, w, dc = result["wheel_array"], result["wheels"], result["dither_check"]
+#: The option that replaces each part of the scenario's wheel array.
+WHEEL_OPTIONS = MappingProxyType({"axes": "--wheel-beta", "torque_max_n_m": "--wheel-torque",
+                                   "momentum_max_n_m_s": "--wheel-momentum"})
+
+
+def _origin(arr: dict, part: str) -> str:
+    """Where a part of the analysed array came from: a scenario key or an option."""
+    if arr["source"][part] == FROM_SCENARIO:
+        return SCENARIO_KEYS[part]
+    if part == "axes":
+        return (f"{WHEEL_OPTIONS[part]} {arr['beta_deg']:g} (four-wheel pyramid about +x, "
+                f"each spin axis {arr['beta_deg']:g} deg from it)")
+    return WHEEL_OPTIONS[part]
+
+
+def format_wheel_array(arr: dict, actuators_kind=None) -> str:
+    """The analysed wheel array as text: one row per wheel, and where it came from.
+
+    ``arr`` is the ``wheel_array`` of
+    :func:`allsky.studies.envelope_check.scenario_envelopes`;
+    ``actuators_kind`` the scenario's ``actuators.kind``, to say whether it
+    flies these wheels.
+    """
+    axes = np.array(arr["axes"])
+    from_scenario = all(v == FROM_SCENARIO for v in arr["source"].values())
+    head = (f"{len(axes)} wheels, the scenario's [wheels]" if from_scenario else
+            f"{len(axes)} wheels, the scenario's [wheels] with parts replaced")
+    if actuators_kind is not None and from_scenario:
+        head += (f" (flown: actuators.kind = \"{actuators_kind}\")" if actuators_kind == "wheels"
+                 else f" (flown with actuators.kind = \"wheels\"; this scenario flies "
+                      f"\"{actuators_kind}\")")
+    cols = (f"  {'wheel':<7}{'spin axis x, y, z (body)':>27}{'from +x [deg]':>15}"
+            f"{'torque [N m]':>14}{'momentum [N m s]':>18}")
+    lines = [f"Reaction wheels: {head}", cols, "  " + "-" * (len(cols) - 2)]
+    for i, g in enumerate(axes):
+        angle = math.degrees(math.acos(max(-1.0, min(1.0, float(g[0])))))
+        lines.append(f"  {i:<7}{g[0]:>9.4f}{g[1]:>9.4f}{g[2]:>9.4f}{angle:>15.2f}"
+                     f"{arr['torque_max_n_m'][i]:>14.4g}{arr['momentum_max_n_m_s'][i]:>18.4g}")
+    lines.append(f"  axes: {_origin(arr, 'axes')}; torque limits: "
+                 f"{_origin(arr, 'torque_max_n_m')}; momentum limits: "
+                 f"{_origin(arr, 'momentum_max_n_m_s')}")
+    return "\n".join(lines)
+
+
+def format_envelopes(result: dict, actuators_kind=None) -> str:
+    """A :func:`scenario_envelopes` result as text: array, reaches, dither check."""
+    w, dc = result["wheels"], result["dither_check"]
     failed = w["one_failed"]["wheel"]
     head = f"  {'':<26}{'radius':>10}{'x (roll)':>12}{'y (pitch)':>12}{'z (yaw)':>12}"
-    lines = [(f"Reaction wheels: four-wheel pyramid about +x (roll), spin axes "
-              f"{arr['beta_deg']:.2f} deg from +x, {arr['torque_max_n_m']:g} N m and "
-              f"{arr['momentum_max_n_m_s']:g} N m s per wheel"),
+    emulated = dc.get("emulated_inertia_kg_m2")
+    emulated = ("not the emulated one" if emulated is None else
+                "not the emulated one, whose inertia is "
+                f"{', '.join(f'{j:g}' for j in emulated)} kg m^2 about x, y, z")
+    lines = [format_wheel_array(result["wheel_array"], actuators_kind), "",
              ("Envelopes: inscribed radius (available in every direction) and largest reach "
               "along each body axis"),
              head, "  " + "-" * (len(head) - 2),
@@ -148,9 +194,10 @@ def format_envelopes(result: dict) -> str:
              (f"  (wheel {failed}: the single failure leaving the least torque in every "
               "direction)"),
              "",
-             (f"Dither check: inertia {dc['inertia_kg_m2']:g} kg m^2, amplitude "
-              f"{dc['amplitude_rad'] * 1e6:g} urad, period {dc['period_s']:g} s; peak torque "
-              f"J A w^2 = {dc['peak_torque_n_m']:.4g} N m"),
+             f"Dither check on the dither document's example vehicle ({emulated}):",
+             (f"  inertia {dc['inertia_kg_m2']:g} kg m^2 about each axis, amplitude "
+              f"{dc['amplitude_rad'] * 1e6:g} urad, period {dc['period_s']:g} s; "
+              f"peak torque J A w^2 = {dc['peak_torque_n_m']:.4g} N m"),
              f"  {'margin, dither about':<26}{'roll':>10}{'pitch':>12}{'yaw':>12}{'fits':>8}"]
     for key, label in (("wheels", "wheels"), ("one_failed", f"wheel {failed} failed"),
                        ("jets", "jets 39-41")):
@@ -197,13 +244,28 @@ def _draw_box(ax, half_n_m, reach, colour, label):
 BODY_AXIS_LABELS = ("x roll [N m]", "y pitch [N m]", "z yaw [N m]")
 
 
+def _array_title(arr: dict) -> str:
+    """The analysed array in a few words: wheels, layout, torque limits."""
+    limits = np.asarray(arr["torque_max_n_m"], dtype=float)
+    each = (f"{limits[0]:g} N m each" if np.all(limits == limits[0]) else
+            f"{limits.min():g} to {limits.max():g} N m per wheel")
+    if arr.get("beta_deg") is not None:
+        layout = f"pyramid about +x (roll), spin axes {arr['beta_deg']:.2f}° from +x"
+    elif arr.get("source", {}).get("axes") == FROM_SCENARIO:
+        layout = "the scenario's wheels.axes"
+    else:
+        layout = "given axes"
+    return f"{len(limits)} wheels, {layout}, {each}"
+
+
 def envelope_figure(result: dict, show_failure=True):
     """``allsky analyze --envelope``: the torque envelopes in 3-D, with the jets.
 
     Parameters
     ----------
     result : dict
-        :func:`envelope_analysis`.
+        :func:`allsky.studies.envelope_check.scenario_envelopes` (or
+        ``envelope_analysis``): any number of wheels, any axes and limits.
     show_failure : bool
         Add a second panel with the worst single failure's envelope.
 
@@ -223,7 +285,7 @@ def envelope_figure(result: dict, show_failure=True):
     axes = np.array(arr["axes"])
     full = make_envelope(axes, arr["torque_max_n_m"])
     failed = result["wheels"]["one_failed"]["wheel"]
-    panels = [("four wheels", full, "tab:blue", "wheels")]
+    panels = [(f"all {len(axes)} wheels", full, "tab:blue", "wheels")]
     if show_failure:
         panels.append((f"wheel {failed} failed", full.without(failed), "tab:orange",
                        "one_failed"))
@@ -238,8 +300,7 @@ def envelope_figure(result: dict, show_failure=True):
         ([f"{', '.join(shown)} N m"] if shown else [])
         + ([f"{', '.join(beyond)} N m off the scale"] if beyond else []))
     fig = Figure(figsize=(6.0 * len(panels), 6.6), layout="constrained")
-    fig.suptitle(f"Torque envelopes [N m]: four-wheel pyramid, {arr['torque_max_n_m']:g} N m "
-                 f"per wheel, spin axes {arr['beta_deg']:.2f}° from +x (roll)", fontsize=11)
+    fig.suptitle(f"Torque envelopes [N m]: {_array_title(arr)}", fontsize=11)
     peak = dc["peak_torque_n_m"]
     for k, (title, env, colour, key) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
@@ -252,9 +313,10 @@ def envelope_figure(result: dict, show_failure=True):
             ax.text(*(a * tip[wheel]), f" wheel {wheel}", fontsize=8)
         dots = peak * np.vstack([np.eye(3), -np.eye(3)])
         ax.scatter(*dots.T, color="tab:red", s=12, depthshade=False,
-                   label=f"dither peak torque {peak:.3g} N m on each axis")
+                   label=f"dither example's peak torque {peak:.3g} N m on each axis "
+                         f"({dc['inertia_kg_m2']:g} kg m^2 vehicle)")
         ax.set_title(f"{title}: {len(env.normals)} facets, inscribed radius "
-                     f"{env.min_radius:.3g} N m;\ndither margin {dc[key]['margin']:.3g} "
+                     f"{env.min_radius:.3g} N m;\ndither example's margin {dc[key]['margin']:.3g} "
                      f"({dc[key]['worst_axis']})", fontsize=10)
         for set_lim in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
             set_lim(-reach, reach)
@@ -270,23 +332,20 @@ def envelope_figure(result: dict, show_failure=True):
 
 
 def run_envelope(cfg, args) -> int:
-    """``allsky analyze --envelope``: print the envelopes; write --json and --plot."""
+    """``allsky analyze --envelope``: print the envelopes; write --json and --plot.
+
+    The wheel array is the scenario's ``[wheels]``; ``--wheel-beta``,
+    ``--wheel-torque`` and ``--wheel-momentum`` replace its axes (by a
+    four-wheel pyramid) and its limits.
+    """
     from allsky.apps.output import FIGURE_SUFFIXES, check_output, write_atomic
-    from allsky.hardware.jets import make_params
 
     check_output("--json", args.json)
     check_output("--plot", args.plot, suffixes=FIGURE_SUFFIXES)
     to_stdout = args.json == "-"
     say = (lambda *a, **k: None) if to_stdout else print
-    jets = make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s)
-    def given(value, default):
-        return default if value is None else value
-
-    result = envelope_analysis(jets.torque_n_m,
-                               given(args.wheel_beta, DEFAULT_PYRAMID_BETA_DEG),
-                               given(args.wheel_torque, DEFAULT_WHEEL_TORQUE_N_M),
-                               given(args.wheel_momentum, DEFAULT_WHEEL_MOMENTUM_N_M_S))
-    say(format_envelopes(result))
+    result = scenario_envelopes(cfg, args.wheel_beta, args.wheel_torque, args.wheel_momentum)
+    say(format_envelopes(result, cfg.actuators.kind))
     body = json.dumps(result, indent=2) + "\n"
     if to_stdout:
         print(body, end="")

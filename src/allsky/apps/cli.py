@@ -264,17 +264,20 @@ def _parser() -> argparse.ArgumentParser:
         description="Linear gain and phase margins of each axis's position and rate loops, "
                     "and the PWPF modulators' duty cycle against a constant input: the "
                     "analytic curve beside the simulated modulator.\n\n"
-                    "With --envelope instead: the torque and momentum envelopes of a "
-                    "four-wheel reaction-wheel pyramid about +x (roll), with its worst single "
-                    "failure, beside the torque box of the scenario's jets 39-41, and the "
-                    "dither example (16000 kg m^2, 100 urad, 51.2 s) checked in each "
-                    "(docs/envelopes.md). The wheel defaults are sized for that vehicle.",
+                    "With --envelope instead: the torque and momentum envelopes of the "
+                    "scenario's reaction-wheel array ([wheels]: any number of wheels, axes "
+                    "and per-wheel limits), with its worst single failure, beside the torque "
+                    "box of the scenario's jets 39-41, and the dither document's example "
+                    "(its own 16000 kg m^2 vehicle, not the emulated one; 100 urad, 51.2 s) "
+                    "checked in each (docs/envelopes.md). The --wheel-* options replace "
+                    "parts of the array.",
         epilog="examples:\n"
                "  allsky analyze\n"
                "  allsky analyze --set pwpf.time_constant_s=0.05 --plot loops.png\n"
                "  allsky analyze my_scenario.toml --json analysis.json\n"
                "  allsky analyze --envelope --plot envelope.png\n"
-               "  allsky analyze --envelope --wheel-torque 0.05 --wheel-beta 60 --json -")
+               "  allsky analyze --envelope --wheel-torque 0.05 --wheel-beta 60 --json -\n"
+               "  allsky analyze --envelope --set 'wheels.max_torque_n_m=[0.2, 0.2, 0.1, 0.1]'")
     scenario_args(analyze)
     analyze.add_argument("--json", metavar="PATH",
                          help="write the margins and the PWPF characteristic (with --envelope: "
@@ -286,17 +289,17 @@ def _parser() -> argparse.ArgumentParser:
     analyze.add_argument("--envelope", action="store_true",
                          help="show the wheel and jet torque/momentum envelopes instead")
     analyze.add_argument("--wheel-torque", type=_positive_float, metavar="N_M",
-                         help="with --envelope: torque limit of each wheel [N m] (default 0.1: "
-                              "after the worst failure 3.4 times the dither's 0.0241 N m "
-                              "about any axis)")
+                         help="with --envelope: torque limit of each wheel [N m], instead of "
+                              "the scenario's wheels.max_torque_n_m")
     analyze.add_argument("--wheel-momentum", type=_positive_float, metavar="N_M_S",
-                         help="with --envelope: momentum limit of each wheel [N m s] (default "
-                              "50: a 0.1 deg/s slew of 16000 kg m^2 about any axis after the "
-                              "worst failure)")
+                         help="with --envelope: momentum limit of each wheel [N m s], instead "
+                              "of the scenario's wheels.max_momentum_n_m_s")
     analyze.add_argument("--wheel-beta", type=_pyramid_angle, metavar="DEG",
-                         help="with --envelope: angle of each wheel's spin axis from +x [deg] "
-                              "(default atan(sqrt 2) = 54.74: all twelve facets equally far, "
-                              "the largest torque available in every direction)")
+                         help="with --envelope: a four-wheel pyramid about +x (roll), each "
+                              "spin axis at this angle from +x [deg], instead of the "
+                              "scenario's wheels.axes (whose limits carry over when one "
+                              "number or four; atan(sqrt 2) = 54.74 puts all twelve facets "
+                              "equally far)")
 
     mc = sub.add_parser(
         "montecarlo", help="fly a campaign over seeds and dispersions; statistics and histograms",

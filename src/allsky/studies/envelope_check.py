@@ -1,9 +1,16 @@
-"""The wheel pyramid and the jet torques, with the dither example checked in them.
+"""The scenario's wheel array and jets, with the dither example checked in them.
 
 Data for ``allsky analyze --envelope``: the envelopes of
-:mod:`allsky.vehicle.envelopes` for the default (or given) wheel pyramid and
-the scenario's jet couples, and the margin of the dither document's example
-(16000 kg m^2, 100 urad, 51.2 s) in each.
+:mod:`allsky.vehicle.envelopes` for the wheel array the scenario's ``[wheels]``
+table describes (any number of wheels, any spin axes, one limit per wheel),
+with its limits or its axes replaced on request (:func:`wheel_array`), beside
+the scenario's jet couples 39-41; and the margin, in each, of the dither
+document's example.
+
+That example (16000 kg m^2 about each axis, 100 urad, 51.2 s) is the dither
+document's vehicle, not the emulated one (``vehicle.inertia_kg_m2``, 100 to
+680 kg m^2): its check says how much of the array's torque that document's
+dither would take, whatever the array analysed.
 """
 
 import math
@@ -11,19 +18,6 @@ from types import MappingProxyType
 
 import numpy as np
 
-#: [deg] Default angle of each pyramid wheel's spin axis from +x: atan(sqrt 2), at which
-#: all twelve facets of the torque envelope are equally far from the origin, so the
-#: inscribed sphere (the torque available in every direction) is largest.
-DEFAULT_PYRAMID_BETA_DEG = math.degrees(math.atan(math.sqrt(2.0)))
-#: [N m] Default torque limit of each wheel, sized for the dither example's 16000 kg m^2
-#: vehicle: at DEFAULT_PYRAMID_BETA_DEG one failed wheel leaves an inscribed radius of
-#: 0.816 tau = 0.082 N m, 3.4 times the dither's 0.0241 N m peak about any axis.
-DEFAULT_WHEEL_TORQUE_N_M = 0.1
-#: [N m s] Default momentum limit of each wheel. The dither stores only J A w = 0.196 N m s;
-#: the limit is set instead by a 0.1 deg/s slew of the 16000 kg m^2 vehicle about any axis
-#: with one wheel failed: J w = 27.9 N m s <= 0.816 h needs h >= 34 N m s (500 s of full
-#: torque per wheel).
-DEFAULT_WHEEL_MOMENTUM_N_M_S = 50.0
 #: The dither example the wheels are checked against: inertia [kg m^2] (about each body
 #: axis), amplitude [rad] and period [s] (docs/envelopes.md).
 DITHER_EXAMPLE = MappingProxyType({"inertia_kg_m2": 16000.0, "amplitude_rad": 100e-6,
@@ -31,6 +25,14 @@ DITHER_EXAMPLE = MappingProxyType({"inertia_kg_m2": 16000.0, "amplitude_rad": 10
 #: Samples per dither period in the profile check; a multiple of 4 puts samples on the peaks.
 DITHER_SAMPLES = 64
 AXIS_NAMES = ("roll", "pitch", "yaw")
+#: ``wheel_array["source"]`` values: a part taken from the scenario's ``[wheels]`` table,
+#: or given by the caller (the command's ``--wheel-*`` options).
+FROM_SCENARIO = "scenario"
+GIVEN = "given"
+#: The scenario key each part of the array comes from, when it does.
+SCENARIO_KEYS = MappingProxyType({"axes": "wheels.axes",
+                                  "torque_max_n_m": "wheels.max_torque_n_m",
+                                  "momentum_max_n_m_s": "wheels.max_momentum_n_m_s"})
 
 
 def dither_profiles_n_m(inertia_kg_m2, amplitude_rad, period_s, samples=DITHER_SAMPLES):
@@ -73,21 +75,90 @@ def _dither_margins(envelope, profiles) -> dict:
             "worst_axis": AXIS_NAMES[worst], "margin_per_axis": [float(m) for m in per_axis]}
 
 
-def envelope_analysis(jet_torque_n_m, beta_deg=DEFAULT_PYRAMID_BETA_DEG,
-                      wheel_torque_n_m=DEFAULT_WHEEL_TORQUE_N_M,
-                      wheel_momentum_n_m_s=DEFAULT_WHEEL_MOMENTUM_N_M_S,
+def _per_wheel(key, value, n, replaced_axes) -> list:
+    """One limit per wheel from the scenario's one number or ``n`` numbers."""
+    from allsky.config import ConfigError
+
+    if np.ndim(value) == 0:
+        return [float(value)] * n
+    if len(value) != n:
+        # Only when the axes were replaced: the scenario checked its own count.
+        raise ConfigError(key, value, f"one limit per wheel of {SCENARIO_KEYS['axes']}, "
+                          f"{len(value)} in all, cannot be spread over the {n} wheels "
+                          f"{replaced_axes}; give one limit for those wheels")
+    return [float(v) for v in value]
+
+
+def wheel_array(wheels, beta_deg=None, torque_max_n_m=None, momentum_max_n_m_s=None) -> dict:
+    """The wheel array to analyse: the scenario's ``[wheels]``, any part replaced.
+
+    Parameters
+    ----------
+    wheels : scenario section
+        The scenario's ``[wheels]`` (``cfg.wheels``): ``axes`` (n x 3 unit
+        vectors, body axes), ``max_torque_n_m`` and ``max_momentum_n_m_s``
+        (one number, or one per wheel).
+    beta_deg : float, optional
+        Replace the axes by the four-wheel pyramid about +x (roll) with each
+        spin axis ``beta_deg`` from it
+        (:func:`allsky.vehicle.envelopes.pyramid_axes`). The scenario's
+        limits carry over when they are one number or four.
+    torque_max_n_m : float or array_like, shape (n,), optional
+        Replace the torque limit of each wheel [N m].
+    momentum_max_n_m_s : float or array_like, shape (n,), optional
+        Replace the momentum limit of each wheel [N m s].
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``axes`` (n rows [x, y, z]), ``torque_max_n_m`` and
+        ``momentum_max_n_m_s`` (n numbers each), ``beta_deg`` (the pyramid's
+        angle, None for the scenario's axes) and ``source``: for each of
+        ``axes``, ``torque_max_n_m``, ``momentum_max_n_m_s``,
+        :data:`FROM_SCENARIO` (from the key named in :data:`SCENARIO_KEYS`)
+        or :data:`GIVEN`.
+
+    Raises
+    ------
+    ConfigError
+        The pyramid replaces the axes while the scenario gives a limit per
+        wheel for another number of wheels, and no limit replaces it.
+    """
+    from allsky.vehicle.envelopes import pyramid_axes
+
+    if beta_deg is None:
+        axes = [[float(x) for x in row] for row in wheels.axes]
+    else:
+        axes = pyramid_axes(beta_deg).tolist()
+    n = len(axes)
+    replaced = None if beta_deg is None else f"of a pyramid at {float(beta_deg):g} deg"
+    limits = {}
+    for name, given in (("torque_max_n_m", torque_max_n_m),
+                        ("momentum_max_n_m_s", momentum_max_n_m_s)):
+        key = SCENARIO_KEYS[name]
+        value = getattr(wheels, key.split(".")[1]) if given is None else given
+        limits[name] = _per_wheel(key if given is None else name, value, n, replaced)
+    return {"axes": axes, **limits,
+            "beta_deg": None if beta_deg is None else float(beta_deg),
+            "source": {"axes": FROM_SCENARIO if beta_deg is None else GIVEN,
+                       "torque_max_n_m": FROM_SCENARIO if torque_max_n_m is None else GIVEN,
+                       "momentum_max_n_m_s": (FROM_SCENARIO if momentum_max_n_m_s is None
+                                              else GIVEN)}}
+
+
+def envelope_analysis(jet_torque_n_m, axes, torque_max_n_m, momentum_max_n_m_s,
                       dither=DITHER_EXAMPLE) -> dict:
-    """Wheel-pyramid and jet envelopes, with the dither example checked in them.
+    """Wheel-array and jet envelopes, with the dither example checked in them.
 
     Parameters
     ----------
     jet_torque_n_m : array_like, shape (3,)
         Roll, pitch, yaw couple torques of jets 39-41 [N m], ``2 F r``
         (:func:`allsky.hardware.jets.make_params`).
-    beta_deg : float
-        Angle of each wheel's spin axis from +x [deg] (:func:`allsky.vehicle.envelopes.pyramid_axes`).
-    wheel_torque_n_m, wheel_momentum_n_m_s : float
-        Torque [N m] and momentum [N m s] limit of each wheel.
+    axes : array_like, shape (n, 3)
+        Unit spin axes of the wheels, body axes, spanning 3-D.
+    torque_max_n_m, momentum_max_n_m_s : float or array_like, shape (n,)
+        Torque [N m] and momentum [N m s] limit of each wheel, or one for all.
     dither : mapping
         ``inertia_kg_m2``, ``amplitude_rad``, ``period_s`` of the dither to check.
 
@@ -96,33 +167,60 @@ def envelope_analysis(jet_torque_n_m, beta_deg=DEFAULT_PYRAMID_BETA_DEG,
     dict
         JSON-ready: ``wheels`` and ``jets`` exactly as
         :func:`allsky.vehicle.envelopes.envelope_summary`; ``wheel_array``
-        (the inputs: ``beta_deg``, ``axes``, ``torque_max_n_m``,
-        ``momentum_max_n_m_s``); ``dither_check``: the dither's inputs, its
-        peak torque ``J A w^2`` [N m], and for ``wheels``, ``one_failed``
-        (the worst single failure) and ``jets``: ``inside``, ``margin`` (the
-        least over the three axes, :func:`allsky.vehicle.envelopes.check_profile`),
-        ``worst_axis`` and ``margin_per_axis`` (dither about roll, pitch, yaw in turn).
+        (the inputs: ``axes``, and ``torque_max_n_m`` and
+        ``momentum_max_n_m_s`` one per wheel); ``dither_check``: the dither's
+        inputs, its peak torque ``J A w^2`` [N m], and for ``wheels``,
+        ``one_failed`` (the worst single failure) and ``jets``: ``inside``,
+        ``margin`` (the least over the three axes,
+        :func:`allsky.vehicle.envelopes.check_profile`), ``worst_axis`` and
+        ``margin_per_axis`` (dither about roll, pitch, yaw in turn).
     """
-    from allsky.vehicle.envelopes import (
-        envelope_summary,
-        jet_envelope,
-        make_envelope,
-        pyramid_axes,
-    )
+    from allsky.vehicle.envelopes import envelope_summary, jet_envelope, make_envelope
 
-    axes = pyramid_axes(beta_deg)
-    result = envelope_summary(axes, wheel_torque_n_m, wheel_momentum_n_m_s, jet_torque_n_m)
-    torque = make_envelope(axes, wheel_torque_n_m)
+    torque = make_envelope(axes, torque_max_n_m)
+    momentum = make_envelope(axes, momentum_max_n_m_s)
+    result = envelope_summary(torque.axes, torque.limits, momentum.limits, jet_torque_n_m)
     failed = result["wheels"]["one_failed"]["wheel"]
     profiles = dither_profiles_n_m(**dither)
     omega = 2.0 * math.pi / dither["period_s"]
-    result["wheel_array"] = {"beta_deg": float(beta_deg), "axes": axes.tolist(),
-                             "torque_max_n_m": float(wheel_torque_n_m),
-                             "momentum_max_n_m_s": float(wheel_momentum_n_m_s)}
+    result["wheel_array"] = {"axes": torque.axes.tolist(),
+                             "torque_max_n_m": torque.limits.tolist(),
+                             "momentum_max_n_m_s": momentum.limits.tolist()}
     result["dither_check"] = {
         **{k: float(v) for k, v in dither.items()},
         "peak_torque_n_m": dither["inertia_kg_m2"] * dither["amplitude_rad"] * omega ** 2,
         "wheels": _dither_margins(torque, profiles),
         "one_failed": _dither_margins(torque.without(failed), profiles),
         "jets": _dither_margins(jet_envelope(jet_torque_n_m), profiles)}
+    return result
+
+
+def scenario_envelopes(cfg, beta_deg=None, torque_max_n_m=None,
+                       momentum_max_n_m_s=None) -> dict:
+    """The envelopes of the scenario's wheel array and jets, with the dither check.
+
+    Parameters
+    ----------
+    cfg : allsky.config.Scenario
+        Gives the wheel array (``[wheels]``) and the jet couples (``[jets]``).
+    beta_deg, torque_max_n_m, momentum_max_n_m_s : optional
+        Replacements for parts of the wheel array, as :func:`wheel_array`.
+
+    Returns
+    -------
+    dict
+        :func:`envelope_analysis` of that array, its ``wheel_array`` from
+        :func:`wheel_array` (so with ``beta_deg`` and ``source``), and in
+        ``dither_check`` the diagonal of the emulated vehicle's inertia,
+        ``emulated_inertia_kg_m2`` [kg m^2], beside the example's.
+    """
+    from allsky.hardware.jets import make_params
+
+    array = wheel_array(cfg.wheels, beta_deg, torque_max_n_m, momentum_max_n_m_s)
+    jets = make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s)
+    result = envelope_analysis(jets.torque_n_m, array["axes"], array["torque_max_n_m"],
+                               array["momentum_max_n_m_s"])
+    result["wheel_array"] = array
+    result["dither_check"]["emulated_inertia_kg_m2"] = [
+        float(x) for x in np.diag(np.asarray(cfg.vehicle.inertia_kg_m2, dtype=float))]
     return result

@@ -134,3 +134,14 @@ def test_a_leg_allocates_the_same_for_10_and_10000_frames(program):
             _nrt_python.memsys_disable_stats()
     assert few == many
     assert few > 0  # the per-leg scratch: proves the counter sees this code
+
+
+def test_the_patent_vehicle_without_faults_flies_its_own_loop(default_cfg):
+    """No per-frame branch for faults or wheels in the default mission's loop."""
+    from allsky.config.scenario import load_scenario
+
+    assert frame_loop.leg_entry(Mission(default_cfg).params) is frame_loop._run_leg_jets
+    wheels = load_scenario(overrides=["actuators.kind=wheels"])
+    faulty = load_scenario(overrides=['faults=[{kind="gyro_dead", axis="roll", start_s=5.0}]'])
+    for cfg in (wheels, faulty):
+        assert frame_loop.leg_entry(Mission(cfg).params) is frame_loop._run_leg_any

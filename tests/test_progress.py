@@ -55,7 +55,7 @@ def test_run_quiet_keeps_the_report(capsys):
 
 
 def test_compile_note_only_when_the_frame_loop_is_compiled(default_cfg, monkeypatch):
-    monkeypatch.setattr(progress, "frame_loop_needs_compiling", lambda: True)
+    monkeypatch.setattr(progress, "frame_loop_needs_compiling", lambda params=None: True)
     out = io.StringIO()
     progress.fly(Mission(default_cfg, telemetry=False), stream=out)
     assert "Mode 1 Sun orientation, t = 0 s (compiling the frame loop on first use)" in \

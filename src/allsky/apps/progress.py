@@ -19,8 +19,11 @@ from allsky.sequencer.modes import MODE_TITLE
 PROGRESS_EVERY_S = 20.0  #: [s] of mission time between refreshes
 
 
-def frame_loop_needs_compiling() -> bool:
+def frame_loop_needs_compiling(params=None) -> bool:
     """Whether the first leg flown in this process will compile the frame loop.
+
+    ``params`` picks the loop (:func:`allsky.sim.frame_loop.leg_entry`); by
+    default the patent's vehicle without faults.
 
     False when the loop is already compiled in this process, runs as plain
     Python (``NUMBA_DISABLE_JIT=1``), or numba's on-disk cache holds an entry
@@ -29,7 +32,7 @@ def frame_loop_needs_compiling() -> bool:
     """
     from allsky.sim import frame_loop
 
-    run_leg = frame_loop.run_leg
+    run_leg = frame_loop._run_leg_jets if params is None else frame_loop.leg_entry(params)
     if not hasattr(run_leg, "signatures") or run_leg.signatures:
         return False
     try:
@@ -57,7 +60,7 @@ def fly(m, quiet=False, stream=None):
         m.pause_every_s = PROGRESS_EVERY_S
         m.on_pause = m.on_slice = lambda mm, what: describe()
         try:
-            first = frame_loop_needs_compiling()
+            first = frame_loop_needs_compiling(m.params)
             while not m.finished:
                 describe(first_use=first)
                 first = False

@@ -83,6 +83,7 @@ from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_telemetry  #
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
 from allsky.vehicle.wheels import (
+    ACTUATOR_JETS,
     ACTUATOR_WHEELS,
     advance_momentum,
     body_vector,
@@ -102,7 +103,6 @@ GATE_RATE_MODE = 4  #: S18/S19: control amplifier 31/33 follows the rate command
 N_GATES = 5
 
 
-@njit_alloc
 def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """Run frames until the leg's condition, timeout or an abort.
 
@@ -118,17 +118,67 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     ``s.leg_clock``, where a next leg with ``carry_settle=1`` starts from it.
     Returns ``(exit_code, leg_time_s)``.
     """
-    # The scratch is allocated here, once per leg; the frames themselves are
-    # compiled without the reference-counted runtime (allsky.jit) and cannot allocate.
-    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
-                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
-                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS),
-                       np.zeros(p.wheels.axes.shape[0]))
+    return leg_entry(p)(p, s, leg, tlm, tlm_rows, rec, rec_rows)
+
+
+def leg_entry(p):
+    """The compiled loop :func:`run_leg` flies a mission of parameters ``p`` with.
+
+    The patent's vehicle without faults has a loop of its own, compiled with
+    the jets and without the fault hooks (the constants fold them away): the
+    general loop's per-frame branches cost it about a fifth of its time. Each
+    loop compiles on its first use only.
+    """
+    if p.actuator == ACTUATOR_JETS and p.faults.n == 0:
+        return _run_leg_jets
+    return _run_leg_any
+
+
+@njit_alloc
+def _work_arrays(p):
+    """The per-leg work arrays of :func:`_run_frames`, allocated once per leg."""
+    return (np.zeros((N_SCRATCH, 3)), np.zeros((N_GATES, 3)),
+            np.zeros(p.routing.position_routes.shape[0]), np.zeros(N_POSITION_SOURCES),
+            np.zeros(N_SIGNALS), np.zeros(p.wheels.axes.shape[0]))
+
+
+# Allocation happens in the two entries below (with numba's runtime); the frames run in
+# the two loops they call, compiled without it (allsky.jit), which cannot allocate.
+@njit_alloc
+def _run_leg_jets(p, s, leg, tlm, tlm_rows, rec, rec_rows):
+    """:func:`run_leg` on the jets, without faults."""
+    w = _work_arrays(p)
+    return _frames_jets(p, s, leg, tlm, tlm_rows, rec, rec_rows, w[0], w[1], w[2], w[3], w[4],
+                        w[5])
+
+
+@njit_alloc
+def _run_leg_any(p, s, leg, tlm, tlm_rows, rec, rec_rows):
+    """:func:`run_leg` on either actuator, with the scenario's faults."""
+    w = _work_arrays(p)
+    return _frames_any(p, s, leg, tlm, tlm_rows, rec, rec_rows, w[0], w[1], w[2], w[3], w[4],
+                       w[5])
 
 
 @njit
+def _frames_jets(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
+                 sources, sig, wheel_u):
+    """:func:`_run_frames` with the jets and no fault hooks, folded in at compile time."""
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
+                       sources, sig, wheel_u, ACTUATOR_JETS, False)
+
+
+@njit
+def _frames_any(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
+                sources, sig, wheel_u):
+    """:func:`_run_frames` with the mission's actuator and its faults."""
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
+                       sources, sig, wheel_u, p.actuator, p.faults.n > 0)
+
+
+@njit_stage
 def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
-                sig, wheel_u):
+                sig, wheel_u, actuator, with_faults):
     """The frames of :func:`run_leg`.
 
     ``scratch`` (N_SCRATCH, 3), ``gates`` (N_GATES, 3), ``position_gain``
@@ -163,17 +213,17 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     done = int(s.leg_clock[CLOCK_FRAMES])
     n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
     # Faults act only in a mission that has some: the fault-free frame runs as before.
-    faults, fault_state, n_faults = p.faults, s.fault_state, p.faults.n
+    faults, fault_state = p.faults, s.fault_state
     for frame_in_leg in range(done, n_max):
         _sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
         t_frame = s.time_s[0]
         tracker_p = p.tracker
-        if n_faults:
+        if with_faults:
             tracker_p = fault_tracker(faults, p.tracker, fault_state, t_frame)
         star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
                      s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, sun_b, fine, trk,
                      gyro)
-        if n_faults:
+        if with_faults:
             star = fault_sense(faults, fault_state, t_frame, dt, s.dtheta_rad, fine, trk, gyro,
                                star)
         if star_in_use and star >= 0:
@@ -182,7 +232,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                       s.vfc_residue_pulses, s.overflow, comp, line)
         compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
                 s.word24, sw, s.cpu, s.registers)
-        if n_faults:
+        if with_faults:
             fault_upset(faults, fault_state, t_frame, s.drift_counters, s.counters, s.registers)
         if program == PROGRAM_MODE1:
             acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
@@ -191,13 +241,13 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                   sources, pos, rate)
         control(p.control, p.dither, gates, program, dithering, t_leg, dt, pos, rate,
                 s.amp_integral_arcsec, dith, ff, volts)
-        tank_ok = actuate(p.pwpf, p.jets, p.wheels, p.actuator, dt, volts, s.pwpf_filter_v,
+        tank_ok = actuate(p.pwpf, p.jets, p.wheels, actuator, dt, volts, s.pwpf_filter_v,
                           s.pwpf_out, s.pwpf_on_frames, s.propellant_kg, s.wheel_h,
                           s.wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot)
-        if n_faults:
+        if with_faults:
             tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
                                     s.propellant_kg, torque, tank_ok)
-        advance(p.plant, p.wheels, p.actuator, dt, torque, wheel_hb, wheel_hdot, wheel_u,
+        advance(p.plant, p.wheels, actuator, dt, torque, wheel_hb, wheel_hdot, wheel_u,
                 s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad, s.time_s, s.frame,
                 s.excursion_ref_q, s.max_excursion_rad)
         t_leg += dt

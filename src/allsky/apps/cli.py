@@ -32,12 +32,9 @@ import time
 import traceback
 
 from allsky import __version__
-from allsky.apps.output import Interrupted, OutputError
-from allsky.apps.telemetry_files import TelemetryError
-from allsky.config import ConfigError, load_scenario
-from allsky.config.faults import KINDS, START_MODES
 
-FAULT_KINDS, FAULT_START_MODES = tuple(KINDS), START_MODES
+# Nothing else of allsky is imported here: `allsky --help` parses and prints without numpy,
+# numba or matplotlib, and each command imports its own module when it runs (_run).
 
 #: The exit codes of every command.
 EXIT_CODES = {
@@ -385,9 +382,11 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky faults --kinds gyro_dead tracker_dropout --modes 4 5\n"
                "  allsky faults --set sequencer.recovery=true --json matrix.json")
     scenario_args(faults)
-    faults.add_argument("--kinds", nargs="+", metavar="KIND", choices=FAULT_KINDS,
-                        help="fault kinds (rows; default: all): " + ", ".join(FAULT_KINDS))
-    faults.add_argument("--modes", nargs="+", metavar="MODE", choices=FAULT_START_MODES,
+    # Checked by the command against allsky.config.faults (a bad name exits 2 and lists the
+    # known ones), so that parsing imports no more of allsky than --help needs.
+    faults.add_argument("--kinds", nargs="+", metavar="KIND",
+                        help="fault kinds (rows; default: all, as in docs/faults.md)")
+    faults.add_argument("--modes", nargs="+", metavar="MODE",
                         help="modes the fault starts in (columns; default: 1 2 3 4 5 6-1 6-2)")
     faults.add_argument("--workers", type=_positive_int, metavar="N",
                         help="worker processes (default: one per core)")
@@ -493,6 +492,26 @@ def _run(cfg, args) -> int:
     return run_from_cli(cfg, args)
 
 
+def _usage_errors() -> tuple:
+    """The exceptions reported as one line ``allsky: error: ...`` with exit code 2.
+
+    Evaluated only when an exception reaches :func:`main`: a telemetry file
+    error can come only from the module that defines it, already imported then.
+    """
+    from allsky.apps.output import OutputError
+    from allsky.config.rules import ConfigError
+
+    telemetry_files = sys.modules.get("allsky.apps.telemetry_files")
+    found = (telemetry_files.TelemetryError,) if telemetry_files is not None else ()
+    return (ConfigError, OutputError, *found)
+
+
+def _interrupted() -> type:
+    from allsky.apps.output import Interrupted
+
+    return Interrupted
+
+
 def _config(cfg, args) -> int:
     if args.config_command == "show":
         print(cfg.to_toml(annotate=True), end="")
@@ -542,15 +561,19 @@ def main(argv=None) -> int:
         pass
     try:
         # `allsky plot` reads a telemetry file, `allsky scenarios` lists files: no scenario.
-        cfg = None if args.command in ("plot", "scenarios") else load_scenario(
-            args.scenario, args.overrides, getattr(args, "disperse", None))
+        if args.command in ("plot", "scenarios"):
+            cfg = None
+        else:
+            from allsky.config import load_scenario
+
+            cfg = load_scenario(args.scenario, args.overrides, getattr(args, "disperse", None))
         if args.command == "config":
             return _config(cfg, args)
         return _run(cfg, args)
-    except (ConfigError, TelemetryError, OutputError) as e:
+    except _usage_errors() as e:
         print(f"allsky: error: {e}", file=sys.stderr)
         return EXIT_USAGE
-    except Interrupted as e:
+    except _interrupted() as e:
         print(f"allsky: interrupted; {e}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except KeyboardInterrupt:

@@ -10,6 +10,9 @@ import json
 import sys
 import time
 
+from allsky.config import ConfigError
+from allsky.config.faults import START_MODES
+
 #: Width of a matrix cell [characters].
 CELL = 9
 
@@ -52,6 +55,15 @@ def format_matrix(result, wall_s=None) -> str:
     return "\n".join(lines)
 
 
+def _names(flag, given, known):
+    """``given`` if every name is in ``known``; else a ConfigError naming the first stranger."""
+    for name in given or ():
+        if name not in known:
+            raise ConfigError(None, rule=f"{flag}: unknown name {name!r}; known: "
+                                         + ", ".join(known))
+    return given
+
+
 def run_from_cli(cfg, args) -> int:
     """``allsky faults``: fly the matrix, print it, write its JSON (``--json``)."""
     from tqdm import tqdm
@@ -60,8 +72,8 @@ def run_from_cli(cfg, args) -> int:
     from allsky.studies.faults import MATRIX_FAULTS, MATRIX_MODES, fault_matrix
 
     check_output("--json", args.json)
-    kinds = args.kinds or list(MATRIX_FAULTS)
-    modes = args.modes or list(MATRIX_MODES)
+    kinds = _names("--kinds", args.kinds, MATRIX_FAULTS) or list(MATRIX_FAULTS)
+    modes = _names("--modes", args.modes, START_MODES) or list(MATRIX_MODES)
     total = len(kinds) * len(modes) + 1
     workers, note = cap_workers(args.workers, total)
     if note:

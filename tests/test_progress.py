@@ -58,8 +58,32 @@ def test_compile_note_only_when_the_frame_loop_is_compiled(default_cfg, monkeypa
     monkeypatch.setattr(progress, "frame_loop_needs_compiling", lambda params=None: True)
     out = io.StringIO()
     progress.fly(Mission(default_cfg, telemetry=False), stream=out)
-    assert "Mode 1 Sun orientation, t = 0 s (compiling the frame loop on first use)" in \
-        out.getvalue()
+    text = out.getvalue()
+    assert "Mode 1 Sun orientation, t = 0 s (compiling the frame loop on first use, once)" in text
+    assert text.count("compiling") == 1  # the first description only
+
+
+def test_compile_note_alone_when_stderr_is_not_a_terminal(default_cfg, monkeypatch, capsys):
+    monkeypatch.setattr(progress, "frame_loop_needs_compiling", lambda: True)
+    progress.fly(Mission(default_cfg, telemetry=False))
+    captured = capsys.readouterr()
+    assert captured.err == f"allsky: {progress.COMPILE_NOTE}\n"
+    assert captured.out == ""
+    progress.fly(Mission(default_cfg, telemetry=False), quiet=True)
+    assert capsys.readouterr().err == ""
+
+
+def test_a_terminal_of_zero_width_gets_a_line(default_cfg, monkeypatch):
+    import os
+
+    class ZeroWidthTerminal(io.StringIO):
+        def fileno(self):
+            return 2
+
+    monkeypatch.setattr(os, "get_terminal_size", lambda fd=None: os.terminal_size((0, 0)))
+    out = ZeroWidthTerminal()
+    progress.fly(Mission(default_cfg, telemetry=False), stream=out)
+    assert "Mode 6-2 " in out.getvalue()
 
 
 def _needs_compiling_in_a_new_process(env):

@@ -6,61 +6,73 @@ pausing the frame loop, which does not change the flight (legs resume
 exactly), and after each slice of the frame loop
 (:data:`allsky.sim.mission.SLICE_FRAMES`), so that it moves even when a
 frame is very short. It is silent when asked to be, or when stderr is not a
-terminal. The first line says the frame loop is being compiled only when it
-is (:func:`frame_loop_needs_compiling`).
+terminal. Only when the frame loop is about to be compiled
+(:func:`frame_loop_needs_compiling`), and unless quiet, one note says so on
+stderr: in the line itself on a terminal, as a line of its own otherwise.
+A terminal that reports zero columns (some containers and CI runners) gets
+an 80-column line rather than none.
 """
 
+import os
 import sys
-
-from tqdm import tqdm
 
 from allsky.sequencer.modes import MODE_TITLE
 
 PROGRESS_EVERY_S = 20.0  #: [s] of mission time between refreshes
+#: [columns] the line's width where the terminal reports none
+FALLBACK_COLUMNS = 80
+#: The note shown while the frame loop compiles.
+COMPILE_NOTE = "compiling the frame loop on first use, once"
 
 
 def frame_loop_needs_compiling(params=None) -> bool:
-    """Whether the first leg flown in this process will compile the frame loop.
+    """Whether the next mission flown in this process will compile the frame loop.
 
     ``params`` picks the loop (:func:`allsky.sim.frame_loop.leg_entry`); by
-    default the patent's vehicle without faults.
-
-    False when the loop is already compiled in this process, runs as plain
-    Python (``NUMBA_DISABLE_JIT=1``), or numba's on-disk cache holds an entry
-    for the current source (its index file, read the way numba reads it:
-    an index of another source or numba version counts as empty).
+    default the patent's vehicle without faults. See
+    :func:`allsky.sim.warm_up.needs_compiling`.
     """
-    from allsky.sim import frame_loop
+    from allsky.sim.warm_up import entry_points, needs_compiling
 
-    run_leg = frame_loop._run_leg_jets if params is None else frame_loop.leg_entry(params)
-    if not hasattr(run_leg, "signatures") or run_leg.signatures:
-        return False
+    return needs_compiling(entry_points(params))
+
+
+def _fixed_columns(stream):
+    """FALLBACK_COLUMNS for a terminal that reports zero columns, else None (tqdm's width)."""
     try:
-        return not run_leg._cache._cache_file._load_index()
-    except Exception:  # noqa: BLE001 - numba internals moved: assume a compile, say so
-        return True
+        width = os.get_terminal_size(stream.fileno()).columns
+    except (AttributeError, ValueError, OSError):
+        return None
+    return FALLBACK_COLUMNS if width <= 0 else None
 
 
 def fly(m, quiet=False, stream=None):
     """Fly the remaining modes of ``m`` with a progress line; return its summary."""
     stream = stream or sys.stderr
-    disable = True if quiet else (None if stream is sys.stderr else False)
+    if quiet:
+        return m.run()
+    first = frame_loop_needs_compiling(m.params)
+    live = stream is not sys.stderr or stream.isatty()
+    if not live:  # no line to show it in: the note alone, once
+        if first:
+            print(f"allsky: {COMPILE_NOTE}", file=stream, flush=True)
+        return m.run()
+    from tqdm import tqdm
+
+    fixed = _fixed_columns(stream)
     with tqdm(total=len(m.plan), initial=m.next_mode, unit="mode", file=stream,
-              disable=disable, leave=False, dynamic_ncols=True,
+              leave=False, dynamic_ncols=fixed is None, ncols=fixed,
               bar_format="{desc} |{bar}| {n_fmt}/{total_fmt} modes [{elapsed}]") as bar:
-        if bar.disable:
-            return m.run()
 
         def describe(first_use=False):
             name = m.plan[m.next_mode]
-            note = " (compiling the frame loop on first use)" if first_use else ""
+            note = f" ({COMPILE_NOTE})" if first_use else ""
             bar.set_description_str(f"Mode {name} {MODE_TITLE[name]}, "
                                     f"t = {m.state.time_s[0]:.0f} s{note}")
 
         m.pause_every_s = PROGRESS_EVERY_S
         m.on_pause = m.on_slice = lambda mm, what: describe()
         try:
-            first = frame_loop_needs_compiling(m.params)
             while not m.finished:
                 describe(first_use=first)
                 first = False

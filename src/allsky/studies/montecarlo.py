@@ -158,7 +158,18 @@ def fly_runs(data: dict, jobs) -> list:
     key = json.dumps(data, sort_keys=True)
     if _WORKER.get("key") != key:
         _WORKER.update(key=key, cfg=scenario_from_dict(data))
+        _compile_once_per_machine()
     return [fly_one(_WORKER["cfg"], run, seed) for run, seed in jobs]
+
+
+def _compile_once_per_machine():
+    # Workers starting together on a fresh machine would each compile the frame loop
+    # (about 16 s of CPU each); under the machine's compile lock one compiles and the
+    # others load its cache (allsky.sim.warm_up).
+    from allsky.sim import warm_up
+
+    if warm_up.needs_compiling():
+        warm_up.warm_up()
 
 
 #: [s] How often a worker checks that its parent is still there (where the
@@ -206,6 +217,7 @@ def worker_process_setup(parent_pid: int):
 def _init_local_worker(data, parent_pid):
     worker_process_setup(parent_pid)
     _WORKER.update(key=json.dumps(data, sort_keys=True), cfg=scenario_from_dict(data))
+    _compile_once_per_machine()
 
 
 def stop_pool(pool, interrupted):

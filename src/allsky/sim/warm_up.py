@@ -1,0 +1,120 @@
+"""The compiled frame loop: compiled once per machine, then loaded from the cache.
+
+The first mission on a machine compiles the frame loop (about 15-18 s of CPU
+on two cores); every later process loads it from numba's on-disk cache
+(``cache=True``, :mod:`allsky.jit`): next to the sources, or under
+``NUMBA_CACHE_DIR`` when that is set. :func:`needs_compiling` tells, before
+anything runs, whether the next mission of this process will compile;
+:func:`warm_up` compiles (or loads) everything a mission calls, holding a
+lock (:func:`compile_lock`) while it compiles, so that processes starting
+together on one machine (local workers, Dask workers sharing a cache
+directory) compile once and the others load the result.
+"""
+
+import contextlib
+
+
+def entry_points(params=None) -> tuple:
+    """The compiled functions a mission calls from Python (the loop, the pointing).
+
+    ``params`` picks the loop (:func:`allsky.sim.frame_loop.leg_entry`); by
+    default the patent's vehicle without faults, the one a default mission flies.
+    """
+    from allsky.sim import frame_loop
+    from allsky.vehicle import quaternion
+
+    loop = frame_loop._run_leg_jets if params is None else frame_loop.leg_entry(params)
+    return loop, quaternion.dcm_body_from_inertial
+
+
+def needs_compiling(dispatchers=None) -> bool:
+    """Whether calling ``dispatchers`` (default :func:`entry_points`) will compile.
+
+    False when each is loaded in this process already, runs as plain Python
+    (``NUMBA_DISABLE_JIT=1``), or has entries in numba's on-disk cache index
+    for its current source (read the way numba reads it: an index of another
+    source or numba version counts as empty).
+    """
+    for d in entry_points() if dispatchers is None else dispatchers:
+        if not hasattr(d, "signatures") or d.signatures:
+            continue
+        try:
+            if not d._cache._cache_file._load_index():
+                return True
+        except Exception:  # noqa: BLE001 - numba internals moved: assume a compile
+            return True
+    return False
+
+
+@contextlib.contextmanager
+def compile_lock(dispatcher=None):
+    """Hold the machine's compile lock for ``dispatcher`` inside the block.
+
+    The lock is an ``flock`` on the dispatcher's source file, opened for
+    reading: every process on the machine that runs this installation shares
+    it, whatever cache directory each one uses, and nothing is written.
+    Where the platform has no ``fcntl`` (Windows) or the file cannot be
+    opened, the block runs without a lock: a second process may then
+    compile too, which costs time, never results.
+    """
+    try:
+        import fcntl
+    except ImportError:
+        fcntl = None
+    d = dispatcher or entry_points()[0]
+    source = getattr(getattr(d, "py_func", d), "__code__", None)
+    handle = None
+    if fcntl is not None and source is not None:
+        try:
+            handle = open(source.co_filename, "rb")  # noqa: SIM115 - held across the yield
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
+        except OSError:
+            if handle is not None:
+                handle.close()
+            handle = None
+    try:
+        yield
+    finally:
+        if handle is not None:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+            handle.close()
+
+
+def compile_once(fly, dispatchers=None) -> bool:
+    """Call ``fly()``, which calls ``dispatchers``: they compile once per machine.
+
+    When something needs compiling, ``fly`` runs under :func:`compile_lock`;
+    a process that waited for the lock then finds the cache written and loads
+    it. Returns whether this process compiled (numba's cache misses).
+    """
+    ds = entry_points() if dispatchers is None else tuple(dispatchers)
+    misses = _misses(ds)
+    if needs_compiling(ds):
+        with compile_lock(ds[0]):
+            fly()
+    else:
+        fly()
+    return _misses(ds) > misses
+
+
+def _misses(dispatchers) -> int:
+    return sum(sum(getattr(d, "stats", None).cache_misses.values())
+               for d in dispatchers if getattr(d, "stats", None) is not None)
+
+
+def warm_up() -> bool:
+    """Compile, or load from the cache, all a mission needs; True if it compiled.
+
+    Flies the default mission once (about 0.1 s once compiled): the loop has
+    one compiled form for every plan and scenario, so this covers ``allsky
+    run``, ``step``, ``compare`` and ``montecarlo``.
+    """
+    from allsky.config.scenario import load_scenario
+    from allsky.sim.mission import Mission
+
+    def fly():
+        m = Mission(load_scenario(), telemetry=True)
+        m.run()
+        m.summary()
+
+    return compile_once(fly)

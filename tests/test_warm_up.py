@@ -43,3 +43,11 @@ def test_nothing_to_compile_once_loaded(default_cfg):
     Mission(default_cfg, telemetry=False).run()
     assert warm_up.needs_compiling() is False
     assert warm_up.warm_up() is False
+
+
+def test_warm_up_command_says_what_it_did(capsys):
+    from allsky.apps import cli
+
+    assert cli.main(["warm-up", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("frame loop ") and out.count("\n") == 1

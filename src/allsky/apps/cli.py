@@ -12,6 +12,7 @@ Commands::
     allsky scenarios [--json PATH]
     allsky config show [SCENARIO] [--set KEY=VALUE ...]
     allsky config check FILE [--set KEY=VALUE ...]
+    allsky warm-up
     allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers K | --scheduler ADDRESS]
                       [--out DIR] [--resume] [--set KEY=VALUE ...] [--json PATH] [--quiet]
 
@@ -403,6 +404,17 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky run mariner4-star-hopping")
     scen.add_argument("--json", metavar="PATH",
                       help="write the list as JSON ('-': to stdout, instead of the table)")
+    sub.add_parser(
+        "warm-up", help="compile the frame loop once, so that no later command waits for it",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Compile the frame loop and store it in numba's cache (about 15-20 s, "
+                    "once per install and machine; every later command loads it). For "
+                    "install scripts, CI images and cluster machines; a Dask worker does the "
+                    "same with --preload allsky.apps.warm.",
+        epilog="examples:\n"
+               "  allsky warm-up                 # after pip install, in a CI image or on a node\n"
+               "  dask worker tcp://10.0.0.5:8786 --preload allsky.apps.warm   # the same, "
+               "per worker")
 
     # The same flags on every command (EXIT_CODES and COMMON_FLAGS in the epilog).
     leaves = [sp for name, sp in sub.choices.items() if name != "config"]
@@ -486,6 +498,8 @@ def _run(cfg, args) -> int:
         from allsky.apps.faults import run_from_cli
     elif args.command == "scenarios":
         from allsky.apps.faults import scenarios_from_cli as run_from_cli
+    elif args.command == "warm-up":
+        from allsky.apps.warm import run_from_cli
     else:
         from allsky.apps.report import run_from_cli
 
@@ -560,8 +574,9 @@ def main(argv=None) -> int:
     except ValueError:  # not the main thread: leave SIGTERM alone
         pass
     try:
-        # `allsky plot` reads a telemetry file, `allsky scenarios` lists files: no scenario.
-        if args.command in ("plot", "scenarios"):
+        # `allsky plot` reads a telemetry file, `allsky scenarios` lists files,
+        # `allsky warm-up` compiles: no scenario.
+        if args.command in ("plot", "scenarios", "warm-up"):
             cfg = None
         else:
             from allsky.config import load_scenario

@@ -73,17 +73,38 @@ def test_compile_note_alone_when_stderr_is_not_a_terminal(default_cfg, monkeypat
     assert capsys.readouterr().err == ""
 
 
-def test_a_terminal_of_zero_width_gets_a_line(default_cfg, monkeypatch):
+_ZERO_SIZE_TERMINAL = """
+import fcntl, os, struct, sys, termios
+fcntl.ioctl(2, termios.TIOCSWINSZ, struct.pack("HHHH", 0, 0, 0, 0))
+from allsky.apps import cli
+sys.exit(cli.main(["run"]))
+"""
+
+
+@__import__("pytest").mark.skipif(__import__("os").name != "posix", reason="needs a pty")
+def test_a_terminal_of_zero_size_gets_a_line():
+    """A terminal that reports 0 x 0 (some containers): tqdm alone would show nothing."""
     import os
+    import pty
+    import sys
 
-    class ZeroWidthTerminal(io.StringIO):
-        def fileno(self):
-            return 2
-
-    monkeypatch.setattr(os, "get_terminal_size", lambda fd=None: os.terminal_size((0, 0)))
-    out = ZeroWidthTerminal()
-    progress.fly(Mission(default_cfg, telemetry=False), stream=out)
-    assert "Mode 6-2 " in out.getvalue()
+    pid, fd = pty.fork()
+    if pid == 0:  # the child: stdin, stdout and stderr are the terminal
+        os.execv(sys.executable, [sys.executable, "-c", _ZERO_SIZE_TERMINAL])
+    out = b""
+    while True:
+        try:
+            data = os.read(fd, 65536)
+        except OSError:  # the child closed the terminal
+            break
+        if not data:
+            break
+        out += data
+    _, status = os.waitpid(pid, 0)
+    os.close(fd)
+    text = out.decode(errors="replace")
+    assert os.waitstatus_to_exitcode(status) == 0
+    assert "Mode 1 Sun orientation, t = 0 s" in text and "/7 modes" in text
 
 
 def _needs_compiling_in_a_new_process(env):

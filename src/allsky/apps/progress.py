@@ -9,8 +9,8 @@ frame is very short. It is silent when asked to be, or when stderr is not a
 terminal. Only when the frame loop is about to be compiled
 (:func:`frame_loop_needs_compiling`), and unless quiet, one note says so on
 stderr: in the line itself on a terminal, as a line of its own otherwise.
-A terminal that reports zero columns (some containers and CI runners) gets
-an 80-column line rather than none.
+A terminal that reports a size of zero (some containers and CI runners)
+gets an 80-column line rather than none.
 """
 
 import os
@@ -19,8 +19,8 @@ import sys
 from allsky.sequencer.modes import MODE_TITLE
 
 PROGRESS_EVERY_S = 20.0  #: [s] of mission time between refreshes
-#: [columns] the line's width where the terminal reports none
-FALLBACK_COLUMNS = 80
+#: [columns, lines] the terminal size assumed where it reports zero (tqdm would hide the line)
+FALLBACK_SIZE = (80, 24)
 #: The note shown while the frame loop compiles.
 COMPILE_NOTE = "compiling the frame loop on first use, once"
 
@@ -37,13 +37,14 @@ def frame_loop_needs_compiling(params=None) -> bool:
     return needs_compiling(entry_points(params))
 
 
-def _fixed_columns(stream):
-    """FALLBACK_COLUMNS for a terminal that reports zero columns, else None (tqdm's width)."""
+def _fixed_size(stream):
+    """(columns, lines) to use instead of a zero the terminal reports; None: tqdm's own."""
     try:
-        width = os.get_terminal_size(stream.fileno()).columns
+        size = os.get_terminal_size(stream.fileno())
     except (AttributeError, ValueError, OSError):
-        return None
-    return FALLBACK_COLUMNS if width <= 0 else None
+        return None, None
+    return (FALLBACK_SIZE[0] if size.columns <= 0 else None,
+            FALLBACK_SIZE[1] if size.lines <= 0 else None)
 
 
 def fly(m, quiet=False, stream=None):
@@ -59,9 +60,10 @@ def fly(m, quiet=False, stream=None):
         return m.run()
     from tqdm import tqdm
 
-    fixed = _fixed_columns(stream)
+    columns, lines = _fixed_size(stream)
     with tqdm(total=len(m.plan), initial=m.next_mode, unit="mode", file=stream,
-              leave=False, dynamic_ncols=fixed is None, ncols=fixed,
+              leave=False, dynamic_ncols=columns is None and lines is None, ncols=columns,
+              nrows=lines,
               bar_format="{desc} |{bar}| {n_fmt}/{total_fmt} modes [{elapsed}]") as bar:
 
         def describe(first_use=False):

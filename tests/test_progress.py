@@ -64,7 +64,7 @@ def test_compile_note_only_when_the_frame_loop_is_compiled(default_cfg, monkeypa
 
 
 def test_compile_note_alone_when_stderr_is_not_a_terminal(default_cfg, monkeypatch, capsys):
-    monkeypatch.setattr(progress, "frame_loop_needs_compiling", lambda: True)
+    monkeypatch.setattr(progress, "frame_loop_needs_compiling", lambda params=None: True)
     progress.fly(Mission(default_cfg, telemetry=False))
     captured = capsys.readouterr()
     assert captured.err == f"allsky: {progress.COMPILE_NOTE}\n"

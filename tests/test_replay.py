@@ -7,6 +7,7 @@ import base64
 import hashlib
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -159,8 +160,8 @@ def test_the_page_is_one_file_that_asks_for_nothing(data):
     csp = re.search(r'http-equiv="Content-Security-Policy" content="([^"]+)"', page).group(1)
     assert "default-src 'none'" in csp and "connect-src 'none'" in csp
     assert "unsafe-inline" not in csp and "unsafe-eval" not in csp
-    scripts = re.findall(r"<script>(.*?)</script>", page, flags=re.S)
-    styles = re.findall(r"<style>(.*?)</style>", page, flags=re.S)
+    scripts = re.findall(r"<script>(.*?)</script>", page, flags=re.DOTALL)
+    styles = re.findall(r"<style>(.*?)</style>", page, flags=re.DOTALL)
     assert len(scripts) == 1 and len(styles) == 1
     for text in scripts + styles:
         digest = base64.b64encode(hashlib.sha256(text.encode()).digest()).decode()
@@ -168,7 +169,7 @@ def test_the_page_is_one_file_that_asks_for_nothing(data):
     assert not re.search(r"""(src|href)\s*=\s*["'](?!data:)""", page)
     assert not re.search(r"https?://(?!www\.w3\.org/2000/svg)", page)
     block = re.search(r'<script type="application/json" id="allsky-data">(.*?)</script>', page,
-                      flags=re.S).group(1)
+                      flags=re.DOTALL).group(1)
     assert json.loads(block)["format"] == replay.DATA_FORMAT
 
 
@@ -227,3 +228,141 @@ def test_run_html_bad_path_exits_2_before_flying(tmp_path, capsys):
 def test_notes_say_what_the_interval_hides(data):
     text = " ".join(data["notes"])
     assert "shorter than 0.1 s" in text and "S7/S8" in text
+
+
+# -- several targets: reacquire and recycle ---------------------------------------------
+
+THREE_TARGETS = Path(__file__).resolve().parents[1] / "docs" / "examples" / "three_targets.toml"
+#: Pulses counted between the last telemetry row of a turn and its end (a few at most).
+LATE_PULSES = 10
+
+
+@pytest.fixture(scope="module", params=["reacquire", "recycle"])
+def three(request):
+    """A three-target mission flown mode by mode, with register 23 after each mode."""
+    from allsky.config import load_scenario
+    from allsky.sim.mission import Mission
+
+    cfg = load_scenario(THREE_TARGETS, [f'sequencer.between_targets="{request.param}"',
+                                        "target.hold_s=60"])
+    m = Mission(cfg)
+    stored = []  # (end_s, register 23) after each mode that wrote it
+    while not m.finished:
+        before = m.state.word23.copy()
+        r = m.run_mode()
+        if not np.array_equal(before, m.state.word23):
+            stored.append((r.end_s, m.state.word23.copy()))
+    assert m.status == "complete", m.abort_reason
+    table, summary = m.telemetry(), m.summary()
+    return request.param, table, summary, cfg, stored, replay.replay_data(table, summary, cfg)
+
+
+def test_register_23_holds_what_each_calibration_stored(three):
+    """One word set per calibration flown, in force from the end of its turn."""
+    how, _, summary, cfg, stored, d = three
+    words = d["registers"]["23"]
+    assert words[0]["source"] == "start"
+    assert [w["t_s"] for w in words[1:]] == [t for t, _ in stored]
+    assert len(stored) == (2 if how == "reacquire" else 6)  # Modes 4 and 5, once per target
+    lsb = cfg.electronics.vfc_pulse_weight_arcsec / (360 * 3600)  # a pulse in a word
+    for w, (_, truth) in zip(words[1:], stored):
+        got = np.array([w[k] for k in replay.WORD23])
+        assert np.all(np.abs(got - truth[list(replay.WORD23.values())]) <= LATE_PULSES * lsb), w
+    assert [words[-1][k] for k in replay.WORD23] == list(stored[-1][1][list(
+        replay.WORD23.values())])
+    # The summary holds the last words written; the earlier ones come from the counters.
+    assert {w["source"] for w in words[-2:]} == {"summary"}
+    assert {w["source"] for w in words[1:-2]} <= {"counters"}
+    cal = summary["calibration"]
+    assert words[-1]["sf_roll"] == cal["scale_factor"]["roll"]
+    assert words[-1]["yaw_into_roll"] == cal["cross_coupling"]["yaw_into_roll"]
+    # In every Mode 6 register 23 holds the calibration of its own target's cycle.
+    for r in summary["modes"]:
+        if r["mode"] == "6-1":
+            in_force = [w for w in words if w["t_s"] <= r["start_s"]][-1]
+            assert in_force["source"] != "start" and in_force["sf_roll"] != 1.0
+    if how == "recycle":
+        assert "\u2248" in " ".join(d["notes"])
+
+
+def test_register_24_holds_each_targets_angles(three):
+    _, _, summary, _, _, d = three
+    loads = d["registers"]["24"]
+    starts = [r["start_s"] for r in summary["modes"] if r["mode"] == "6-1"]
+    assert [p["t_s"] for p in loads] == starts
+    assert [p["target"] for p in loads] == [t["name"] for t in summary["targets"]]
+    for p, tgt in zip(loads, summary["targets"]):
+        assert (p["roll_deg"], p["yaw_deg"]) == (tgt["programmed_roll_deg"],
+                                                 tgt["programmed_yaw_deg"])
+
+
+def test_every_target_is_drawn_with_the_times_it_was_flown(three):
+    _, table, summary, cfg, _, d = three
+    targets = d["sky"]["targets"]
+    assert [t["name"] for t in targets] == [t["name"] for t in summary["targets"]]
+    from allsky.sim.mission import target_inertial
+
+    for k, tgt in enumerate(targets):
+        assert np.allclose(tgt["vec"], target_inertial(cfg, k))
+        assert tgt["start_s"] == summary["targets"][k]["start_s"]
+    assert targets[-1]["end_s"] == table[-1, INDEX["time"]]
+    # The target shown: through each target's Mode 6-2 and hold, and at the hand-over.
+    flights = [r for r in summary["modes"] if r["mode"] == "6-2"]
+    for k, r in enumerate(flights):
+        for t_s in (r["start_s"], 0.5 * (r["start_s"] + r["end_s"]), r["end_s"]):
+            assert replay.target_at(targets, t_s)["name"] == targets[k]["name"]
+    assert replay.target_at(targets, targets[1]["start_s"] - 0.05) == targets[0]
+    assert replay.target_at(targets, targets[1]["start_s"]) == targets[1]
+    # Without the summary: the scenario's targets, each begun by the first mode after a 6-2.
+    bare = replay.replay_data(table, None, cfg)["sky"]["targets"]
+    assert [t["name"] for t in bare] == [t["name"] for t in targets]
+    interval = d["config"]["interval_s"]
+    for a, b in zip(bare, targets):
+        assert a["start_s"] == pytest.approx(b["start_s"], abs=interval + 1e-9)
+
+
+def test_the_log_follows_each_mode_as_often_as_it_was_flown(three):
+    how, table, summary, _, _, d = three
+    flown = [e["mode"] for e in d["events"] if e["kind"] == "mode"]
+    assert flown == [r["mode"] for r in summary["modes"]]  # "reacquire"/"recycle" included
+    assert how in flown
+    # Calibration sequencer 19 runs at the end of each Mode 4 and 5 flown, once each.
+    t = table[:, INDEX["time"]]
+    ends = [r["end_s"] for r in summary["modes"] if r["mode"] in ("4", "5")]
+    cal = [e["t_s"] for e in d["events"]
+           if e["kind"] == "action" and e["text"].startswith("calibration sequencer 19")]
+    assert cal == [float(t[np.searchsorted(t, end + 1e-9) - 1]) for end in ends]
+    assert not [e for e in d["events"] if "no switch step" in e.get("reason", "")]
+    # At the hand-over row: the mode of no duration, its action and switches, then Mode 1.
+    k = next(i for i, e in enumerate(d["events"]) if e["kind"] == "mode" and e["mode"] == how)
+    kinds = [(e["kind"], e["mode"]) for e in d["events"][k:k + 4]]
+    assert kinds[0] == ("mode", how) and kinds[-1] == ("mode", "1")
+    assert ("switch", how) in kinds
+
+
+def test_the_bitmask_holds_no_selector_bits(flown, three):
+    """S7/S8 are read from the s7_s8 column, never from the switch bitmask."""
+    for table in (flown[0], three[1]):
+        masks = table[:, INDEX["switches"]].astype(np.int64)
+        for k in SELECTORS:
+            assert not np.any(masks >> (k - 1) & 1)
+        assert set(np.unique(table[:, INDEX["s7_s8"]])) <= {0.0, 1.0, 2.0}
+
+
+def test_a_withheld_calibration_shows_as_written_then_cleared(flown):
+    """calibration.apply false: the words are written at the ends of Modes 4 and 5, then
+    Mode 6-1 clears register 23 (the summary holds the cleared words)."""
+    table, summary, cfg = flown
+    neutral = {"roll": 1.0, "yaw": 1.0}
+    withheld = {**summary, "calibration_applied": False,
+                "calibration": {**summary["calibration"], "scale_factor": neutral,
+                                "cross_coupling": dict.fromkeys(
+                                    summary["calibration"]["cross_coupling"], 0.0)}}
+    words = replay.replay_data(table, withheld, cfg)["registers"]["23"]
+    assert [w["source"] for w in words] == ["start", "counters", "counters", "withheld"]
+    lsb = cfg.electronics.vfc_pulse_weight_arcsec / (360 * 3600)
+    cal = summary["calibration"]
+    assert words[2]["sf_roll"] == pytest.approx(cal["scale_factor"]["roll"], abs=LATE_PULSES * lsb)
+    assert words[2]["sf_yaw"] == pytest.approx(cal["scale_factor"]["yaw"], abs=LATE_PULSES * lsb)
+    assert words[3]["sf_roll"] == 1.0 and words[3]["t_s"] == next(
+        r["start_s"] for r in summary["modes"] if r["mode"] == "6-1")

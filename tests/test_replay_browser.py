@@ -6,6 +6,7 @@ buttons, the way a user does. Without the browser the tests are skipped,
 naming the command that installs it.
 """
 
+import itertools
 import json
 import shutil
 from pathlib import Path
@@ -15,6 +16,7 @@ import pytest
 
 from allsky.apps import replay
 from allsky.apps.plots import mode_name
+from allsky.hardware.wiring import SELECTORS
 from allsky.sim.telemetry import INDEX, switch_closed
 
 INSTALL = "apt-get update && apt-get install -y chromium chromium-driver"
@@ -74,8 +76,9 @@ def js(driver, script, *args):
 
 
 def expected_state(table, row):
-    closed = {f"S{k}": bool(switch_closed(table, k)[row]) for k in range(1, 20)}
-    closed["S7"] = closed["S8"] = True  # selectors: always on one contact
+    # A selector (S7/S8) is never open: it joins one contact, the row's s7_s8 axis.
+    closed = {f"S{k}": k in SELECTORS or bool(switch_closed(table, k)[row])
+              for k in range(1, 20)}
     return {"mode": mode_name(table[row, INDEX["mode"]]), "switches": closed,
             "selector": AXES[int(table[row, INDEX["s7_s8"]])],
             "counters_pulses": {k: int(table[row, INDEX[f"counter{k}"]])
@@ -108,7 +111,7 @@ def test_state_is_the_telemetry_in_every_mode(page, flown):
     code = table[:, INDEX["mode"]]
     cuts = np.r_[0, np.flatnonzero(np.diff(code) != 0) + 1, len(t)]
     rows = []
-    for a, b in zip(cuts[:-1], cuts[1:]):
+    for a, b in itertools.pairwise(cuts):
         rows += [a, (a + b) // 2, b - 1, min(a + 3, b - 1)]
     # Rows where the switches or selector change, and the row before each.
     for name in ("switches", "s7_s8"):
@@ -125,6 +128,48 @@ def test_state_is_the_telemetry_in_every_mode(page, flown):
     assert state["counters_pulses"] == expected_state(table, 500)["counters_pulses"]
     modes_seen = {expected_state(table, r)["mode"] for r in rows}
     assert modes_seen == {r["mode"] for r in flown[1]["modes"]}
+    assert {s["target"] for s in got} == {flown[1]["target"]["star"]}
+
+
+DRAWN = """
+    const q = (sel) => Array.from(document.querySelectorAll(sel));
+    return {switches: Object.fromEntries(q('[data-switch]').map(
+              (g) => ['S' + g.dataset.switch, g.dataset.closed === 'true'])),
+            selectors: Object.fromEntries(q('[data-selector]').map(
+              (g) => ['S' + g.dataset.selector, g.dataset.axis]))};"""
+
+
+def test_the_diagram_draws_what_state_reports(page, flown):
+    """Each drawn on/off switch as state() has it; S7 and S8 on the selected contact."""
+    driver, _ = page
+    table, summary, _ = flown
+    t = table[:, INDEX["time"]]
+    changes = np.flatnonzero(np.diff(table[:, INDEX["s7_s8"]]) != 0)
+    rows = [len(t) // 3, int(changes[0]), int(changes[0]) + 1, int(changes[-1]) + 1]
+    rows += [int(np.searchsorted(t, 0.5 * (r["start_s"] + r["end_s"])))
+             for r in summary["modes"]]
+    for r in rows:
+        state = js(driver, "return window.allsky.seek(arguments[0])", float(t[r]))
+        drawn = js(driver, DRAWN)
+        assert drawn["switches"] == {k: v for k, v in state["switches"].items()
+                                     if int(k[1:]) not in SELECTORS}
+        assert drawn["selectors"] == {f"S{k}": state["selector"] for k in SELECTORS}
+        assert state["selector"] == AXES[int(table[r, INDEX["s7_s8"]])]
+
+
+def test_seek_takes_numbers_and_ignores_the_rest(page, flown):
+    driver, _ = page
+    table, _, _ = flown
+    t0, t1 = float(table[0, INDEX["time"]]), float(table[-1, INDEX["time"]])
+    got = js(driver, """
+        const a = window.allsky, out = [];
+        a.seek(300);
+        for (const v of ["abc", NaN, undefined, Infinity, -Infinity, {}]) out.push(a.seek(v).t_s);
+        out.push(a.seek("412.5").t_s, a.seek(-5).t_s, a.seek(1e9).t_s, a.seek(" 7 ").t_s);
+        return out;""")
+    assert got == pytest.approx([300.0] * 6 + [412.5, t0, t1, 7.0], abs=1e-6)
+    logs = driver.get_log("browser")
+    assert [e for e in logs if e["level"] == "SEVERE"] == []
 
 
 def _press(driver, *keys, shift=False):
@@ -158,8 +203,7 @@ def test_keyboard_shortcuts(page, flown):
     _press(driver, "]")
     assert js(driver, "return window.allsky.state().t_s") == pytest.approx(starts[2])
     _press(driver, "[", "[")
-    assert js(driver, "return window.allsky.state().t_s") == pytest.approx(starts[0] if
-                                                                         starts[0] > t0 else t0)
+    assert js(driver, "return window.allsky.state().t_s") == pytest.approx(max(t0, starts[0]))
     _press(driver, Keys.END)
     assert js(driver, "return window.allsky.state().t_s") == pytest.approx(t1)
     _press(driver, Keys.HOME, ".")
@@ -227,3 +271,31 @@ def test_screenshots_in_every_mode(page, flown, tmp_path):
         assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20_000
     logs = driver.get_log("browser")
     assert [e for e in logs if e["level"] == "SEVERE"] == []
+
+
+def test_several_targets_show_the_one_flown(page, tmp_path):
+    """Three targets (reacquire): in the second target's Mode 6-2 the page shows that one."""
+    from allsky.config import load_scenario
+    from allsky.sim.mission import Mission
+
+    driver, default_path = page
+    scenario = Path(__file__).resolve().parents[1] / "docs" / "examples" / "three_targets.toml"
+    cfg = load_scenario(scenario, ["target.hold_s=0"])
+    m = Mission(cfg)
+    summary = m.run()
+    path = replay.write_replay(tmp_path / "three.html", m.telemetry(), summary, cfg)
+    try:
+        driver.get(path.as_uri())
+        names = [t["name"] for t in summary["targets"]]
+        flights = [r for r in summary["modes"] if r["mode"] == "6-2"]
+        assert len(flights) == len(names) == 3
+        got = js(driver, """return arguments[0].map((t) => window.allsky.seek(t));""",
+                 [0.5 * (r["start_s"] + r["end_s"]) for r in flights])
+        assert [(s["mode"], s["target"]) for s in got] == [("6-2", n) for n in names]
+        assert [t["name"] for t in js(driver, "return window.allsky.targets()")] == names
+        line = js(driver, "return document.getElementById('registers-line').textContent")
+        assert f"reg. 24 ({names[2]})" in line
+        logs = driver.get_log("browser")
+        assert [e for e in logs if e["level"] in ("SEVERE", "WARNING")] == []
+    finally:
+        driver.get(default_path.as_uri())

@@ -6,7 +6,9 @@ the block diagram's layout (:mod:`allsky.apps.diagram_layout`, boxes named
 from :data:`allsky.hardware.blocks.BLOCKS`), the wiring table
 (:data:`allsky.hardware.wiring.SWITCHES`), the mode table's titles and
 sentences, the event log (:mod:`allsky.apps.replay_events`), the sky (Sun,
-catalog, target, tracker slit) and the word registers 23 and 24.
+catalog, every target with the times it was flown, tracker slit) and the
+word registers 23 and 24: one entry per write, so a mission that recycles
+shows each calibration and each target's programmed angles in turn.
 :func:`render_html` inlines the page's style and scripts
 (``replay_page/``) and the data into one file; :func:`write_replay` writes
 it. The page makes no network request: a Content-Security-Policy allows
@@ -35,12 +37,15 @@ import numpy as np
 from allsky import units
 from allsky.apps import diagram_layout as layout
 from allsky.apps import replay_events
+from allsky.computer import calibration_sequencer as cal19
+from allsky.computer import cpu
+from allsky.computer import word_registers as wr
 from allsky.hardware import blocks, wiring
 from allsky.sequencer import modes
 from allsky.sim.telemetry import INDEX
 
 #: Version of the page's data block.
-DATA_FORMAT = 1
+DATA_FORMAT = 2
 #: Rows above which the continuous columns are thinned (the exact ones never are).
 MAX_CONTINUOUS_ROWS = 60_000
 #: Continuous columns: name -> scale (stored as round(value * scale), delta-encoded).
@@ -143,8 +148,65 @@ def diagram() -> dict:
             "extent": layout.EXTENT}
 
 
-def _sky(cfg, summary) -> dict:
-    """Sun, catalog, target and tracker slit for the sky map and the 3-D view."""
+def _mode_steps(action):
+    """Mode name -> args of its ``Do(action)`` steps, for the modes that have one."""
+    out = {}
+    for m in modes.MODE_TABLE:
+        found = [s.args for s in m.steps if isinstance(s, modes.Do) and s.action == action]
+        if found:
+            out[m.name] = found
+    return out
+
+
+def _targets(cfg, summary, timeline, t_end_s) -> list:
+    """Every target begun, in flight order: name, direction, when it was flown.
+
+    The summary's ``targets`` (or its one ``target``) when given, with their
+    start times; else the scenario's, each begun by the first mode flown
+    after the last target's Mode 6-2 (and hold). A target ends where the
+    next begins, or with the record.
+    """
+    from allsky.sim import mission
+    from allsky.vehicle import sky
+
+    specs = mission.target_specs(cfg)
+    records = (summary or {}).get("targets") or ([summary["target"]] if summary and
+                                                 summary.get("target") else [])
+    starts, flown = [timeline[0]["start_s"] if timeline else 0.0], False
+    for r in timeline:
+        if flown and r["mode"] not in (modes.TARGET_MODES[-1], modes.HOLD_MODE):
+            starts.append(r["start_s"])
+        flown = r["mode"] in (modes.TARGET_MODES[-1], modes.HOLD_MODE)
+    count = max(len(records), min(len(starts), len(specs)))
+    out = []
+    for k in range(count):
+        rec = dict(records[k]) if k < len(records) else {}
+        spec = ({"star": rec["star"]} if "star" in rec else
+                {"ra_deg": rec["ra_deg"], "dec_deg": rec["dec_deg"]} if "ra_deg" in rec
+                else specs[min(k, len(specs) - 1)])
+        vec = (sky.star_direction_inertial(spec["star"], cfg.mission.date_utc) if "star" in spec
+               else sky.radec_to_unit(spec["ra_deg"], spec["dec_deg"]))
+        start = rec.get("start_s", starts[k] if k < len(starts) else starts[-1])
+        out.append({"index": k, "name": rec.get("name") or mission.target_name(spec),
+                    "vec": [float(v) for v in vec], "start_s": float(start),
+                    "programmed_roll_deg": rec.get("programmed_roll_deg"),
+                    "programmed_yaw_deg": rec.get("programmed_yaw_deg")})
+    for k, tgt in enumerate(out):
+        tgt["end_s"] = float(out[k + 1]["start_s"] if k + 1 < len(out) else t_end_s)
+    return out
+
+
+def target_at(targets, t_s) -> dict:
+    """The target being flown at mission time ``t_s`` [s]: the last one begun by then."""
+    current = targets[0]
+    for tgt in targets:
+        if tgt["start_s"] <= t_s + 1e-9:
+            current = tgt
+    return current
+
+
+def _sky(cfg, summary, targets) -> dict:
+    """Sun, catalog, targets and tracker slit for the sky map and the 3-D view."""
     from allsky.sim import mission
     from allsky.vehicle import sky
 
@@ -152,21 +214,13 @@ def _sky(cfg, summary) -> dict:
     lo, hi = cfg.star_tracker.magnitude_window
     params = mission.build_params(cfg)  # the Sun the mission flew with
     s0, sdot = params.sun0_inertial, params.sun_rate_inertial
-    target = dict((summary or {}).get("target") or {})
-    if "star" in target or "ra_deg" in target:
-        name = target.get("star")
-        vec = (sky.star_direction_inertial(name, date) if name
-               else sky.radec_to_unit(target["ra_deg"], target["dec_deg"]))
-    else:
-        name = cfg.target.star
-        vec = mission.target_inertial(cfg)
     reference = (summary or {}).get("reference_star") or cfg.star_tracker.reference_star
     stars = [{"name": s["name"], "ra": round(s["ra_deg"], 3), "dec": round(s["dec_deg"], 3),
               "mag": s["magnitude"], "win": s["in_window"]}
              for s in sky.catalog(date, (lo, hi), reference)]
     return {"sun0": [float(v) for v in s0], "sun_rate": [float(v) for v in sdot],
-            "target": {"name": name or f"RA {target.get('ra_deg', cfg.target.ra_deg)} deg",
-                       "vec": [float(v) for v in vec]},
+            "targets": [{k: t[k] for k in ("name", "vec", "start_s", "end_s")}
+                        for t in targets],
             "reference": reference, "locked": (summary or {}).get("locked_star"),
             "stars": stars, "window": [lo, hi], "date_utc": date.isoformat(),
             "slit_long_half_deg": float(cfg.star_tracker.fov_long_half_deg),
@@ -174,35 +228,96 @@ def _sky(cfg, summary) -> dict:
             "sun_cone_half_deg": float(cfg.sun_sensor.presence_half_angle_deg)}
 
 
-def _registers(summary, timeline, cfg) -> dict:
-    """Register 23's calibration words and register 24's angles, with when they were written."""
-    neutral = {"sf_roll": 1.0, "sf_yaw": 1.0, "roll_into_pitch": 0.0, "roll_into_yaw": 0.0,
-               "yaw_into_pitch": 0.0, "yaw_into_roll": 0.0}
-    words = [{"t_s": 0.0, **neutral}]
-    cal = (summary or {}).get("calibration")
-    ends = {r["mode"]: r["end_s"] for r in timeline if not r["exit"].startswith("aborted")}
-    if cal:
+#: Register 23 word -> its slot (:mod:`allsky.computer.word_registers`), in page order.
+WORD23 = {"sf_roll": wr.SF_ROLL, "sf_yaw": wr.SF_YAW, "roll_into_pitch": wr.ROLL_INTO_PITCH,
+          "roll_into_yaw": wr.ROLL_INTO_YAW, "yaw_into_pitch": wr.YAW_INTO_PITCH,
+          "yaw_into_roll": wr.YAW_INTO_ROLL}
+#: Register 23 words each calibration writes: a turn's axis, or "all" (the dither).
+WORDS_WRITTEN = {"roll": ("sf_roll", "roll_into_pitch", "roll_into_yaw"),
+                 "yaw": ("sf_yaw", "yaw_into_pitch", "yaw_into_roll"), "all": tuple(WORD23)}
+
+
+def _words(w) -> dict:
+    return {name: float(w[slot]) for name, slot in WORD23.items()}
+
+
+def _counted_words(table, record, axis, cfg):
+    """Register 23's words of ``axis`` from the counters at the turn's last row, or None.
+
+    Calibration sequencer 19 reads counters 14/16/18 at the last frame of the
+    turn; the last telemetry row is at most one interval earlier, so these
+    words differ from the stored ones by the few pulses counted in between.
+    The true angle is the whole number of turns counted (one, or with
+    ``sequencer.recovery`` the nearest whole number), of the counter's sign.
+    """
+    t = table[:, INDEX["time"]]
+    i = int(np.searchsorted(t, record["end_s"] + 1e-6, side="right")) - 1
+    code = modes.MODE_CODE[record["mode"]]
+    if i < 0 or t[i] < record["start_s"] - 1e-6 or abs(table[i, INDEX["mode"]] - code) > 1e-6:
+        return None
+    counts = np.array([table[i, INDEX[c]] for c in ("counter14", "counter16", "counter18")])
+    counts_arcsec = counts * cfg.electronics.vfc_pulse_weight_arcsec
+    turned = counts_arcsec[0 if axis == "roll" else 2]
+    if turned == 0.0:
+        return None
+    turns = (max(1, round(abs(turned) / cal19.FULL_TURN_ARCSEC)) if cfg.sequencer.recovery
+             else 1)
+    w = wr.neutral_computed()
+    calibrate = cpu.calibrate_roll if axis == "roll" else cpu.calibrate_yaw
+    calibrate(w, counts_arcsec, math.copysign(turns * cal19.FULL_TURN_ARCSEC, turned))
+    return _words(w)
+
+
+def _registers(summary, timeline, cfg, table, targets) -> dict:
+    """Register 23's calibration words and register 24's angles, with when they were written.
+
+    Every calibration flown writes its words when its mode ends (a mission
+    that recycles calibrates once per target). The words the summary holds
+    are the last ones written; each earlier one is computed from the
+    counters (:func:`_counted_words`). ``source`` says which: "start"
+    (neutral at ejection), "summary", "counters", "withheld" (neutral,
+    ``calibration.apply`` false) or "later" (an earlier dither analysis,
+    whose estimates the summary does not keep: the last one's words shown).
+    """
+    words = [{"t_s": 0.0, "source": "start", **_words(wr.neutral_computed())}]
+    if summary is None:
+        return {"23": words, "24": [], "known": False}
+    cal = summary.get("calibration")
+    applied = summary.get("calibration_applied", True)
+    stored = None
+    if cal and applied:
         sf, cc = cal["scale_factor"], cal["cross_coupling"]
         stored = {"sf_roll": sf["roll"], "sf_yaw": sf["yaw"], **cc}
-        parts = {"4": ("sf_roll", "roll_into_pitch", "roll_into_yaw"),
-                 "5": ("sf_yaw", "yaw_into_pitch", "yaw_into_roll"), "dither": tuple(stored)}
-        for mode in ("4", "5", "dither"):
-            if mode in ends:
-                words.append({**words[-1], "t_s": ends[mode],
-                              **{k: stored[k] for k in parts[mode]}})
-    starts = {}
+    writers = {name: [a[0] if a else "all" for a in args]
+               for name, args in {**_mode_steps("calibration_sequencer"),
+                                  **_mode_steps("dither_analysis")}.items()}
+    withholders = _mode_steps("withhold_calibration")
+    flown = [r for r in timeline if not r["exit"].startswith("aborted")]
+    last = {axis: max((k for k, r in enumerate(flown) if axis in writers.get(r["mode"], ())),
+                      default=None) for axis in WORDS_WRITTEN}
+    for k, r in enumerate(flown):
+        if r["mode"] in withholders and not applied:
+            words.append({**words[-1], "t_s": r["start_s"], "source": "withheld",
+                          **_words(wr.neutral_computed())})
+        for axis in writers.get(r["mode"], ()):
+            if stored is not None and k == last[axis]:
+                new, source = stored, "summary"
+            elif axis == "all":
+                new, source = stored, "later"
+            else:
+                new, source = _counted_words(table, r, axis, cfg), "counters"
+            if new is not None:
+                words.append({**words[-1], "t_s": r["end_s"], "source": source,
+                              **{w: new[w] for w in WORDS_WRITTEN[axis]}})
+    # Register 24 is loaded at the start of each Mode 6-1 with the angles of its target.
+    loaders = _mode_steps("load_register_24")
+    programmed = []
     for r in timeline:
-        starts.setdefault(r["mode"], r["start_s"])  # the first start of each mode
-    if "6-1" in starts and summary is not None and not summary.get("calibration_applied", True):
-        words.append({"t_s": starts["6-1"], **neutral})
-    # Register 24 is loaded at the start of each Mode 6-1: one target, or each of a sequence.
-    targets = (summary or {}).get("targets") or [(summary or {}).get("target") or {}]
-    loads = [r["start_s"] for r in timeline if r["mode"] == "6-1"]
-    programmed = [{"t_s": t_s, "roll_deg": tgt["programmed_roll_deg"],
-                   "yaw_deg": tgt["programmed_yaw_deg"]}
-                  for t_s, tgt in zip(loads, targets)
-                  if tgt.get("programmed_roll_deg") is not None]
-    return {"23": words, "24": programmed, "known": summary is not None}
+        tgt = target_at(targets, r["start_s"])
+        if r["mode"] in loaders and tgt["programmed_roll_deg"] is not None:
+            programmed.append({"t_s": r["start_s"], "roll_deg": tgt["programmed_roll_deg"],
+                               "yaw_deg": tgt["programmed_yaw_deg"], "target": tgt["name"]})
+    return {"23": words, "24": programmed, "known": True}
 
 
 def _timeline(table, summary, cfg) -> list:
@@ -246,7 +361,8 @@ def replay_data(table, summary=None, cfg=None) -> dict:
         Telemetry, :data:`allsky.sim.telemetry.COLUMNS` order, at least one row.
     summary : dict, optional
         The mission summary (:meth:`allsky.sim.mission.Mission.summary`): the
-        timeline's exit texts, registers 23 and 24, the target, the star locked.
+        timeline's exit texts, registers 23 and 24, the targets and when each
+        was flown, the star locked.
     cfg : allsky.config.Scenario, optional
         The scenario flown (default: the packaged default): the date (Sun and
         stars), the tracker's slit and magnitude window, pulse and LSB weights.
@@ -273,25 +389,37 @@ def replay_data(table, summary=None, cfg=None) -> dict:
     if summary:
         info["pointing_error_arcsec"] = (summary.get("target") or {}).get(
             "pointing_error_arcsec")
+    targets = _targets(cfg, summary, timeline, float(table[-1, INDEX["time"]]))
+    registers = _registers(summary, timeline, cfg, table, targets)
     return {"format": DATA_FORMAT, "columns": _encode_columns(table), "timeline": timeline,
             "modes": mode_info, "events": replay_events.events(table, timeline),
-            "diagram": diagram(), "sky": _sky(cfg, summary),
-            "registers": _registers(summary, timeline, cfg), "config": config,
-            "summary": info, "notes": notes(config)}
+            "diagram": diagram(), "sky": _sky(cfg, summary, targets),
+            "registers": registers, "config": config,
+            "summary": info, "notes": notes(config, registers)}
 
 
-def notes(config) -> list:
+def notes(config, registers=None) -> list:
     """What the telemetry interval hides, in words, for the page."""
     dt = config["interval_s"]
-    return [f"Telemetry is one row every {dt:g} s (the loop runs every "
-            f"{config['frame_s']:g} s); the page shows the row at or before the time shown.",
-            f"Jet pulses shorter than {dt:g} s (the shortest is "
+    out = [(f"Telemetry is one row every {dt:g} s (the loop runs every "
+            f"{config['frame_s']:g} s); the page shows the row at or before the time shown."),
+           (f"Jet pulses shorter than {dt:g} s (the shortest is "
             f"{config['min_on_time_s']:g} s) fall between rows: a jet lights only when a row "
-            "catches its valve open, so the lit jets are samples, not every pulse.",
-            f"A switch moves at a frame between two rows: its time is known to {dt:g} s; "
-            "steps of the mode table inside one interval show as one change.",
-            "S7/S8 step every frame or few in the CPU modes: the selector shown is the "
-            "contact sampled at each row."]
+            "catches its valve open, so the lit jets are samples, not every pulse."),
+           (f"A switch moves at a frame between two rows: its time is known to {dt:g} s; "
+            "steps of the mode table inside one interval show as one change."),
+           ("S7/S8 step every frame or few in the CPU modes: the selector shown is the "
+            "contact sampled at each row.")]
+    sources = {w["source"] for w in (registers or {}).get("23", ())}
+    if "counters" in sources:
+        out.append("Register 23: the summary keeps the last words written; those of an earlier "
+                   "calibration are computed here from counters 14/16/18 at the last row of "
+                   f"its turn, up to {dt:g} s before sequencer 19 read them (a few pulses; "
+                   "marked \u2248).")
+    if "later" in sources:
+        out.append("Register 23: an earlier dither analysis's words are not kept; the last "
+                   "analysis's are shown in their place (marked ?).")
+    return out
 
 
 def _asset(name) -> str:

@@ -117,6 +117,32 @@ def mode_runs(table):
     return [(int(i), names.get(round(float(code[i]), 6), "?")) for i in cuts]
 
 
+def _pair_runs(table, timeline):
+    """Each timeline record with the first row that shows it, in flight order.
+
+    Runs of the mode column are matched to the records in order. A record
+    with no run of its own (a mode of no duration, such as "reacquire", one
+    shorter than the telemetry interval, or a mode flown again at once) gets
+    the first row after its start. Returns ``[(row, record), ...]``; without
+    a timeline, the runs alone, each as a record with its mode only.
+    """
+    runs = mode_runs(table)
+    if not timeline:
+        return [(row, {"mode": name}) for row, name in runs]
+    t = table[:, INDEX["time"]]
+    out, p = [], 0
+    for rec in timeline:
+        if p < len(runs) and runs[p][1] == rec["mode"]:
+            out.append((runs[p][0], rec))
+            p += 1
+        else:  # the first row after its start (a row at the very start is the mode before)
+            out.append((min(int(np.searchsorted(t, rec["start_s"], side="right")),
+                            len(t) - 1), rec))
+    for row, name in runs[p:]:  # rows the timeline does not cover
+        out.append((row, {"mode": name}))
+    return out
+
+
 def events(table, timeline):
     """The event log: mode changes, switch actions with their reasons, named actions.
 
@@ -126,7 +152,7 @@ def events(table, timeline):
         Telemetry (:data:`allsky.sim.telemetry.COLUMNS`).
     timeline : list of dict
         ``mode``, ``start_s``, ``end_s``, ``exit`` per mode flown (the summary's
-        ``modes``).
+        ``modes``), each mode as often as it was flown.
 
     Returns
     -------
@@ -139,29 +165,32 @@ def events(table, timeline):
     t = table[:, INDEX["time"]]
     masks = table[:, INDEX["switches"]].astype(np.int64)
     out = []
-    exits = {r["mode"]: r for r in timeline}
-    for row, name in mode_runs(table):
-        prev = out and [e for e in out if e["kind"] == "mode"]
-        reason = (f"Mode {prev[-1]['mode']} ended: {exits[prev[-1]['mode']]['exit']}"
-                  if prev and prev[-1]["mode"] in exits else "ejection: the mission starts")
+    before = None  # the record flown before
+    pairs = _pair_runs(table, timeline)
+    for seq, (row, rec) in enumerate(pairs):
+        name = rec["mode"]
+        reason = (f"Mode {before['mode']} ended: {before['exit']}"
+                  if before is not None and "exit" in before
+                  else f"Mode {before['mode']} ended" if before is not None
+                  else "ejection: the mission starts")
+        before = rec
         title = modes.MODE_TITLE.get(name, "unknown mode")
         first_wait = next((s.what for s in modes.BY_NAME[name].steps
                            if isinstance(s, modes.Wait)), "") if name in modes.BY_NAME else ""
         out.append({"t_s": float(t[row]), "kind": "mode", "mode": name,
                     "text": f"Mode {name} begins: {title}", "reason": reason,
-                    "waiting": first_wait})
+                    "waiting": first_wait, "seq": seq})
         if name in modes.BY_NAME:
             head, tail = _mode_actions(name)
             for a in head:
                 out.append({"t_s": float(t[row]), "kind": "action", "mode": name, "text": a,
-                            "reason": f"start of Mode {name}"})
-            end = exits.get(name)
-            if end is not None and not end["exit"].startswith("aborted"):
+                            "reason": f"start of Mode {name}", "seq": seq})
+            if "end_s" in rec and not rec["exit"].startswith("aborted"):
                 # the last row of the mode: the actions come before the next mode's start
-                k = max(int(np.searchsorted(t, end["end_s"] + 1e-9)) - 1, 0)
+                k = min(max(int(np.searchsorted(t, rec["end_s"] + 1e-9)) - 1, row), len(t) - 1)
                 for a in tail:
                     out.append({"t_s": float(t[k]), "kind": "action", "mode": name,
-                                "text": a, "reason": f"end of Mode {name}"})
+                                "text": a, "reason": f"end of Mode {name}", "seq": seq})
     plan = [r["mode"] for r in timeline] or [n for _, n in mode_runs(table)]
     ops = _plan_operations([n for n in plan if n in modes.BY_NAME])
     mode_at = mode_runs(table)
@@ -179,14 +208,19 @@ def events(table, timeline):
             if match:
                 break
         row_mode = [n for r, n in mode_at if r <= i][-1]
+        shown = [k for k, (r, _) in enumerate(pairs) if r <= i] or [0]
+        seq = shown[-1]
         if match:
             group = ops[match[0]:match[1] + 1]
             p = match[1] + 1
+            # the step's own mode (one of no duration shares its row with the next)
+            row_mode = group[0]["mode"]
+            seq = next((k for k in reversed(shown) if pairs[k][1]["mode"] == row_mode), seq)
             reasons = "; ".join(dict.fromkeys(g["reason"] for g in group))
             for g in group:
                 for a in g["actions"]:
                     out.append({"t_s": float(t[i]), "kind": "action", "mode": g["mode"],
-                                "text": a, "reason": g["reason"]})
+                                "text": a, "reason": g["reason"], "seq": seq})
             waiting = group[-1]["next_wait"]
         else:
             reasons = (f"no switch step of the mode table matches; a named action of "
@@ -196,8 +230,11 @@ def events(table, timeline):
         detail = "; ".join(f"S{k}: {BY_NUMBER[k].text}" for k in sorted(close | open_))
         out.append({"t_s": float(t[i]), "kind": "switch", "mode": row_mode, "text": text,
                     "reason": reasons, "detail": detail, "close": sorted(close),
-                    "open": sorted(open_), "waiting": waiting})
+                    "open": sorted(open_), "waiting": waiting, "seq": seq})
         previous = new
+    # In time order; at one row, in flight order (a mode of no duration before the next).
     order = {"mode": 0, "action": 1, "switch": 2}
-    out.sort(key=lambda e: (e["t_s"], order[e["kind"]]))
+    out.sort(key=lambda e: (e["t_s"], e["seq"], order[e["kind"]]))
+    for e in out:
+        del e["seq"]
     return out

@@ -120,7 +120,8 @@ const DIAGRAM = (function () {
       const label = svgEl("text", { x: x + 15, y: y + 21, "text-anchor": "middle",
         "font-size": 19, "font-weight": 700, fill: "#a22" }, g);
       label.textContent = `S${k}`;
-      switchEls[k] = { blade: blade, label: label, x: x, y: y, state: null };
+      g.setAttribute("data-switch", k);
+      switchEls[k] = { g: g, blade: blade, label: label, x: x, y: y, state: null };
     });
   }
 
@@ -142,7 +143,8 @@ const DIAGRAM = (function () {
     const label = svgEl("text", { x: cx - 6, y: cy - 26, "text-anchor": "middle",
       "font-size": 19, "font-weight": 700, fill: "#a22" }, g);
     label.textContent = `S${k}`;
-    selectorEls[k] = { arm: arm, contacts: contacts, state: null };
+    g.setAttribute("data-selector", k);
+    selectorEls[k] = { g: g, arm: arm, contacts: contacts, state: null };
   }
 
   function setText(n, k, value) {
@@ -170,11 +172,13 @@ const DIAGRAM = (function () {
       * cfg.register_lsb_arcsec, 1)}\u2033`);
     const w23 = inForce(D.registers["23"], t), w24 = inForce(D.registers["24"], t);
     v["23"] = D.registers.known ? [`SFr ${w23.sf_roll.toFixed(6)}`, `SFy ${w23.sf_yaw.toFixed(6)}`,
-      "cc: line below"] : ["(needs the", "summary)", ""];
-    v["24"] = w24 ? [`r ${fmt(w24.roll_deg, 3)}\u00b0`, `y ${fmt(w24.yaw_deg, 3)}\u00b0`, ""]
+      `cc: line below${WORD_MARK[w23.source] || ""}`] : ["(needs the", "summary)", ""];
+    v["24"] = w24 ? [`r ${fmt(w24.roll_deg, 3)}\u00b0`, `y ${fmt(w24.yaw_deg, 3)}\u00b0`,
+      TARGETS.length > 1 ? w24.target.slice(0, 10) : ""]
       : [D.registers.known ? "empty" : "(needs the", D.registers.known ? "" : "summary)", ""];
     v["21"] = ["S7/S8 on", `${AXIS_NAMES[s.selector]}`, ""];
-    const stored = D.registers["23"].filter((e) => e.t_s <= t && e.t_s > 0).length;
+    const stored = D.registers["23"].filter((e) => e.t_s <= t && e.source !== "start"
+      && e.source !== "withheld").length;
     v["19"] = [stored ? "wrote reg.23" : "idle", stored ? `${stored} time(s)` : "", ""];
     v["20"] = [`Mode ${s.mode}`, "", ""];
     const rc = cfg.rate_command_deg_s;
@@ -230,6 +234,7 @@ const DIAGRAM = (function () {
         e.blade.setAttribute("y2", e.y + (closed ? 0 : -15));
         e.blade.setAttribute("stroke", closed ? LIVE : "#999");
         e.label.setAttribute("fill", closed ? LIVE : "#a22");
+        e.g.setAttribute("data-closed", closed);
       }
     }
     for (const k in selectorEls) {
@@ -240,6 +245,7 @@ const DIAGRAM = (function () {
         e.arm.setAttribute("x2", c[0]);
         e.arm.setAttribute("y2", c[1]);
         e.arm.setAttribute("stroke", AXIS_COLOURS[s.selector]);
+        e.g.setAttribute("data-axis", AXIS_NAMES[s.selector]);
       }
     }
     jetEls.forEach((c, a) => {

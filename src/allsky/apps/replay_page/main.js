@@ -39,10 +39,10 @@ const APP = (function () {
     const w = inForce(D.registers["23"], t), p = inForce(D.registers["24"], t);
     const as = (v) => `${fmt(v * 206264.806, 1)}\u2033`;
     let text = D.registers.known
-      ? `reg. 23: SF roll ${w.sf_roll.toFixed(6)}, SF yaw ${w.sf_yaw.toFixed(6)}, roll\u2192pitch ${as(w.roll_into_pitch)}, `
+      ? `reg. 23${WORD_MARK[w.source] || ""}: SF roll ${w.sf_roll.toFixed(6)}, SF yaw ${w.sf_yaw.toFixed(6)}, roll\u2192pitch ${as(w.roll_into_pitch)}, `
         + `roll\u2192yaw ${as(w.roll_into_yaw)}, yaw\u2192pitch ${as(w.yaw_into_pitch)}, yaw\u2192roll ${as(w.yaw_into_roll)}`
       : "reg. 23/24: not in the telemetry (replay with --summary)";
-    if (D.registers.known) text += p ? ` \u00b7 reg. 24: roll ${fmt(p.roll_deg, 4)}\u00b0, yaw ${fmt(p.yaw_deg, 4)}\u00b0` : " \u00b7 reg. 24: empty";
+    if (D.registers.known) text += p ? ` \u00b7 reg. 24 (${p.target}): roll ${fmt(p.roll_deg, 4)}\u00b0, yaw ${fmt(p.yaw_deg, 4)}\u00b0` : " \u00b7 reg. 24: empty";
     if ($("registers-line").textContent !== text) $("registers-line").textContent = text;
   }
 
@@ -145,9 +145,13 @@ const APP = (function () {
     timing.draws += 1;
   }
 
+  /** Show mission time ``ts`` [s], coerced to a number and clamped; NaN/infinite: ignored. */
   function seek(ts) {
-    t = Math.max(T0, Math.min(T1, +ts));
-    redraw();
+    const v = Number(ts);
+    if (Number.isFinite(v)) {
+      t = Math.max(T0, Math.min(T1, v));
+      redraw();
+    }
     return state();
   }
 
@@ -179,7 +183,7 @@ const APP = (function () {
     return { t_s: t, mode: modeName(runValue(C.runs.mode, i)), switches: sw,
       selector: AXIS_NAMES[+C.selector[i]],
       counters_pulses: { "14": EXACT.counter14[i], "16": EXACT.counter16[i], "18": EXACT.counter18[i] },
-      row_t_s: T_MS[i] / 1000 };
+      row_t_s: T_MS[i] / 1000, target: TARGETS[targetAt(T_MS[i] / 1000)].name };
   }
 
   window.addEventListener("resize", () => redraw());
@@ -188,9 +192,11 @@ const APP = (function () {
 })();
 
 window.allsky = {
-  /** Show mission time t_s [s] (clamped to the record); returns state(). */
+  /** Show mission time t_s [s] (a number or numeric string, clamped to the record; anything
+   *  else leaves the time as it is); returns state(). */
   seek: APP.seek,
-  /** {t_s, mode, switches {S1..S19}, selector, counters_pulses {14, 16, 18}} at the time shown. */
+  /** {t_s, mode, switches {S1..S19}, selector, counters_pulses {14, 16, 18}, row_t_s, target}
+   *  at the time shown; S7/S8 are selectors, always true (their contact is ``selector``). */
   state: APP.state,
   /** Play at ``speed`` times real time (default: the speed selected). */
   play: APP.play,
@@ -199,6 +205,8 @@ window.allsky = {
   /** First and last telemetry time [s], and the mode timeline. */
   range: () => [T0, T1],
   timeline: () => D.timeline.map((m) => Object.assign({}, m)),
+  /** The targets in flight order: name, start_s, end_s [s]. */
+  targets: () => TARGETS.map((x) => ({ name: x.name, start_s: x.start_s, end_s: x.end_s })),
   events: () => D.events.map((e) => Object.assign({}, e)),
   timing: APP.timing,
   ready: false,

@@ -1,4 +1,4 @@
-// skymap.js: RA/Dec map with the Sun, catalog stars, target and the tracker's slit footprint.
+// skymap.js: RA/Dec map with the Sun, catalog stars, targets and the tracker's slit footprint.
 const SKY = (function () {
   const canvas = document.getElementById("sky");
   let bg = null, bgKey = "";
@@ -85,7 +85,7 @@ const SKY = (function () {
     ctx.stroke();
   }
 
-  function marker(ctx, v, w, h, colour, label, r) {
+  function marker(ctx, v, w, h, colour, label, r, font) {
     const [ra, dec] = radec(v);
     const [x, y] = xy(ra, dec, w, h);
     ctx.fillStyle = colour; ctx.strokeStyle = colour; ctx.lineWidth = 2;
@@ -95,7 +95,10 @@ const SKY = (function () {
       ctx.beginPath(); ctx.moveTo(x - r - 4, y); ctx.lineTo(x + r + 4, y);
       ctx.moveTo(x, y - r - 4); ctx.lineTo(x, y + r + 4); ctx.stroke();
     }
-    ctx.font = "bold 10px sans-serif"; ctx.fillText(label, x + r + 4, y - r);
+    ctx.font = font || "bold 10px sans-serif";
+    // Near the right edge the label goes to the left of the marker.
+    const room = ctx.measureText(label).width;
+    ctx.fillText(label, x + r + 4 + room > w ? x - r - 4 - room : x + r + 4, y - r);
   }
 
   function draw(s, t, modeStartRow) {
@@ -114,7 +117,16 @@ const SKY = (function () {
     polygon(ctx, SLIT.map((b) => toInertial(c, b)), w, h,
       s.starPresent ? "rgba(180,140,255,0.40)" : "rgba(180,140,255,0.22)", "#c9b0ff");
     marker(ctx, sunAt(t), w, h, "#ffd23f", "Sun", 6);
-    marker(ctx, D.sky.target.vec, w, h, "#ff6b5b", `target ${D.sky.target.name}`, 5);
+    // Every target: the one being flown bold, the others faint.
+    TARGETS.forEach((tgt, k) => {
+      if (k === s.target) return;
+      ctx.globalAlpha = 0.45;
+      marker(ctx, tgt.vec, w, h, "#ff9d92", `${k + 1} ${tgt.name}`, 3.5, "9px sans-serif");
+      ctx.globalAlpha = 1;
+    });
+    const cur = TARGETS[s.target];
+    marker(ctx, cur.vec, w, h, "#ff6b5b", TARGETS.length > 1
+      ? `target ${s.target + 1}/${TARGETS.length} ${cur.name}` : `target ${cur.name}`, 5);
     const x = radec(c[0]), [px, py] = xy(x[0], x[1], w, h);
     ctx.fillStyle = "#7fd0ff"; ctx.beginPath(); ctx.arc(px, py, 3.5, 0, 7); ctx.fill();
     ctx.font = "10px sans-serif"; ctx.fillText("+x", px + 5, py + 11);

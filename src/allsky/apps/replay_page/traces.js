@@ -47,7 +47,8 @@ const TRACES = (function () {
       ctx.fillStyle = modeColour(m.mode); ctx.globalAlpha = 0.13;
       ctx.fillRect(x0, TOP, x1 - x0, h - TOP - BOTTOM);
       ctx.globalAlpha = 1; ctx.font = "bold 10px sans-serif";
-      ctx.fillText(m.mode, (x0 + x1) / 2 - 6, TOP - 2);
+      // A mode of no duration (the hand-over to the next target) is named in the event log.
+      if (x1 - x0 >= 1) ctx.fillText(m.mode, (x0 + x1) / 2 - 6, TOP - 2);
     }
     const px = w - LEFT - RIGHT;
     strips.forEach((st, k) => {

@@ -70,10 +70,30 @@ function modeColour(name) {
   return k < 0 ? "#888" : MODE_COLOURS[k % MODE_COLOURS.length];
 }
 
-/** Is on/off switch Sk closed at row i (S7/S8 are selectors: always on a contact). */
+/** Switch numbers of the selectors (S7/S8), from the wiring table. */
+const SELECTORS = D.diagram.switches.filter((sw) => sw.selector).map((sw) => sw.n);
+
+/**
+ * Is switch Sk closed in switch-bank bitmask ``mask``? A selector (S7/S8) is never
+ * open: it always joins its common terminal to one contact (the row's ``selector``),
+ * and the bitmask holds no bit for it.
+ */
 function switchClosed(mask, k) {
-  if (k === 7 || k === 8) return true;
+  if (SELECTORS.indexOf(k) >= 0) return true;
   return ((Math.floor(mask / Math.pow(2, k - 1))) % 2) === 1;
+}
+
+/** Register 23's words by where they come from: the summary's are exact, others marked. */
+const WORD_MARK = { counters: " \u2248", later: " ?" };
+
+/** The targets in flight order: name, inertial direction, start_s and end_s [s]. */
+const TARGETS = D.sky.targets;
+
+/** Index in TARGETS of the target flown at mission time t_s: the last one begun by then. */
+function targetAt(t_s) {
+  let k = 0;
+  for (let j = 0; j < TARGETS.length; j++) if (TARGETS[j].start_s <= t_s + 1e-9) k = j;
+  return k;
 }
 
 /** Everything the page shows at row ``i``, read once per redraw. */
@@ -101,6 +121,7 @@ function rowState(i) {
   s.closed = {};
   for (let k = 1; k <= 19; k++) s.closed[k] = switchClosed(mask, k);
   s.cpu = CPU_MODES.indexOf(s.mode) >= 0;
+  s.target = targetAt(s.t_s);
   // Pulse rate of converters 8/10/12 from the counters' change over the last interval.
   const j = i > 0 ? i - 1 : 0, dt = (T_MS[i] - T_MS[j]) / 1000;
   s.pps = [0, 1, 2].map((a) => (dt > 0 ? (s.counters[a] - [EXACT.counter14, EXACT.counter16,

@@ -1,8 +1,9 @@
-// vehicle3d.js: the vehicle, its axes, the Sun, the tracked star, the target and the slit.
+// vehicle3d.js: the vehicle, its axes, the Sun, the tracked star, the target flown and the slit.
 const VEHICLE = (function () {
   const canvas = document.getElementById("vehicle");
-  // View basis: x toward the Sun at the start, z toward the target's part across it.
-  const sun0 = sunAt(0), tgt = D.sky.target.vec;
+  // View basis, fixed for the mission: x toward the Sun at the start, z toward the first
+  // target's part across it.
+  const sun0 = sunAt(0), tgt = TARGETS[0].vec;
   let e1 = sun0, e3 = norm(cross(sun0, cross(tgt, sun0)));
   if (!isFinite(e3[0])) e3 = [0, 0, 1];
   const e2 = cross(e3, e1);
@@ -44,7 +45,8 @@ const VEHICLE = (function () {
     const o = P([0, 0, 0], 1);
     // Inertial directions: Sun, tracked star, target (long thin rays).
     const sun = sunAt(t);
-    const rays = [[sun, "#e6a800", "Sun"], [tgt, "#c0392b", `target ${D.sky.target.name}`]];
+    const target = TARGETS[s.target];
+    const rays = [[sun, "#e6a800", "Sun"], [target.vec, "#c0392b", `target ${target.name}`]];
     if (starVec) rays.push([starVec, "#6c3fb5", D.sky.locked || D.sky.reference]);
     for (const [v, col, name] of rays) {
       const q = P(v, 1.3);
@@ -92,9 +94,11 @@ const VEHICLE = (function () {
       arrow(ctx, o, P(toInertial(c, b), a === 0 ? 1.2 : 0.9), AXIS_COLOURS[a], 2.5, names[a]);
     }
     ctx.fillStyle = "#333"; ctx.font = "11px sans-serif";
-    const sep = Math.acos(Math.max(-1, Math.min(1, dot(toInertial(c, [1, 0, 0]), tgt)))) / RAD;
+    const sep = Math.acos(Math.max(-1, Math.min(1, dot(toInertial(c, [1, 0, 0]), target.vec))))
+      / RAD;
     const sunSep = Math.acos(Math.max(-1, Math.min(1, dot(toInertial(c, [1, 0, 0]), sun)))) / RAD;
-    ctx.fillText(`+x to Sun ${sunSep.toFixed(2)}\u00b0, to target ${sep.toFixed(2)}\u00b0`, 6, h - 6);
+    ctx.fillText(`+x to Sun ${sunSep.toFixed(2)}\u00b0, to target ${TARGETS.length > 1
+      ? `${s.target + 1} (${target.name}) ` : ""}${sep.toFixed(2)}\u00b0`, 6, h - 6);
   }
 
   // Drag to turn the view.

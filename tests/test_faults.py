@@ -50,6 +50,52 @@ def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):
     assert key in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("fault, extra", [
+    ('{kind="gyro_dead", axis="roll", start_mode="hold"}', ()),  # no hold flown
+    ('{kind="gyro_dead", axis="roll", start_mode="reacquire"}', ()),  # one target
+    ('{kind="gyro_dead", axis="roll", start_mode="recycle"}',
+     ('target.sequence=["Vega", "Achernar"]',)),  # the targets are reacquired, not recycled
+])
+def test_a_start_mode_the_scenario_never_flies_is_refused(fault, extra, capsys):
+    with pytest.raises(ConfigError) as e:
+        _cfg(fault, extra=extra)
+    assert e.value.key == "faults[0].start_mode"
+    sets = [x for a in extra for x in ("--set", a)]
+    assert main(["config", "check", "--set", f"faults=[{fault}]", *sets]) == 2
+    assert "faults[0].start_mode" in capsys.readouterr().err
+
+
+def test_a_start_mode_the_scenario_flies_is_accepted():
+    assert _cfg('{kind="gyro_dead", axis="roll", start_mode="hold"}',
+                extra=("target.hold_s=60",)).faults[0]["start_mode"] == "hold"
+    seq = ('target.sequence=["Vega", "Achernar"]', "sequencer.between_targets=recycle")
+    assert _cfg('{kind="gyro_dead", axis="roll", start_mode="recycle"}', extra=seq).faults
+
+
+def test_a_start_mode_outside_the_plan_is_refused_when_the_mission_is_built(capsys):
+    """The plan is the command's (run: the patent's; step --plan dither: the dither's)."""
+    dither = _cfg('{kind="gyro_dead", axis="roll", start_mode="dither"}')
+    with pytest.raises(ConfigError) as e:
+        Mission(dither, telemetry=False)
+    assert e.value.key == "faults[0].start_mode"
+    Mission(dither, telemetry=False, plan=("1", "2", "3", "dither", "6-1", "6-2"))
+    with pytest.raises(ConfigError):
+        Mission(_cfg('{kind="gyro_dead", axis="roll", start_mode="4"}'), telemetry=False,
+                plan=("1", "2", "3", "dither", "6-1", "6-2"))
+    assert main(["run", "--set", 'faults=[{kind="gyro_dead",axis="roll",start_mode="dither"}]',
+                 "--quiet"]) == 2
+    assert "faults[0].start_mode" in capsys.readouterr().err
+
+
+def test_a_wrong_star_the_slit_never_crosses_is_refused(capsys):
+    """Sirius is 123.5 deg from the Sun on the default date; the slit sweeps 74-106 deg."""
+    with pytest.raises(ConfigError) as e:
+        _cfg('{kind="wrong_star", star="Sirius"}')
+    assert e.value.key == "faults[0].star" and "123.5 deg from the Sun" in str(e.value)
+    assert "74-106 deg" in str(e.value)
+    assert _cfg('{kind="wrong_star", star="Avior"}').faults[0]["star"] == "Avior"
+
+
 def test_faults_load_from_a_file_and_round_trip(tmp_path):
     p = tmp_path / "f.toml"
     p.write_text('[[faults]]\nkind = "tracker_dropout"\nstart_mode = "4"\nduration_s = 60\n'
@@ -131,7 +177,9 @@ def test_blind_sun_sensor_dropout_and_stray_light():
 
 
 def test_a_wrong_star_joins_the_window_and_is_locked_on_boresight():
-    cfg, p, fs = _params('{kind="wrong_star", star="Rigil Kentaurus", start_s=10}')
+    # On this date Rigil Kentaurus is inside the slit's cone about the Sun (voyager1-wrong-star).
+    cfg, p, fs = _params('{kind="wrong_star", star="Rigil Kentaurus", start_s=10}',
+                         extra=("mission.date_utc=2026-09-01T00:00:00Z",))
     names = [s.name for s in sky.stars_in_magnitude_window(*cfg.star_tracker.magnitude_window,
                                                              cfg.mission.date_utc)]
     assert "Rigil Kentaurus" not in names
@@ -303,6 +351,48 @@ def test_packaged_scenarios_are_listed_and_run_by_name(capsys):
         load_scenario(name)
     assert main(["scenarios"]) == 0
     assert "mariner4-star-hopping" in capsys.readouterr().out
+
+
+def test_the_matrix_table_keeps_its_columns_apart():
+    from allsky.apps.faults import format_matrix
+
+    row = {"status": "aborted", "outcome": "x", "abort_reason": "x"}
+    modes = ["hold", "dither", "6-2"]
+    result = {"modes": modes, "kinds": ["gyro_dead"], "faults": {"gyro_dead": "roll gyro dead"},
+              "reference": {"status": "complete", "pointing_error_arcsec": 8.7},
+              "cases": [{**row, "kind": "gyro_dead", "mode": m} for m in modes],
+              "counts": {"status": {"aborted": 3}}}
+    text = format_matrix(result)
+    assert "Mode hold  Mode dither  Mode 6-2" in text
+    assert "3 missions" in text and "Fault-free reference: complete" in text
+    one = {**result, "modes": ["hold"], "cases": result["cases"][:1],
+           "scenario_faults": ["tracker dropout"]}
+    text = format_matrix(one)
+    assert "1 mission," in text
+    assert "Reference (the scenario's own faults: tracker dropout): complete" in text
+
+
+@pytest.mark.parametrize("argv, kinds, modes, scenario", [
+    (["--kinds", "gyro_dead,tracker_dropout", "--modes", "4,5"],
+     ["gyro_dead", "tracker_dropout"], ["4", "5"], None),
+    (["--kinds", "gyro_dead", "tracker_dropout", "--modes", "4", "5"],
+     ["gyro_dead", "tracker_dropout"], ["4", "5"], None),
+    (["--kinds", "gyro_dead", "my.toml"], ["gyro_dead"], None, "my.toml"),
+    (["--modes", "6-2", "mariner4-star-hopping"], None, ["6-2"], "mariner4-star-hopping"),
+    (["my.toml", "--kinds", "gyro_dead,gyro_stuck"], ["gyro_dead", "gyro_stuck"], None,
+     "my.toml"),
+])
+def test_kinds_and_modes_take_comma_lists_and_words(argv, kinds, modes, scenario):
+    from allsky.apps.cli import _parser
+
+    args = _parser().parse_args(["faults", *argv])
+    assert (args.kinds, args.modes, args.scenario) == (kinds, modes, scenario)
+
+
+@pytest.mark.parametrize("mode", ["hold", "dither"])
+def test_the_matrix_refuses_a_mode_the_mission_never_flies(mode, capsys):
+    assert main(["faults", "--kinds", "gyro_dead", "--modes", mode, "--quiet"]) == 2
+    assert "--modes" in capsys.readouterr().err
 
 
 def test_the_faults_command_prints_the_matrix(tmp_path, capsys):

@@ -13,8 +13,8 @@ import time
 from allsky.config import ConfigError
 from allsky.config.faults import START_MODES
 
-#: Width of a matrix cell [characters].
-CELL = 9
+#: Blanks between two columns of the matrix [characters].
+GAP = 2
 
 
 def _cell(row, notes) -> str:
@@ -32,16 +32,24 @@ def format_matrix(result, wall_s=None) -> str:
     modes, kinds = result["modes"], result["kinds"]
     ref = result["reference"]
     notes = {}
-    lines = [(f"Fault matrix: {len(result['cases'])} missions, each with one fault starting at "
-             "the start of a mode"),
-             f"Fault-free reference: {ref['status']}"
+    by = {(r["kind"], r["mode"]): r for r in result["cases"]}
+    table = [[_cell(by[(k, m)], notes) if (k, m) in by else "-" for m in modes] for k in kinds]
+    heads = [f"Mode {m}" for m in modes]
+    # Each column as wide as its widest entry, so that no two run together.
+    widths = [max(len(h), *(len(row[j]) for row in table)) + GAP for j, h in enumerate(heads)]
+    first = max(len("fault"), *(len(k) for k in kinds))
+    n = len(result["cases"])
+    own = result.get("scenario_faults") or []
+    ref_name = ("Reference (the scenario's own faults: " + "; ".join(own) + ")" if own
+                else "Fault-free reference")
+    lines = [(f"Fault matrix: {n} mission{'' if n == 1 else 's'}, each with one fault "
+              "starting at the start of a mode"),
+             f"{ref_name}: {ref['status']}"
              + (f', pointing {ref["pointing_error_arcsec"]:.1f}"'
                 if ref["status"] == "complete" else f": {ref['abort_reason']}"), "",
-             f"  {'fault':<24}" + "".join(f"{'Mode ' + m:>{CELL}}" for m in modes)]
-    by = {(r["kind"], r["mode"]): r for r in result["cases"]}
-    for k in kinds:
-        cells = [_cell(by[(k, m)], notes) if (k, m) in by else "-" for m in modes]
-        lines.append(f"  {k:<24}" + "".join(f"{c:>{CELL}}" for c in cells))
+             f"  {'fault':<{first}}" + "".join(f"{h:>{w}}" for h, w in zip(heads, widths))]
+    for k, cells in zip(kinds, table):
+        lines.append(f"  {k:<{first}}" + "".join(f"{c:>{w}}" for c, w in zip(cells, widths)))
     lines += ["", ('  x": complete, final pointing error [arcsec]; An: aborted (below); '
               "En: the case raised (a defect)")]
     lines += [f"  A{n}  {text}" for text, n in notes.items()]
@@ -64,6 +72,19 @@ def _names(flag, given, known):
     return given
 
 
+def _flown(modes, cfg):
+    """``modes`` if the mission flies each; else a ConfigError naming ``--modes``."""
+    from allsky.sequencer.modes import LEGACY_PLAN, mission_plan
+
+    plan = mission_plan(LEGACY_PLAN, cfg)
+    for mode in modes:
+        if mode not in plan:
+            raise ConfigError(None, rule=f"--modes: the mission never flies mode {mode!r} "
+                                         f"(it flies {', '.join(dict.fromkeys(plan))}): a "
+                                         "fault starting there would never start")
+    return modes
+
+
 def run_from_cli(cfg, args) -> int:
     """``allsky faults``: fly the matrix, print it, write its JSON (``--json``)."""
     from tqdm import tqdm
@@ -73,7 +94,7 @@ def run_from_cli(cfg, args) -> int:
 
     check_output("--json", args.json)
     kinds = _names("--kinds", args.kinds, MATRIX_FAULTS) or list(MATRIX_FAULTS)
-    modes = _names("--modes", args.modes, START_MODES) or list(MATRIX_MODES)
+    modes = _flown(_names("--modes", args.modes, START_MODES) or list(MATRIX_MODES), cfg)
     total = len(kinds) * len(modes) + 1
     workers, note = cap_workers(args.workers, total)
     if note:

@@ -76,8 +76,9 @@ KINDS = {
     "propellant_leak": ("rate_kg_s",),
 }
 TIMING = ("start_s", "start_mode", "duration_s")
-#: Modes a fault may start with: the patent's, the hold on target, the dither mode.
-START_MODES = (*MODE_KEYS, "hold", "dither")
+#: Modes a fault may start with: the patent's, the hold on target, the moves to a next
+#: target, the dither mode (:func:`check_plan`: only those the mission flies).
+START_MODES = (*MODE_KEYS, "hold", "reacquire", "recycle", "dither")
 #: Counter or register numeral -> the scenario key giving its word length [bit].
 REGISTER_BITS_KEY = {
     **dict.fromkeys(("13", "15", "17"), "electronics.drift_counter_bits"),
@@ -153,6 +154,7 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
                                       "star_tracker.fov_narrow_half_deg"))(key, v)
         elif k == "star":
             out[k] = star_name(key, v)
+            _slit_meets(key, out[k], values)
         elif k == "register":
             out[k] = _string(key, v, tuple(REGISTER_BITS_KEY))
         elif k == "bit":
@@ -165,11 +167,65 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
         raise ConfigError(where, rule="give start_s or start_mode, not both")
     if "start_mode" in entry:
         out["start_mode"] = _string(f"{where}.start_mode", entry["start_mode"], START_MODES)
+        _scenario_flies(f"{where}.start_mode", out["start_mode"], values)
     else:
         out["start_s"] = number(NON_NEGATIVE)(f"{where}.start_s", entry.get("start_s", 0.0))
     if "duration_s" in entry:
         out["duration_s"] = number(POSITIVE)(f"{where}.duration_s", entry["duration_s"])
     return out
+
+
+def _slit_meets(key, name, values):
+    """Refuse a wrong star the tracker's slit never crosses on the mission date.
+
+    The roll axis holds the Sun and star tracker 105 looks along +z, at 90
+    deg from it; rolling, its slit sweeps the stars whose angle from the
+    Sun is within 90 deg +- ``star_tracker.fov_long_half_deg``. Any other
+    star is never in the field, and the fault would do nothing.
+    """
+    import math
+
+    from allsky.vehicle import sky
+
+    date = values["mission.date_utc"]
+    cos = float(sky.sun_direction_inertial(date) @ sky.star_direction_inertial(name, date))
+    angle = math.degrees(math.acos(max(-1.0, min(1.0, cos))))
+    half = values["star_tracker.fov_long_half_deg"]
+    if abs(angle - 90.0) > half:
+        raise ConfigError(key, name, f"{angle:.1f} deg from the Sun on mission.date_utc: the "
+                          f"tracker's slit only crosses stars {90 - half:g}-{90 + half:g} deg "
+                          "from the Sun (90 deg +- star_tracker.fov_long_half_deg), so the "
+                          "wrong star would never be seen")
+
+
+def _scenario_flies(key, mode, values):
+    """Refuse a start mode the scenario never flies: it would never start the fault."""
+    if mode == "hold" and not values["target.hold_s"] > 0:
+        raise ConfigError(key, mode, "the mission flies no hold on target: set target.hold_s "
+                          "> 0, or start the fault in another mode")
+    if mode in ("reacquire", "recycle"):
+        seq = values.get("target.sequence") or ()
+        how = values["sequencer.between_targets"]
+        if len(seq) < 2 or how != mode:
+            raise ConfigError(key, mode, f'flown only between the targets of a target.sequence '
+                              f'of 2 or more with sequencer.between_targets = "{mode}" (this '
+                              f'scenario: {len(seq) or 1} target(s), "{how}")')
+
+
+def check_plan(faults, plan, plan_name=None) -> None:
+    """Refuse a fault whose ``start_mode`` the mission's ``plan`` never flies.
+
+    ``plan`` is the sequence of mode names the mission flies (the dither
+    plan has no Modes 4 and 5, the patent's no dither); ``plan_name`` names
+    it in the message. Raises :class:`ConfigError` naming ``faults[i].start_mode``.
+    """
+    for i, f in enumerate(faults):
+        mode = f.get("start_mode")
+        if mode is not None and mode not in plan:
+            flown = f"the {plan_name} plan" if plan_name else "the mission"
+            raise ConfigError(f"faults[{i}].start_mode", mode,
+                              f"{flown} never flies this mode (it flies "
+                              f"{', '.join(plan)}): the fault would never start")
 
 
 def validate(faults, values: Mapping) -> list:

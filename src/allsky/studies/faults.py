@@ -102,7 +102,8 @@ def fault_matrix(cfg, kinds=None, modes=None, workers=1, on_progress=None) -> di
     -------
     dict
         ``kinds``, ``modes``, ``faults`` (the fault of each row),
-        ``reference`` (the fault-free row), ``cases`` (rows in kind-major
+        ``scenario_faults`` (the scenario's own faults, in words; they fly in
+        every case), ``reference`` (the row without a further fault), ``cases`` (rows in kind-major
         order) and ``counts`` (:func:`tally`). Interrupted (Ctrl-C) with
         cases finished: those, with ``interrupted`` True.
     """
@@ -136,6 +137,7 @@ def fault_matrix(cfg, kinds=None, modes=None, workers=1, on_progress=None) -> di
                 stop_pool(pool, interrupted or len(rows) < len(jobs))
     out = {"kinds": kinds, "modes": modes,
            "faults": {k: describe({"kind": k, **MATRIX_FAULTS[k]}) for k in kinds},
+           "scenario_faults": [describe(f) for f in cfg.faults],
            "reference": rows[0], "cases": rows[1:], "counts": tally(rows[1:])}
     if interrupted:
         out["interrupted"] = True

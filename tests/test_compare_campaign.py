@@ -41,6 +41,18 @@ def test_progress_is_reported_after_each_pair_in_seed_order():
     assert [row["seed"] for row in r["rows"]] == [1, 2]
 
 
+def test_one_run_reports_each_mission_it_flies():
+    names = []
+    compare(load_scenario(), runs=1, workers=1, on_flight=names.append)
+    assert names == ["legacy", "dither", "dither, legacy misalignment"]
+
+
+def test_the_sweep_refuses_methods_it_would_ignore(capsys):
+    assert main(["compare", "--sweep", "record_s=204.8", "--methods", "legacy,dither,kalman",
+                 "--quiet"]) == 2
+    assert "--methods" in capsys.readouterr().err
+
+
 # -- what allsky compare writes ----------------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,7 @@ from allsky.apps.kalman_plots import observability_figure
 from allsky.config import load_scenario
 from allsky.hardware import gyro
 from allsky.studies import kalman_mekf as K
-from allsky.studies.compare import compare
+from allsky.studies.compare import METHOD_KEYS, compare
 from allsky.vehicle import quaternion
 
 
@@ -134,10 +134,15 @@ def test_the_filter_reads_sensors_only():
 def test_compare_gives_the_filter_the_other_methods_keys(cfg):
     """``--methods legacy,dither,kalman``: kalman and kalman_dither sections, same keys."""
     r = compare(cfg, runs=1, workers=1, methods=("legacy", "dither", "kalman"))
-    for section in ("kalman", "kalman_dither"):
+    common = set(r["legacy"])
+    assert {"drift_error_deg_h", "pointing_error_same_misalignment_arcsec",
+            "pointing_error_tracker_architecture_arcsec"} <= common
+    for section in ("dither", "kalman", "kalman_dither"):
         assert r[section]["status"] == "complete"
-        assert set(r["legacy"]) - {"pointing_error_same_misalignment_arcsec"} <= set(r[section])
-        assert {"drift_error_deg_h", "filter_sigma", "nees"} <= set(r[section])
+        assert set(r[section]) - set(METHOD_KEYS[section]) == common, section
+    for section in ("kalman", "kalman_dither"):
+        assert {"filter_sigma", "nees"} <= set(r[section])
+        assert r[section]["pointing_error_same_misalignment_arcsec"] > 0.0
         assert set(r["predicted_scale_factor_sigma_ppm"][section]) == {"roll", "yaw"}
     assert "kalman" not in compare(cfg, runs=1, workers=1)
     text = format_kalman(r)

@@ -9,7 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
-from allsky.studies.compare import AXES, CC_KEYS, compare, label_percentiles
+from allsky.studies.compare import (
+    AXES,
+    CC_KEYS,
+    DEFAULT_METHODS,
+    FLIGHTS,
+    compare,
+    label_percentiles,
+)
 from allsky.units import FRACTION2PPM
 
 
@@ -187,13 +194,23 @@ def run_from_cli(cfg, args) -> int:
     workers, note = cap_workers(args.workers, runs)
     if note and runs > 1:
         print(f"allsky: {note}", file=sys.stderr)
-    show = runs > 1 and not args.quiet
-    bar = tqdm(total=runs, desc="missions", unit="pair", file=sys.stderr,
-               disable=None if show else True)
+    methods = args.methods or DEFAULT_METHODS
+    # One run: a step per mission of the pair (each takes seconds, the filter's longer);
+    # several: a step per pair. Shown on a terminal unless --quiet.
+    one = runs == 1
+    total = FLIGHTS["three" if "kalman" in methods else "pair"] if one else runs
+    bar = tqdm(total=total, desc="missions", unit="mission" if one else "pair",
+               file=sys.stderr, disable=True if args.quiet else None)
+
+    def flown(name):
+        bar.set_postfix_str(name, refresh=False)
+        bar.update(1)
+
     try:
         result = compare(cfg, runs=runs, workers=workers, vehicle=args.vehicle,
-                         methods=args.methods,
-                         on_progress=lambda done, total: bar.update(done - bar.n))
+                         methods=methods, on_flight=flown if one else None,
+                         on_progress=None if one else
+                         lambda done, total: bar.update(done - bar.n))
     finally:
         bar.close()
     say(format_compare(result))

@@ -75,6 +75,7 @@ def _metrics(m, t_cal, excursion, prop, durations):
         err = calibration_errors(s["calibration"], s["truth"])
         out["scale_factor_error_ppm"] = err["scale_factor_ppm"]
         out["cross_coupling_error_arcsec"] = err["cross_coupling_arcsec"]
+        out["drift_error_deg_h"] = err["drift_deg_h"]
         out["pointing_error_tracker_architecture_arcsec"] = slew_tracking_error_arcsec(
             err["scale_factor_ppm"], s["target"])
     return out, s
@@ -108,22 +109,40 @@ def load_cross_coupling(word23, cross_coupling) -> None:
         word23[slot] = float(cross_coupling[name])
 
 
-def fly_pair(args):
-    """Legacy and dither missions for one seed: ``(scenario_dict, seed)`` -> metrics."""
+def fly_pair(args, on_flight=None):
+    """Legacy and dither missions for one seed: ``(scenario_dict, seed)`` -> metrics.
+
+    ``on_flight(name)``, if given, after each mission flown.
+    """
+    return _fly_pair(args, on_flight)[0]
+
+
+def _flown(on_flight, name):
+    if on_flight is not None:
+        on_flight(name)
+
+
+def _fly_pair(args, on_flight=None):
+    """:func:`fly_pair`, and the legacy turns' cross-coupling words (None if aborted)."""
     from allsky.config import scenario_from_dict
 
     data, seed = args
     cfg = scenario_from_dict(data, [f"mission.seed={seed}"])
     m, *rest = _fly(cfg, LEGACY_PLAN)
     legacy, s_legacy = _metrics(m, *rest)
+    _flown(on_flight, "legacy")
     # Same misalignment knowledge for both: the legacy turns' cross-coupling words, given
     # to the dither as the separate misalignment correction its method assumes.
     words = (s_legacy["calibration"] or {}).get("cross_coupling")
+    if legacy["status"] != "complete":
+        words = None
     legacy["pointing_error_same_misalignment_arcsec"] = legacy["pointing_error_arcsec"]
     m, *rest = _fly(cfg, DITHER_PLAN)
     dith, s = _metrics(m, *rest)
-    if words is not None and legacy["status"] == "complete":
+    _flown(on_flight, "dither")
+    if words is not None:
         known, *rest_known = _fly(cfg, DITHER_PLAN, cross_coupling=words)
+        _flown(on_flight, "dither, legacy misalignment")
         with_words, _ = _metrics(known, *rest_known)
         dith["pointing_error_same_misalignment_arcsec"] = with_words["pointing_error_arcsec"]
         if "scale_factor_error_ppm" in with_words:
@@ -144,7 +163,7 @@ def fly_pair(args):
             a: FRACTION2PPM * (est[a]["scale_factor_command"] - truth[a]) for a in AXES if a in est}
         dith["tracking_ratio"] = {a: est[a]["tracking_ratio"] for a in est}
         dith["prefix_error_ppm"] = _prefix_errors(m, truth)
-    return {"seed": seed, "legacy": legacy, "dither": dith}
+    return {"seed": seed, "legacy": legacy, "dither": dith}, words
 
 
 def _prefix_errors(m, truth):
@@ -213,7 +232,7 @@ def _aggregate(rows, method):
     out = {"runs": len(rows), "complete": len(ok)}
     if not ok:
         return out
-    for key in ("scale_factor_error_ppm", "cross_coupling_error_arcsec",
+    for key in ("scale_factor_error_ppm", "cross_coupling_error_arcsec", "drift_error_deg_h",
                 "scale_factor_error_command_ppm", "tracking_ratio",
                 "scale_factor_error_same_misalignment_ppm"):
         have = [r[key] for r in ok if r.get(key) is not None]
@@ -292,7 +311,7 @@ def on_vehicle(cfg, vehicle=None):
 
 
 def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
-            methods=("legacy", "dither")) -> dict:
+            methods=("legacy", "dither"), on_flight=None) -> dict:
     """Fly both methods over ``runs`` seeds from the scenario's; return the results.
 
     Parameters
@@ -313,6 +332,10 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
     methods : sequence of str
         :data:`METHODS` to fly: legacy and dither always, and ``"kalman"``
         for the three-axis Kalman filter's two flights (:func:`fly_three`).
+    on_flight : callable, optional
+        ``on_flight(name)`` after each mission of a pair, when the pairs are
+        flown in this process (``workers`` 1 or one run): progress inside a
+        pair, whose missions take seconds each.
 
     Returns
     -------
@@ -336,7 +359,7 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
     fly_row = fly_three if "kalman" in methods else fly_pair
     workers = max(1, min(int(workers), runs))  # no idle processes
     if workers == 1:
-        it = map(fly_row, jobs)
+        it = (fly_row(job, on_flight) for job in jobs)
         pool = None
     else:
         pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
@@ -394,7 +417,21 @@ DEFAULT_METHODS = ("legacy", "dither")
 KALMAN_SECTIONS = {"kalman": "legacy", "kalman_dither": "dither"}
 
 
-def fly_three(args):
+#: Keys of one method's section that only it has: the dither's estimator figures and
+#: the filter's own statistics. The other keys are every method's (docs/comparison.md).
+METHOD_KEYS = {
+    "legacy": (),
+    "dither": ("scale_factor_error_command_ppm", "tracking_ratio", "prefix_error_ppm",
+               "prefix_rms_ppm", "scale_factor_error_same_misalignment_ppm"),
+    "kalman": ("filter_sigma", "nees", "filter_s"),
+    "kalman_dither": ("filter_sigma", "nees", "filter_s"),
+}
+#: Missions flown for one seed: legacy, dither, dither with the legacy misalignment;
+#: with the filter, its two flights too (each with a second Mode 6, :func:`kalman_metrics`).
+FLIGHTS = {"pair": 3, "three": 5}
+
+
+def fly_three(args, on_flight=None):
     """:func:`fly_pair` and the Kalman filter's two flights for one seed.
 
     ``(scenario_dict, seed)`` -> metrics by method. ``kalman``: the filter
@@ -404,29 +441,41 @@ def fly_three(args):
     """
     from allsky.config import scenario_from_dict
 
-    row = fly_pair(args)
+    row, words = _fly_pair(args, on_flight)
     data, seed = args[0], args[1]
     cfg = scenario_from_dict(data, [f"mission.seed={seed}"])
     for section, plan in KALMAN_SECTIONS.items():
-        row[section] = kalman_metrics(cfg, plan)
+        row[section] = kalman_metrics(cfg, plan, words)
+        _flown(on_flight, section)
     return row
 
 
-def kalman_metrics(cfg, plan_name) -> dict:
+def kalman_metrics(cfg, plan_name, cross_coupling=None) -> dict:
     """The other methods' rows for the filter flown on ``plan_name``'s manoeuvres.
 
-    Besides them: ``drift_error_deg_h`` (drift counters 13/15/17 as loaded,
-    minus the truth), ``filter_sigma`` (the filter's own 1-sigma of the same
-    quantities, :func:`allsky.studies.kalman_mekf.sigmas`), ``nees`` at the
-    end of the calibration and ``filter_s``, the wall time of the filter.
+    ``pointing_error_same_misalignment_arcsec`` flies Mode 6 a second time
+    from the end of the calibration, register 23's cross-coupling words
+    replaced by ``cross_coupling`` (the legacy turns', as the dither gets
+    them; None: no such flight, the figure None). Besides the other
+    methods' rows: ``filter_sigma`` (the filter's own 1-sigma of the
+    calibration's quantities, :func:`allsky.studies.kalman_mekf.sigmas`),
+    ``nees`` at the end of the calibration and ``filter_s``, the wall time
+    of the filter.
     """
     from allsky.studies import kalman_mekf
 
-    f = kalman_mekf.fly(cfg, plan_name)
+    f = kalman_mekf.fly(cfg, plan_name, through_mode6=False)
+    known = None
+    if not f.mission.finished and cross_coupling is not None:
+        known = Mission.from_snapshot(*f.mission.snapshot(), telemetry=False)
+        load_cross_coupling(known.state.word23, cross_coupling)
+        known.run()
+    f.mission.run()  # Mode 6 with the filter's own estimate, as kalman_mekf.fly flies it
     out, s = _metrics(f.mission, f.time_s, f.excursion_arcsec, f.propellant_kg, f.durations)
+    out["pointing_error_same_misalignment_arcsec"] = (
+        known.summary()["target"]["pointing_error_arcsec"] if known is not None else None)
     if f.estimate is not None and s["calibration"] is not None:
         est = f.estimate
-        out["drift_error_deg_h"] = calibration_errors(s["calibration"], s["truth"])["drift_deg_h"]
         sig = kalman_mekf.sigmas(est.params[-1], est.covariances[-1])
         out["filter_sigma"] = {"scale_factor_ppm": sig["scale_factor_ppm"],
                                "cross_coupling_arcsec": sig["cross_coupling_arcsec"],
@@ -461,8 +510,6 @@ def kalman_sections(result, rows) -> None:
             continue
         out = _aggregate(rows, section)
         if ok:
-            out["drift_error_deg_h"] = {a: _stats([r["drift_error_deg_h"][a] for r in ok])
-                                        for a in ok[0]["drift_error_deg_h"]}
             out["filter_sigma"] = {
                 group: {k: float(np.sqrt(np.mean([r["filter_sigma"][group][k] ** 2
                                                   for r in ok])))

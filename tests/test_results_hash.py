@@ -29,12 +29,12 @@ CASES = {
 
 #: sha256 of (summary JSON, telemetry bytes) per case, and of ``compare --runs 5``.
 EXPECTED = {
-    "dither-seed1": "6cb948d0e75e3f369df866c64504b351",
-    "dither-seed5": "f3af114897e4ab2a1da6986c7c263e11",
-    "legacy-seed1": "868723f58cdc098bb2c2d2aa58e5b470",
-    "legacy-seed23-vega": "0abe99c6f887c2452a2c1218edd5920f",
-    "legacy-seed7": "5b70f4ddac81836b387024a68d86a1f6",
-    "compare-runs5": "0a20e328958796d76b906406dbcfe03f",
+    "dither-seed1": "21b2cb04b424a3abf81f278c2bf5e8be",
+    "dither-seed5": "75a13db6b9d886ede8d7795f8494ba19",
+    "legacy-seed1": "ce4060111f2178c129c8ed1c203e5910",
+    "legacy-seed23-vega": "fc3f4465b1849c05ba5df86b3e502296",
+    "legacy-seed7": "08c44c688fc6a765434f6fa149437ed4",
+    "compare-runs5": "abc28b9ee9dbf03e0700814ba47bbc1e",
 }
 
 

@@ -98,6 +98,17 @@ def test_mode3_ends_once_the_errors_have_remained_settled(default_mission):
         cfg.sequencer.drift_count_s + cfg.mission.frame_s, abs=1e-6)
 
 
+def test_a_single_target_has_its_one_entry_in_targets(default_mission):
+    """``targets`` is always there: one entry for the one target, as the first of many."""
+    s = default_mission.summary()
+    assert len(s["targets"]) == 1
+    t = s["targets"][0]
+    assert t["name"] == s["target"]["star"] and t["start_s"] == 0.0
+    assert t["end_s"] == s["mission_time_s"]
+    assert t["programmed_roll_deg"] == s["target"]["programmed_roll_deg"]
+    assert t["pointing_error_arcsec"] == pytest.approx(s["target"]["pointing_error_arcsec"])
+
+
 def test_default_mission_locks_the_planned_star(default_mission):
     s = default_mission.summary()
     assert s["reference_star"] == s["locked_star"] == "Canopus"

@@ -8,12 +8,12 @@ Commands::
     allsky replay TELEMETRY [--summary JSON] --html PATH [--scenario SCENARIO] [--set KEY=VALUE]
     allsky analyze [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--plot PNG]
                    [--envelope [--wheel-torque N_M] [--wheel-momentum N_M_S] [--wheel-beta DEG]]
-    allsky faults [SCENARIO] [--kinds KIND ...] [--modes MODE ...] [--json PATH] [--workers N]
+    allsky faults [SCENARIO] [--kinds KIND,...] [--modes MODE,...] [--json PATH] [--workers N]
     allsky scenarios [--json PATH]
     allsky config show [SCENARIO] [--set KEY=VALUE ...]
     allsky config check FILE [--set KEY=VALUE ...]
     allsky warm-up
-    allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers K | --scheduler ADDRESS]
+    allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers N | --scheduler ADDRESS]
                       [--out DIR] [--resume] [--set KEY=VALUE ...] [--json PATH] [--quiet]
 
 Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
@@ -91,7 +91,7 @@ def _parser() -> argparse.ArgumentParser:
         if required:
             sp.add_argument("scenario", metavar="FILE", help="scenario TOML file")
         else:
-            sp.add_argument("scenario", nargs="?", metavar="SCENARIO",
+            sp.add_argument("scenario", nargs="?", metavar="SCENARIO", action=_Scenario,
                             help="scenario TOML file, merged over the packaged default "
                                  "(default: the packaged default mission)")
         sp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -131,7 +131,7 @@ def _parser() -> argparse.ArgumentParser:
 
     step = sub.add_parser(
         "step", help="fly the mission stop by stop, showing the hardware at each stop",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=_ModeListFormatter,
         description="Fly the mission and stop at each mode boundary (and, with --every, "
                     "inside modes). Each stop shows the switch bank, counters, drift "
                     "counters and DACs, storage registers, sensor outputs, body rates, "
@@ -149,8 +149,8 @@ def _parser() -> argparse.ArgumentParser:
                       help="also stop every SECONDS of mission time inside modes (at least "
                            "0.1 s and 10 frames)")
     step.add_argument("--until", metavar="MODE",
-                      help="show no stop before MODE (1 2 3 4 5 6-1 6-2, or dither; inside it "
-                           "only the --every stops) and end the session at its end")
+                      help="show no stop before MODE ({modes}; inside it only the --every "
+                           "stops) and end the session at its end")
     step.add_argument("--plan", choices=("legacy", "dither"), default="legacy",
                       help="legacy: the patent's Modes 1-6; dither: the comparison "
                            "method in place of Modes 4 and 5")
@@ -185,7 +185,7 @@ def _parser() -> argparse.ArgumentParser:
     scenario_args(cmp_)
     cmp_.add_argument("--runs", type=_positive_int, default=1, metavar="N",
                       help="repeat over N seeds (from mission.seed on) and give statistics")
-    cmp_.add_argument("--workers", type=_positive_int, metavar="W",
+    cmp_.add_argument("--workers", type=_positive_int, metavar="N",
                       help="worker processes for --runs (default: one per core; at most "
                            "one per run and per core)")
     cmp_.add_argument("--json", metavar="PATH",
@@ -202,11 +202,11 @@ def _parser() -> argparse.ArgumentParser:
                       help="fly both methods on the jets (PWPF modulators, jets 39-41) or on "
                            "the reaction wheels unloaded by the jets (default: the scenario's "
                            "actuators.kind, jets unless set)")
-    cmp_.add_argument("--methods", type=_methods, default=("legacy", "dither"),
-                      metavar="M1,M2,...",
+    cmp_.add_argument("--methods", type=_methods, metavar="M1,M2,...",
                       help="methods to compare: legacy,dither (default) or "
                            "legacy,dither,kalman to add the three-axis Kalman filter through "
-                           "the legacy turns and through the dither hold (docs/kalman.md)")
+                           "the legacy turns and through the dither hold (docs/kalman.md); "
+                           "not with --sweep")
 
     replay = sub.add_parser(
         "replay", help="write the replay page (HTML) of a flown mission from its telemetry file",
@@ -321,7 +321,7 @@ def _parser() -> argparse.ArgumentParser:
     mc.add_argument("--disperse", metavar="SPEC",
                     help="TOML file with a [dispersions] table, merged over the scenario's")
     where = mc.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=_positive_int, metavar="K",
+    where.add_argument("--workers", type=_positive_int, metavar="N",
                        help="local worker processes (default: one per core; 1: in this process)")
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="fly on an existing Dask distributed cluster (tcp://HOST:PORT)")
@@ -380,15 +380,20 @@ def _parser() -> argparse.ArgumentParser:
                     "fields: docs/faults.md.",
         epilog="examples:\n"
                "  allsky faults\n"
-               "  allsky faults --kinds gyro_dead tracker_dropout --modes 4 5\n"
+               "  allsky faults --kinds gyro_dead,tracker_dropout --modes 4,5\n"
+               "  allsky faults mariner4-star-hopping --kinds gyro_dead --modes 6-2\n"
                "  allsky faults --set sequencer.recovery=true --json matrix.json")
     scenario_args(faults)
     # Checked by the command against allsky.config.faults (a bad name exits 2 and lists the
     # known ones), so that parsing imports no more of allsky than --help needs.
-    faults.add_argument("--kinds", nargs="+", metavar="KIND",
-                        help="fault kinds (rows; default: all, as in docs/faults.md)")
-    faults.add_argument("--modes", nargs="+", metavar="MODE",
-                        help="modes the fault starts in (columns; default: 1 2 3 4 5 6-1 6-2)")
+    # Comma lists, as --methods and --sweep take; several words still work (--kinds a b), and a
+    # scenario given after the list is recognised as one, not taken for a name.
+    faults.add_argument("--kinds", nargs="+", action=_NameList, metavar="KIND,...",
+                        help="fault kinds, comma-separated (rows; default: all, as in "
+                             "docs/faults.md)")
+    faults.add_argument("--modes", nargs="+", action=_NameList, metavar="MODE,...",
+                        help="modes the fault starts in, comma-separated (columns; default: "
+                             "1,2,3,4,5,6-1,6-2; only modes the mission flies)")
     faults.add_argument("--workers", type=_positive_int, metavar="N",
                         help="worker processes (default: one per core)")
     faults.add_argument("--json", metavar="PATH",
@@ -426,6 +431,55 @@ def _parser() -> argparse.ArgumentParser:
                             help="no progress line (it is also off when stderr is not a "
                                  "terminal)")
     return p
+
+
+class _ModeListFormatter(argparse.RawDescriptionHelpFormatter):
+    """Help whose ``{modes}`` lists the mode table's names, read when help is shown."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if "{modes}" in text:  # imported here: parsing alone needs no mode table
+            from allsky.sequencer.modes import MODE_TABLE
+
+            text = text.replace("{modes}", " ".join(m.name for m in MODE_TABLE))
+        return text
+
+
+def _looks_like_scenario(word) -> bool:
+    """Whether a word after --kinds/--modes names a scenario file or a packaged scenario."""
+    from pathlib import Path
+
+    packaged = Path(__file__).resolve().parent.parent / "scenarios" / f"{word}.toml"
+    return word.endswith(".toml") or os.sep in word or Path(word).is_file() or (
+        packaged.is_file())
+
+
+class _Scenario(argparse.Action):
+    """The optional SCENARIO; one already found among a list option's words is kept."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if values is not None or getattr(namespace, self.dest, None) is None:
+            setattr(namespace, self.dest, values)
+
+
+class _NameList(argparse.Action):
+    """A list option: comma-separated (``a,b``) or several words (``a b``), extended.
+
+    A scenario (a ``.toml`` file or a packaged scenario's name) among the words
+    is the positional SCENARIO, not a name.
+    """
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        names = list(getattr(namespace, self.dest, None) or [])
+        for word in values:
+            if _looks_like_scenario(word):
+                if getattr(namespace, "scenario", None) not in (None, word):
+                    parser.error(f"{option_string}: {word!r} is a scenario, and "
+                                 f"{namespace.scenario!r} was given already")
+                namespace.scenario = word
+                continue
+            names += [n.strip() for n in word.split(",") if n.strip()]
+        setattr(namespace, self.dest, names)
 
 
 def _positive_float(text):
@@ -476,9 +530,20 @@ def _positive_int(text):
     return v
 
 
+#: Options of ``allsky compare`` that the trade study (--sweep) has no use for.
+SWEEP_IGNORES = ("methods",)
+
+
 def _run(cfg, args) -> int:
     # Imported here so that `allsky config` never pays for compiling the simulator.
     if args.command == "compare" and args.sweep:
+        given = [f"--{k}" for k in SWEEP_IGNORES if getattr(args, k) is not None]
+        if given:
+            from allsky.config.rules import ConfigError
+
+            raise ConfigError(None, rule=f"{given[0]} does not apply to --sweep (the trade "
+                                         "study flies the dither against the legacy turns); "
+                                         "drop one of them")
         from allsky.apps.dither_sweep import run_from_cli
     elif args.command == "compare":
         from allsky.apps.compare import run_from_cli

@@ -20,6 +20,7 @@ import numpy as np
 from allsky import units
 from allsky.computer import targeting
 from allsky.computer import word_registers as wr
+from allsky.config import faults as fault_config
 from allsky.hardware import (
     control_amp,
     gyro,
@@ -278,6 +279,8 @@ class Mission:
             self.plan = modes.mission_plan(plan, cfg)
         if any(name not in modes.BY_NAME for name in self.plan):
             raise ValueError(f"unknown mode in plan {self.plan}")
+        if history is None:  # a fault must start in a mode the plan flies (exit 2, not silence)
+            fault_config.check_plan(cfg.faults, self.plan)
         moves = sum(name in modes.BETWEEN_TARGETS for name in self.plan)
         if moves >= modes.target_count(cfg) and moves:
             raise ValueError(f"plan {self.plan} moves to {moves} next targets; the scenario "
@@ -537,8 +540,9 @@ class Mission:
 
         ``target`` is the first target: its programmed angles and its true
         pointing error at the end of its flight (after its hold, if any).
-        With ``target.sequence``, ``targets`` lists every target begun
-        (:meth:`targets`).
+        ``targets`` lists every target begun (:meth:`targets`; one entry for
+        a single target), each with its pointing error at the end of its
+        Mode 6-2.
         """
         done = [r.mode for r in self.timeline]
         records = self.targets()
@@ -578,8 +582,7 @@ class Mission:
             out["faults"] = [{**f, "onset_s": float(onset) if onset >= 0.0 else None}
                              for f, onset in zip(self.cfg.as_dict()["faults"],
                                                  self.state.fault_state[sim_faults.ONSET])]
-        if self.cfg.target.sequence is not None:
-            out["targets"] = records
+        out["targets"] = records
         if self.cfg.actuators.kind == "wheels":
             out["wheels"] = self.wheel_summary()
         return out

@@ -16,8 +16,6 @@ expectation of each method's scale-factor spread (docs/comparison.md).
 """
 
 import math
-import os
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -350,35 +348,15 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
         number, ``interrupted`` True and ``runs_requested``; with none
         finished, the KeyboardInterrupt goes on.
     """
-    from allsky.studies.montecarlo import interrupts_held, stop_pool, worker_process_setup
+    from allsky.studies.montecarlo import ordered_rows
 
     cfg = on_vehicle(cfg, vehicle)
     data = cfg.as_dict()
     seeds = [int(cfg.mission.seed) + k for k in range(runs)]
     jobs = [(data, s) for s in seeds]
     fly_row = fly_three if "kalman" in methods else fly_pair
-    workers = max(1, min(int(workers), runs))  # no idle processes
-    if workers == 1:
-        it = (fly_row(job, on_flight) for job in jobs)
-        pool = None
-    else:
-        pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
-                                   initargs=(os.getpid(),))
-        it = pool.map(fly_row, jobs)
-    rows, interrupted = [], False
-    try:
-        for row in it:
-            rows.append(row)
-            if on_progress is not None:
-                on_progress(len(rows), runs)
-    except KeyboardInterrupt:
-        if not rows:
-            raise
-        interrupted = True
-    finally:
-        if pool is not None:
-            with interrupts_held():
-                stop_pool(pool, interrupted or len(rows) < runs)
+    rows, interrupted = ordered_rows(fly_row, jobs, workers, on_progress,
+                                     fly_here=lambda job: fly_row(job, on_flight))
     done = len(rows)
     result = {"runs": done, "seeds": [seeds[0], seeds[done - 1]]}
     if cfg.actuators.kind != "jets":

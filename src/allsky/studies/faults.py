@@ -10,8 +10,6 @@ recorded with status ``"error"`` and the exception's text: the matrix counts
 them (:func:`tally`), and a sound emulator has none.
 """
 
-import os
-from concurrent.futures import ProcessPoolExecutor
 
 from allsky.config import scenario_from_dict
 from allsky.config.faults import KINDS, describe
@@ -107,34 +105,13 @@ def fault_matrix(cfg, kinds=None, modes=None, workers=1, on_progress=None) -> di
         order) and ``counts`` (:func:`tally`). Interrupted (Ctrl-C) with
         cases finished: those, with ``interrupted`` True.
     """
-    from allsky.studies.montecarlo import interrupts_held, stop_pool, worker_process_setup
+    from allsky.studies.montecarlo import ordered_rows
 
     kinds = list(kinds or MATRIX_FAULTS)
     modes = list(modes or MATRIX_MODES)
     data = cfg.as_dict()
     jobs = [(data, None, None)] + [(data, k, m) for k in kinds for m in modes]
-    workers = max(1, min(int(workers), len(jobs)))
-    pool = None
-    if workers == 1:
-        it = map(_fly, jobs)
-    else:
-        pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
-                                   initargs=(os.getpid(),))
-        it = pool.map(_fly, jobs)
-    rows, interrupted = [], False
-    try:
-        for row in it:
-            rows.append(row)
-            if on_progress is not None:
-                on_progress(len(rows), len(jobs))
-    except KeyboardInterrupt:
-        if not rows:
-            raise
-        interrupted = True
-    finally:
-        if pool is not None:
-            with interrupts_held():
-                stop_pool(pool, interrupted or len(rows) < len(jobs))
+    rows, interrupted = ordered_rows(_fly, jobs, workers, on_progress)
     out = {"kinds": kinds, "modes": modes,
            "faults": {k: describe({"kind": k, **MATRIX_FAULTS[k]}) for k in kinds},
            "scenario_faults": [describe(f) for f in cfg.faults],

@@ -255,6 +255,40 @@ def interrupts_held():
             signal.signal(sig, handler)
 
 
+def ordered_rows(fly, jobs, workers, on_progress=None, fly_here=None):
+    """``fly`` over ``jobs`` in order on ``workers`` processes; Ctrl-C stops cleanly.
+
+    One worker flies in this process (with ``fly_here`` when given, e.g. a
+    version that reports its own progress). ``on_progress(done, total)``
+    follows each row. Returns ``(rows, interrupted)``: a Ctrl-C after the
+    first row keeps the rows finished and ends the workers at once; before
+    it, the interruption propagates.
+    """
+    workers = max(1, min(int(workers), len(jobs)))  # no idle processes
+    pool = None
+    if workers == 1:
+        it = map(fly_here or fly, jobs)
+    else:
+        pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
+                                   initargs=(os.getpid(),))
+        it = pool.map(fly, jobs)
+    rows, interrupted = [], False
+    try:
+        for row in it:
+            rows.append(row)
+            if on_progress is not None:
+                on_progress(len(rows), len(jobs))
+    except KeyboardInterrupt:
+        if not rows:
+            raise
+        interrupted = True
+    finally:
+        if pool is not None:
+            with interrupts_held():
+                stop_pool(pool, interrupted or len(rows) < len(jobs))
+    return rows, interrupted
+
+
 def _fly_local(jobs):
     return [fly_one(_WORKER["cfg"], run, seed) for run, seed in jobs]
 

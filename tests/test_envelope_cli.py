@@ -381,3 +381,34 @@ def test_bad_options_exit_2_with_one_line(argv, says, capsys):
     assert captured.out == ""
     lines = captured.err.splitlines()
     assert len(lines) == 1 and lines[0].startswith("allsky: error:") and says in lines[0]
+
+
+def test_the_flown_dither_torque_is_checked_against_both_envelopes():
+    """One axis dithered: the torque is J[:, z] A w^2 sin(w t); margins along that direction."""
+    import math
+
+    import numpy as np
+
+    from allsky.config import load_scenario
+    from allsky.hardware.jets import make_params
+    from allsky.studies.envelope_check import flown_dither_check, wheel_array
+    from allsky.vehicle.envelopes import make_envelope
+
+    # 51.2 s period sampled every 0.1 s: a sample falls on each peak of the sine.
+    cfg = load_scenario(overrides=["dither.amplitude_urad=[0,0,2000]",
+                                   "dither.period_s=[51.2,51.2,51.2]"])
+    column = np.asarray(cfg.vehicle.inertia_kg_m2, dtype=float)[:, 2] \
+        * cfg.dither.inertia_estimate_scale
+    peak = np.abs(column) * 2000e-6 * (2.0 * math.pi / 51.2) ** 2
+    out = flown_dither_check(cfg)
+    assert out["torque_peak_n_m"] == pytest.approx(peak, rel=1e-12)
+    size = float(np.linalg.norm(peak))
+    direction = column / np.linalg.norm(column)
+    # The jets' couples make a box: the largest multiple of the direction inside it.
+    couple = make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s).torque_n_m
+    box_reach = min(c / abs(u) for c, u in zip(couple, direction) if u != 0.0)
+    assert out["jets"]["margin"] == pytest.approx(box_reach / size, rel=1e-9)
+    array = wheel_array(cfg.wheels)
+    reach = make_envelope(array["axes"], array["torque_max_n_m"]).max_along(direction)
+    assert out["wheels"]["margin"] == pytest.approx(float(np.ravel(reach)[0]) / size, rel=1e-9)
+    assert out["wheels"]["inside"] == (out["wheels"]["margin"] >= 1.0)

@@ -72,6 +72,12 @@ def format_compare(result) -> str:
         for ax, v in dit["tracking_ratio"].items():
             rows.append(f"  dither tracking {ax}: optical amplitude / commanded = "
                         f"{_fmt(v, '.4f')}")
+    chk = result.get("dither_torque_check")
+    if chk:
+        peak = ", ".join(f"{v:.2g}" for v in chk["torque_peak_n_m"])
+        rows.append(f"  dither feed-forward torque, peak [N m] (roll, pitch, yaw): {peak}")
+        rows.append(f"    margin in the wheels' torque envelope {chk['wheels']['margin']:.3g}, "
+                    f"in the jets' {chk['jets']['margin']:.3g}")
     if n > 1:
         for method in ("legacy", "dither"):
             r = result[method]

@@ -341,13 +341,17 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
         ``vehicle`` ("wheels"; absent on the jets, the default vehicle),
         ``runs``, ``seeds`` (first, last), ``legacy`` and ``dither`` (one
         run's metrics, or statistics over the runs),
-        ``predicted_scale_factor_sigma_ppm`` and ``rows`` (per seed); with
+        ``predicted_scale_factor_sigma_ppm``, ``dither_torque_check`` (the
+        dither's feed-forward torque in the wheels' and the jets' envelopes,
+        :func:`allsky.studies.envelope_check.flown_dither_check`) and
+        ``rows`` (per seed); with
         ``"kalman"``, ``kalman`` and ``kalman_dither`` too
         (:func:`kalman_sections`). After a
         Ctrl-C (or SIGTERM) with pairs finished: those pairs, ``runs`` their
         number, ``interrupted`` True and ``runs_requested``; with none
         finished, the KeyboardInterrupt goes on.
     """
+    from allsky.studies.envelope_check import flown_dither_check
     from allsky.studies.montecarlo import ordered_rows
 
     cfg = on_vehicle(cfg, vehicle)
@@ -370,6 +374,8 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
         result["legacy"], result["dither"] = _aggregate(rows, "legacy"), _aggregate(rows,
                                                                                      "dither")
     result["predicted_scale_factor_sigma_ppm"] = predicted(cfg, _legacy_times(rows))
+    # The dither's feed-forward torque against the actuators' envelopes (either vehicle).
+    result["dither_torque_check"] = flown_dither_check(cfg)
     if "kalman" in methods:
         kalman_sections(result, rows)
     result["rows"] = rows

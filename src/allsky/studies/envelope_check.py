@@ -224,3 +224,40 @@ def scenario_envelopes(cfg, beta_deg=None, torque_max_n_m=None,
     result["dither_check"]["emulated_inertia_kg_m2"] = [
         float(x) for x in np.diag(np.asarray(cfg.vehicle.inertia_kg_m2, dtype=float))]
     return result
+
+
+def flown_dither_check(cfg) -> dict:
+    """The scenario's dither feed-forward torque in its actuators' envelopes.
+
+    The torque the dither method asks of the actuators over its record:
+    ``J_est a(t)`` with every axis dithered at once at its amplitude and
+    period (``[dither]``; ``J_est`` the vehicle's inertia times
+    ``dither.inertia_estimate_scale``), sampled every ``dither.sample_s``.
+
+    Returns
+    -------
+    dict
+        ``torque_peak_n_m`` (the largest magnitude reached about each body
+        axis [N m]) and, for ``wheels`` (the scenario's ``[wheels]`` array)
+        and ``jets`` (couples of jets 39-41): ``inside`` and ``margin``
+        (:func:`allsky.vehicle.envelopes.check_profile`: how many times the
+        profile could be scaled and still be met).
+    """
+    from allsky.hardware.jets import make_params
+    from allsky.sequencer.dither import feedforward_torque_n_m
+    from allsky.vehicle.envelopes import check_profile, jet_envelope, make_envelope
+
+    d = cfg.dither
+    inertia = np.asarray(cfg.vehicle.inertia_kg_m2, dtype=float) * float(d.inertia_estimate_scale)
+    amplitude_rad = np.asarray(d.amplitude_urad, dtype=float) * 1e-6
+    omega = 2.0 * math.pi / np.asarray(d.period_s, dtype=float)
+    t_s = np.arange(0.0, float(d.record_s), float(d.sample_s))
+    profile = np.array([feedforward_torque_n_m(inertia, amplitude_rad, omega, t) for t in t_s])
+    array = wheel_array(cfg.wheels)
+    jets = make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s)
+    out = {"torque_peak_n_m": [float(x) for x in np.abs(profile).max(axis=0)]}
+    for name, envelope in (("wheels", make_envelope(array["axes"], array["torque_max_n_m"])),
+                           ("jets", jet_envelope(jets.torque_n_m))):
+        check = check_profile(envelope, profile)
+        out[name] = {"inside": bool(check.inside), "margin": float(check.margin)}
+    return out

@@ -140,7 +140,7 @@ def test_the_patent_vehicle_without_faults_flies_its_own_loop(default_cfg):
     """No per-frame branch for faults or wheels in the default mission's loop."""
     from allsky.config.scenario import load_scenario
 
-    assert frame_loop.leg_entry(Mission(default_cfg).params) is frame_loop._run_leg_jets
+    assert frame_loop.leg_entry(Mission(default_cfg).params) is frame_loop._run_leg_plain
     wheels = load_scenario(overrides=["actuators.kind=wheels"])
     faulty = load_scenario(overrides=['faults=[{kind="gyro_dead", axis="roll", start_s=5.0}]'])
     for cfg in (wheels, faulty):

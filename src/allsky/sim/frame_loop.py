@@ -122,63 +122,42 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
 
 
 def leg_entry(p):
-    """The compiled loop :func:`run_leg` flies a mission of parameters ``p`` with.
+    """The compiled entry :func:`run_leg` flies a mission of parameters ``p`` with.
 
-    The patent's vehicle without faults has a loop of its own, compiled with
-    the jets and without the fault hooks (the constants fold them away): the
-    general loop's per-frame branches cost it about a fifth of its time. Each
-    loop compiles on its first use only.
+    The patent's vehicle without faults hands the loop None for the wheels
+    and the faults: numba drops the branches that test them before typing
+    them, so that loop compiles and runs as if neither existed (the general
+    loop's per-frame tests cost it a fifth of its time, and typing their
+    code lengthens the first compile). Each entry compiles on first use.
     """
     if p.actuator == ACTUATOR_JETS and p.faults.n == 0:
-        return _run_leg_jets
+        return _run_leg_plain
     return _run_leg_any
 
 
+# The work arrays are allocated in the two entries (with numba's runtime), once per leg; the
+# frames run in _run_frames, compiled without it (allsky.jit), which cannot allocate.
 @njit_alloc
-def _work_arrays(p):
-    """The per-leg work arrays of :func:`_run_frames`, allocated once per leg."""
-    return (np.zeros((N_SCRATCH, 3)), np.zeros((N_GATES, 3)),
-            np.zeros(p.routing.position_routes.shape[0]), np.zeros(N_POSITION_SOURCES),
-            np.zeros(N_SIGNALS), np.zeros(p.wheels.axes.shape[0]))
-
-
-# Allocation happens in the two entries below (with numba's runtime); the frames run in
-# the two loops they call, compiled without it (allsky.jit), which cannot allocate.
-@njit_alloc
-def _run_leg_jets(p, s, leg, tlm, tlm_rows, rec, rec_rows):
+def _run_leg_plain(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """:func:`run_leg` on the jets, without faults."""
-    w = _work_arrays(p)
-    return _frames_jets(p, s, leg, tlm, tlm_rows, rec, rec_rows, w[0], w[1], w[2], w[3], w[4],
-                        w[5])
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
+                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
+                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS), np.zeros(0), None,
+                       None)
 
 
 @njit_alloc
 def _run_leg_any(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """:func:`run_leg` on either actuator, with the scenario's faults."""
-    w = _work_arrays(p)
-    return _frames_any(p, s, leg, tlm, tlm_rows, rec, rec_rows, w[0], w[1], w[2], w[3], w[4],
-                       w[5])
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
+                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
+                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS),
+                       np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults)
 
 
 @njit
-def _frames_jets(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
-                 sources, sig, wheel_u):
-    """:func:`_run_frames` with the jets and no fault hooks, folded in at compile time."""
-    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
-                       sources, sig, wheel_u, ACTUATOR_JETS, False)
-
-
-@njit
-def _frames_any(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
-                sources, sig, wheel_u):
-    """:func:`_run_frames` with the mission's actuator and its faults."""
-    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain,
-                       sources, sig, wheel_u, p.actuator, p.faults.n > 0)
-
-
-@njit_stage
 def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
-                sig, wheel_u, actuator, with_faults):
+                sig, wheel_u, wheels_p, faults):
     """The frames of :func:`run_leg`.
 
     ``scratch`` (N_SCRATCH, 3), ``gates`` (N_GATES, 3), ``position_gain``
@@ -212,18 +191,19 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     t_leg = s.leg_clock[CLOCK_T_LEG]
     done = int(s.leg_clock[CLOCK_FRAMES])
     n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
-    # Faults act only in a mission that has some: the fault-free frame runs as before.
-    faults, fault_state = p.faults, s.fault_state
+    # ``wheels_p`` and ``faults`` are None on the patent's vehicle without faults: the
+    # branches that test them are dropped when that loop compiles (leg_entry).
+    fault_state = s.fault_state
     for frame_in_leg in range(done, n_max):
         _sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
         t_frame = s.time_s[0]
         tracker_p = p.tracker
-        if with_faults:
+        if faults is not None:
             tracker_p = fault_tracker(faults, p.tracker, fault_state, t_frame)
         star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
                      s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, sun_b, fine, trk,
                      gyro)
-        if with_faults:
+        if faults is not None:
             star = fault_sense(faults, fault_state, t_frame, dt, s.dtheta_rad, fine, trk, gyro,
                                star)
         if star_in_use and star >= 0:
@@ -232,7 +212,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                       s.vfc_residue_pulses, s.overflow, comp, line)
         compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
                 s.word24, sw, s.cpu, s.registers)
-        if with_faults:
+        if faults is not None:
             fault_upset(faults, fault_state, t_frame, s.drift_counters, s.counters, s.registers)
         if program == PROGRAM_MODE1:
             acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
@@ -241,15 +221,24 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                   sources, pos, rate)
         control(p.control, p.dither, gates, program, dithering, t_leg, dt, pos, rate,
                 s.amp_integral_arcsec, dith, ff, volts)
-        tank_ok = actuate(p.pwpf, p.jets, p.wheels, actuator, dt, volts, s.pwpf_filter_v,
-                          s.pwpf_out, s.pwpf_on_frames, s.propellant_kg, s.wheel_h,
-                          s.wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot)
-        if with_faults:
+        if wheels_p is None:
+            tank_ok = actuate(p.pwpf, p.jets, dt, volts, s.pwpf_filter_v, s.pwpf_out,
+                              s.pwpf_on_frames, s.propellant_kg, torque)
+        else:
+            tank_ok = actuate_either(p.pwpf, p.jets, wheels_p, p.actuator, dt, volts,
+                                     s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames,
+                                     s.propellant_kg, s.wheel_h, s.wheel_unload, wheel_u, torque,
+                                     wheel_hb, wheel_hdot)
+        if faults is not None:
             tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
                                     s.propellant_kg, torque, tank_ok)
-        advance(p.plant, p.wheels, actuator, dt, torque, wheel_hb, wheel_hdot, wheel_u,
-                s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad, s.time_s, s.frame,
-                s.excursion_ref_q, s.max_excursion_rad)
+        if wheels_p is None:
+            advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame,
+                    s.excursion_ref_q, s.max_excursion_rad)
+        else:
+            advance_either(p.plant, wheels_p, p.actuator, dt, torque, wheel_hb, wheel_hdot,
+                           wheel_u, s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad,
+                           s.time_s, s.frame, s.excursion_ref_q, s.max_excursion_rad)
         t_leg += dt
         record_telemetry(tlm, tlm_rows, p.telemetry_every, s, leg.mode_code, fine, trk, volts)
         if dithering:
@@ -454,21 +443,31 @@ def control(control_p, dither_p, gates, program, dithering, t_leg_s, dt_s, pos, 
 
 
 @njit_stage
-def actuate(pwpf_p, jets_p, wheels_p, actuator, dt_s, volts, filter_v, valve, on_frames,
-            propellant_kg, wheel_h, wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot):
-    """PWPF modulators 34-36 and jets 39-41 (or the reaction wheels): ``torque`` [N m].
+def actuate(pwpf_p, jets_p, dt_s, volts, filter_v, valve, on_frames, propellant_kg, torque):
+    """PWPF modulators 34-36 and jets 39-41: ``torque`` [N m].
 
-    On the wheel vehicle (``actuator`` ACTUATOR_WHEELS, :func:`actuate_wheels`)
-    ``torque`` is the jets' unloading torque, and the wheels' share goes to
-    ``wheel_u``, ``wheel_hb`` and ``wheel_hdot`` for :func:`advance`.
+    Returns False once the tank is dry.
+    """
+    for a in range(3):
+        pwpf_step(pwpf_p, a, volts[a], filter_v, valve, on_frames)
+    return jets(jets_p, valve, dt_s, propellant_kg, torque)
+
+
+@njit_stage
+def actuate_either(pwpf_p, jets_p, wheels_p, actuator, dt_s, volts, filter_v, valve, on_frames,
+                   propellant_kg, wheel_h, wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot):
+    """:func:`actuate`, or on the wheel vehicle :func:`actuate_wheels`.
+
+    On the wheel vehicle (``actuator`` ACTUATOR_WHEELS) ``torque`` is the
+    jets' unloading torque, and the wheels' share goes to ``wheel_u``,
+    ``wheel_hb`` and ``wheel_hdot`` for :func:`advance_either`.
     Returns False once the tank is dry.
     """
     if actuator == ACTUATOR_WHEELS:
         return actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
                               wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot)
-    for a in range(3):
-        pwpf_step(pwpf_p, a, volts[a], filter_v, valve, on_frames)
-    return jets(jets_p, valve, dt_s, propellant_kg, torque)
+    return actuate(pwpf_p, jets_p, dt_s, volts, filter_v, valve, on_frames, propellant_kg,
+                   torque)
 
 
 @njit_stage
@@ -495,20 +494,34 @@ def actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
 
 
 @njit_stage
-def advance(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hdot, wheel_u, wheel_h,
-            wheel_peak_fraction, x, dtheta_rad, time_s, frame, excursion_ref_q,
+def advance(plant_p, dt_s, torque, x, dtheta_rad, time_s, frame, excursion_ref_q,
             max_excursion_rad):
-    """The plant over one frame, the mission clock, the largest excursion.
+    """The rigid body over a frame under ``torque``; the clock; the largest excursion."""
+    rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
+    _tick(dt_s, x, time_s, frame, excursion_ref_q, max_excursion_rad)
 
-    The rigid body under ``torque``; on the wheel vehicle the gyrostat, the
-    wheels' momentum ``wheel_hb`` changing at ``wheel_hdot`` (body axes), and
-    the wheel momenta ``wheel_h`` under their motor torques ``wheel_u``.
+
+@njit_stage
+def advance_either(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hdot, wheel_u,
+                   wheel_h, wheel_peak_fraction, x, dtheta_rad, time_s, frame, excursion_ref_q,
+                   max_excursion_rad):
+    """:func:`advance`, or on the wheel vehicle the gyrostat.
+
+    The wheels' momentum ``wheel_hb`` changes at ``wheel_hdot`` (body
+    axes), and the wheel momenta ``wheel_h`` under their motor torques
+    ``wheel_u``.
     """
     if actuator == ACTUATOR_WHEELS:
         rk4_step_gyrostat(plant_p, x, torque, wheel_hb, wheel_hdot, dt_s, dtheta_rad)
         advance_momentum(wheels_p, wheel_u, dt_s, wheel_h, wheel_peak_fraction)
     else:
         rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
+    _tick(dt_s, x, time_s, frame, excursion_ref_q, max_excursion_rad)
+
+
+@njit_stage
+def _tick(dt_s, x, time_s, frame, excursion_ref_q, max_excursion_rad):
+    """The mission clock, and the largest excursion from the reference attitude."""
     time_s[0] += dt_s
     frame[0] += 1
     if excursion_ref_q[0] != 0.0 or excursion_ref_q[1] != 0.0 \

@@ -23,7 +23,7 @@ def entry_points(params=None) -> tuple:
     from allsky.sim import frame_loop
     from allsky.vehicle import quaternion
 
-    loop = frame_loop._run_leg_jets if params is None else frame_loop.leg_entry(params)
+    loop = frame_loop._run_leg_plain if params is None else frame_loop.leg_entry(params)
     return loop, quaternion.dcm_body_from_inertial
 
 

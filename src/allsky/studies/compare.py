@@ -29,7 +29,8 @@ from allsky.units import FRACTION2PPM
 AXES = SCALE_FACTOR_AXES
 CC_KEYS = CROSS_COUPLING_KEYS
 #: [arcsec] 1-sigma attitude jitter of the optical hold at an instant (the
-#: +-1" PWPF dead band; measured from the Mode 3 drift spread, docs/error_budget.md)
+#: +-1" PWPF dead band; docs/error_budget.md): :func:`predicted`'s value when no
+#: measured drift spread gives it
 HOLD_JITTER_ARCSEC = 0.3
 #: Record lengths [dither periods of the slowest axis] for the error-versus-time curve.
 PREFIX_PERIODS = (2, 4, 8, 16)
@@ -254,7 +255,7 @@ def _aggregate(rows, method):
     return out
 
 
-def predicted(cfg, legacy_time_s=None) -> dict:
+def predicted(cfg, legacy_time_s=None, drift_sigma_deg_h=None) -> dict:
     """Analytic 1-sigma scale-factor errors [ppm] of both methods.
 
     Dither (estimator "optical"): gyro angle random walk and optical-sensor
@@ -265,11 +266,24 @@ def predicted(cfg, legacy_time_s=None) -> dict:
     (N ARW density, T record length, n samples of M frames' mean optics each,
     sigma_opt the optics' white noise per frame, A amplitude, w frequency;
     the "command" estimator has only the first term, plus its tracking bias).
-    Legacy: the counted 360 deg is off by the drift residual over the count,
-    the ARW over the count and the hold jitter at both ends::
+    Legacy: the counted 360 deg is off by the drift residual over the count
+    T_c, the ARW over it and the attitude of the hold at both ends (1-sigma
+    j at an instant); the drift residual is Mode 3's count over T_d, off by
+    its ARW and the hold's attitude at its own ends::
 
-        sigma^2 = ((sigma_d T_c)^2 + N^2 T_c + 2 j^2) / (1296000")^2,
+        sigma^2 = ((sigma_d T_c)^2 + N^2 T_c + 2 j^2 + s 2 j^2 T_c / T_d) / (1296000")^2,
         sigma_d^2 = N^2 / T_d + 2 j^2 / T_d^2
+
+    s = 1 for the roll turn: Mode 4's count starts at the frame Mode 3's
+    ends, so the attitude of that instant enters both counts, weighted
+    -1 and -T_c/T_d (the drift residual over the turn), and adds the cross
+    term; s = 0 for the yaw turn, which starts after the roll turn's settle.
+    j is :data:`HOLD_JITTER_ARCSEC` unless ``drift_sigma_deg_h`` gives the
+    measured spread of Mode 3's drift count per axis [deg/h = arcsec/s]
+    (several runs: :func:`compare`): then sigma_d is that spread and
+    ``j^2 = (sigma_d^2 - N^2/T_d) T_d^2 / 2`` the jitter it shows, per axis
+    and vehicle (the jets' limit cycle, or on the wheels the tail of the
+    settle the counts start and end on; docs/comparison.md).
     """
     n_arw = cfg.gyro.arw_deg_rt_h * 60.0  # arcsec/sqrt(s)
     d = cfg.dither
@@ -286,14 +300,28 @@ def predicted(cfg, legacy_time_s=None) -> dict:
         opt_term = opt_noise[a] * math.sqrt(2.0 / n_frames) / amp
         out["dither"][a] = FRACTION2PPM * math.hypot(gyro_term, opt_term if d.estimator == "optical"
                                             else 0.0)
-    j, t_d = HOLD_JITTER_ARCSEC, cfg.sequencer.drift_count_s
-    sigma_d = math.sqrt(n_arw ** 2 / t_d + 2 * j ** 2 / t_d ** 2)
+    t_d = cfg.sequencer.drift_count_s
     for a in AXES:
+        sigma_d, j2 = _hold_terms(n_arw, t_d, (drift_sigma_deg_h or {}).get(a))
         # Default: a 360 deg turn at the rate command plus ~20 % for spin-up and settling.
         t_c = (legacy_time_s or {}).get(a, 1.2 * 360.0 / cfg.electronics.rate_command_deg_s)
+        shared = 2.0 * j2 * t_c / t_d if a == "roll" else 0.0
         out["legacy"][a] = FRACTION2PPM * math.sqrt((sigma_d * t_c) ** 2 + n_arw ** 2 * t_c
-                                           + 2 * j ** 2) / 1296000.0
+                                                    + 2 * j2 + shared) / 1296000.0
     return out
+
+
+def _hold_terms(n_arw, t_d, drift_sigma=None):
+    """Drift-count 1-sigma [arcsec/s] and hold jitter^2 [arcsec^2] for :func:`predicted`.
+
+    Without a measured drift spread, the jitter is :data:`HOLD_JITTER_ARCSEC`;
+    with one, the spread is taken as it is and the jitter is what it leaves
+    beyond the ARW (none if the ARW alone explains it).
+    """
+    if drift_sigma is None:
+        j2 = HOLD_JITTER_ARCSEC ** 2
+        return math.sqrt(n_arw ** 2 / t_d + 2 * j2 / t_d ** 2), j2
+    return float(drift_sigma), max(0.0, drift_sigma ** 2 - n_arw ** 2 / t_d) * t_d ** 2 / 2.0
 
 
 def on_vehicle(cfg, vehicle=None):
@@ -373,7 +401,8 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
     else:
         result["legacy"], result["dither"] = _aggregate(rows, "legacy"), _aggregate(rows,
                                                                                      "dither")
-    result["predicted_scale_factor_sigma_ppm"] = predicted(cfg, _legacy_times(rows))
+    result["predicted_scale_factor_sigma_ppm"] = predicted(cfg, _legacy_times(rows),
+                                                           _legacy_drift_spread(rows))
     # The dither's feed-forward torque against the actuators' envelopes (either vehicle).
     result["dither_torque_check"] = flown_dither_check(cfg)
     if "kalman" in methods:
@@ -389,6 +418,18 @@ def _legacy_times(rows):
         return None
     return {"roll": float(np.mean([t["4"] for t in ok])),
             "yaw": float(np.mean([t["5"] for t in ok]))}
+
+
+def _legacy_drift_spread(rows):
+    """Sample standard deviation of Mode 3's drift error [deg/h], roll and yaw.
+
+    Over the complete legacy runs; None with fewer than two (one run has no spread).
+    """
+    ok = [r["legacy"]["drift_error_deg_h"] for r in rows
+          if r["legacy"]["status"] == "complete" and r["legacy"].get("drift_error_deg_h")]
+    if len(ok) < 2:
+        return None
+    return {a: float(np.std([e[a] for e in ok], ddof=1)) for a in AXES}
 
 
 # -- the third method: the three-axis Kalman filter (allsky.studies.kalman_mekf) -------

@@ -38,3 +38,37 @@ def calibration_errors(calibration: dict, truth: dict) -> dict:
             k: RAD2ARCSEC * (calibration["cross_coupling"][k] - truth["cross_coupling"][k])
             for k in CROSS_COUPLING_KEYS},
     }
+
+
+def fly_calibrating(m, cal_modes, on_start=None, on_end=None):
+    """Fly ``m`` to its end, measuring its calibration modes ``cal_modes`` on the way.
+
+    The excursion is measured from the attitude at the start of the first
+    calibration mode to the end of the last. ``on_start(m)`` runs as the
+    first begins; ``on_end(m)`` after the last, and the flight stops there
+    if it returns False.
+
+    Returns
+    -------
+    tuple
+        Calibration time [s], its propellant [kg] and each calibration
+        mode's duration [s] by name.
+    """
+    t_cal, prop, durations = 0.0, 0.0, {}
+    while not m.finished:
+        name = m.plan[m.next_mode]
+        if name == cal_modes[0]:
+            m.state.excursion_ref_q[:] = m.state.x[0:4]
+            if on_start is not None:
+                on_start(m)
+        p0 = m.state.propellant_kg[0]
+        rec = m.run_mode()
+        if name in cal_modes:
+            t_cal += rec.end_s - rec.start_s
+            durations[name] = rec.end_s - rec.start_s
+            prop += p0 - m.state.propellant_kg[0]
+        if name == cal_modes[-1]:
+            m.state.excursion_ref_q[:] = 0.0
+            if on_end is not None and on_end(m) is False:
+                break
+    return t_cal, prop, durations

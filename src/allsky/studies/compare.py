@@ -23,7 +23,12 @@ from allsky import units
 from allsky.computer import word_registers as wr
 from allsky.sequencer.dither_mode import analyse, cross_coupling_words
 from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
-from allsky.sim.results import CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES, calibration_errors
+from allsky.sim.results import (
+    CROSS_COUPLING_KEYS,
+    SCALE_FACTOR_AXES,
+    calibration_errors,
+    fly_calibrating,
+)
 from allsky.units import FRACTION2PPM
 
 AXES = SCALE_FACTOR_AXES
@@ -44,22 +49,9 @@ def _fly(cfg, plan, cross_coupling=None):
     23 as the calibration starts: misalignment known from elsewhere."""
     m = Mission(cfg, telemetry=False, plan=plan)
     cal_modes = ("4", "5") if plan is LEGACY_PLAN else ("dither",)
-    t_cal, prop = 0.0, 0.0
-    durations = {}
-    while not m.finished:
-        name = m.plan[m.next_mode]
-        if name == cal_modes[0]:
-            m.state.excursion_ref_q[:] = m.state.x[0:4]
-            if cross_coupling is not None:
-                load_cross_coupling(m.state.word23, cross_coupling)
-        p0 = m.state.propellant_kg[0]
-        rec = m.run_mode()
-        if name in cal_modes:
-            t_cal += rec.end_s - rec.start_s
-            durations[name] = rec.end_s - rec.start_s
-            prop += p0 - m.state.propellant_kg[0]
-        if name == cal_modes[-1]:
-            m.state.excursion_ref_q[:] = 0.0
+    known = None if cross_coupling is None else (
+        lambda mm: load_cross_coupling(mm.state.word23, cross_coupling))
+    t_cal, prop, durations = fly_calibrating(m, cal_modes, on_start=known)
     return m, t_cal, float(m.state.max_excursion_rad[0] * units.RAD2ARCSEC), prop, durations
 
 

@@ -49,6 +49,7 @@ from allsky.jit import njit, njit_alloc
 from allsky.sequencer.modes import MODE_CODE
 from allsky.sim.mission import LEGACY_PLAN, Mission
 from allsky.sim.recorder import INDEX
+from allsky.sim.results import fly_calibrating
 from allsky.vehicle import quaternion
 
 #: Number of error states.
@@ -842,27 +843,20 @@ def fly(cfg, plan_name="legacy", prior: Prior = DEFAULT_PRIOR, through_mode6=Tru
     plan = LEGACY_PLAN if plan_name == "legacy" else DITHER_PLAN
     cal_modes = CALIBRATION_MODES[plan_name]
     m = RecordingMission(cfg, plan=plan, modes=FILTER_MODES[plan_name])
-    t_cal, prop, durations, est, wall = 0.0, 0.0, {}, None, 0.0
-    while not m.finished:
-        name = m.plan[m.next_mode]
-        if name == cal_modes[0]:
-            m.state.excursion_ref_q[:] = m.state.x[0:4]
-        p0 = m.state.propellant_kg[0]
-        rec = m.run_mode()
-        if name in cal_modes:
-            t_cal += rec.end_s - rec.start_s
-            durations[name] = rec.end_s - rec.start_s
-            prop += p0 - m.state.propellant_kg[0]
-        if name == cal_modes[-1]:
-            m.state.excursion_ref_q[:] = 0.0
-            if not m.finished:
-                t0 = time.perf_counter()
-                est = estimate(filter_model(m), samples_from_legs(
-                    m, FILTER_MODES[plan_name], truth), prior)
-                load(m, est.params[-1])
-                wall = time.perf_counter() - t0
-            if not through_mode6:
-                break
+    found = {"est": None, "wall": 0.0}
+
+    def calibrate(mm):
+        """The filter over the recorded legs, its estimate loaded; go on to Mode 6?"""
+        if not mm.finished:
+            t0 = time.perf_counter()
+            found["est"] = estimate(filter_model(mm), samples_from_legs(
+                mm, FILTER_MODES[plan_name], truth), prior)
+            load(mm, found["est"].params[-1])
+            found["wall"] = time.perf_counter() - t0
+        return through_mode6
+
+    t_cal, prop, durations = fly_calibrating(m, cal_modes, on_end=calibrate)
+    est, wall = found["est"], found["wall"]
     return Flight(m, est, t_cal, durations, float(m.state.max_excursion_rad[0]
                                                  * units.RAD2ARCSEC), prop, wall)
 

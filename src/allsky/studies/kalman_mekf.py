@@ -51,6 +51,7 @@ from allsky.sim.mission import LEGACY_PLAN, Mission
 from allsky.sim.recorder import INDEX
 from allsky.sim.results import fly_calibrating
 from allsky.vehicle import quaternion
+from allsky.vehicle.quaternion import rotate_to_body
 
 #: Number of error states.
 N_STATE = 15
@@ -352,19 +353,6 @@ def _compose(q, dw, dx, dy, dz):
 
 
 @njit
-def _to_body(q, v, out):
-    """``out = A(q) v`` (body from inertial)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    a, b, c = v[0], v[1], v[2]
-    out[0] = (w * w + x * x - y * y - z * z) * a + 2.0 * (x * y + w * z) * b \
-        + 2.0 * (x * z - w * y) * c
-    out[1] = 2.0 * (x * y - w * z) * a + (w * w - x * x + y * y - z * z) * b \
-        + 2.0 * (y * z + w * x) * c
-    out[2] = 2.0 * (x * z + w * y) * a + 2.0 * (y * z - w * x) * b \
-        + (w * w - x * x - y * y + z * z) * c
-
-
-@njit
 def _update(P, q, p, ph, h0, h1, h2, nu, r, gate2):
     """One scalar measurement: innovation ``nu``, attitude row ``h``, noise ``r``.
 
@@ -514,13 +502,13 @@ def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, 
             nrm = math.sqrt(nrm)
             for i in range(3):
                 vec[i] /= nrm
-            _to_body(q, vec, body)
+            rotate_to_body(q, vec, body)
             if body[0] > 0.0:
                 # pitch = atan2(-s_z, s_x)
                 ok = _angle_update(P, q, p, ph, body, (2, -1.0), 0, sun[k, 0], r_sun,
                                    gate2)
                 counts[0 if ok else 1] += 1
-                _to_body(q, vec, body)
+                rotate_to_body(q, vec, body)
                 # yaw = atan2(s_y, s_x)
                 ok = _angle_update(P, q, p, ph, body, (1, 1.0), 0, sun[k, 1], r_sun,
                                    gate2)
@@ -529,7 +517,7 @@ def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, 
             # The star of the window whose predicted outputs are nearest the measured.
             best, kb = 1e300, -1 if stars.shape[0] != 1 else 0
             for s_k in range(stars.shape[0] if kb < 0 else 0):
-                _to_body(q, stars[s_k], body)
+                rotate_to_body(q, stars[s_k], body)
                 if body[2] <= 0.0:
                     continue
                 ey = math.atan2(-body[1], body[2]) - trk[k, 0]
@@ -537,12 +525,12 @@ def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, 
                 if ey * ey + ep * ep < best:
                     best, kb = ey * ey + ep * ep, s_k
             if kb >= 0:
-                _to_body(q, stars[kb], body)
+                rotate_to_body(q, stars[kb], body)
                 # yaw output = atan2(-s_y, s_z)
                 ok = _angle_update(P, q, p, ph, body, (1, -1.0), 2, trk[k, 0], r_trk,
                                    gate2)
                 counts[2 if ok else 3] += 1
-                _to_body(q, stars[kb], body)
+                rotate_to_body(q, stars[kb], body)
                 # pitch output = atan2(s_x, s_z)
                 ok = _angle_update(P, q, p, ph, body, (0, 1.0), 2, trk[k, 1], r_trk,
                                    gate2)

@@ -51,3 +51,75 @@ def test_warm_up_command_says_what_it_did(capsys):
     assert cli.main(["warm-up", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("frame loop ") and out.count("\n") == 1
+
+
+_STAMP = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, sys.argv[1])
+    from allsky import jit
+    print(jit.source_stamp(jit.PACKAGE_DIR + "/sim/frame_loop.py"))
+""")
+
+
+def _copy_package(dst):
+    import shutil
+
+    import allsky
+
+    src = os.path.dirname(allsky.__file__)
+    shutil.copytree(src, dst / "allsky", ignore=shutil.ignore_patterns("*.pyc"))
+    return dst / "allsky"
+
+
+def _stamp_of(root):
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    return subprocess.run([sys.executable, "-c", _STAMP, str(root)], capture_output=True,
+                          text=True, check=True, env=env).stdout.strip()
+
+
+def test_the_cache_key_covers_every_block_the_loop_reaches(tmp_path):
+    """An edited block in another file makes the loop's cache stale; a copy elsewhere does not."""
+    from allsky import jit
+
+    reached = {os.path.relpath(p, jit.PACKAGE_DIR)
+               for p in jit.source_closure(os.path.join(jit.PACKAGE_DIR, "sim", "frame_loop.py"))}
+    assert {"hardware/gyro.py", "hardware/vfc.py", "gauss.py", "vehicle/plant.py",
+            "sequencer/watch.py", "jit.py"} <= {p.replace(os.sep, "/") for p in reached}
+    assert not any(p.startswith("apps") for p in reached)  # front ends are not compiled
+
+    pkg = _copy_package(tmp_path)
+    here = jit.source_stamp(os.path.join(jit.PACKAGE_DIR, "sim", "frame_loop.py"))
+    assert _stamp_of(tmp_path) == here  # relocatable: an installed copy matches its build
+    with open(pkg / "apps" / "plots.py", "a") as f:
+        f.write("\n# a front end edited\n")
+    assert _stamp_of(tmp_path) == here
+    with open(pkg / "hardware" / "vfc.py", "a") as f:
+        f.write("\n# a block edited\n")
+    assert _stamp_of(tmp_path) != here
+
+
+@needs_jit
+def test_a_copy_of_the_package_with_its_cache_starts_without_compiling(tmp_path):
+    """What an install does with the loop its build compiled (setup.py): no compile on first use."""
+    if numba.config.CACHE_DIR:
+        pytest.skip("the compiled loop is under NUMBA_CACHE_DIR, not beside the sources")
+    warm_up.warm_up()  # loads it, or compiles it beside the sources
+    _copy_package(tmp_path)
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "NUMBA_CACHE_DIR")}
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import allsky; "
+            "from allsky.sim import warm_up; print(allsky.__file__, warm_up.needs_compiling())")
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True,
+                         text=True, check=True, env=env).stdout.split()
+    assert out[0].startswith(str(tmp_path)) and out[1] == "False"
+
+
+def test_the_cache_keys_quick_import_scan_finds_every_import_the_parser_finds():
+    """jit's regular-expression scan (run at every start) misses no import that ast finds."""
+    from pathlib import Path
+
+    from allsky import jit, layers
+
+    for path in sorted(Path(jit.PACKAGE_DIR).rglob("*.py")):
+        scanned = {layers.module_name(Path(p)) for p in jit._read_module(str(path))[1]}
+        missed = layers.imports_of(path) - scanned
+        assert not missed, f"{path.name}: {sorted(missed)}"

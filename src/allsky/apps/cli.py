@@ -412,12 +412,14 @@ def _parser() -> argparse.ArgumentParser:
     sub.add_parser(
         "warm-up", help="compile the frame loop once, so that no later command waits for it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        description="Compile the frame loop and store it in numba's cache (about 15-20 s, "
-                    "once per install and machine; every later command loads it). For "
-                    "install scripts, CI images and cluster machines; a Dask worker does the "
-                    "same with --preload allsky.apps.warm.",
+        description="Compile the frame loop, both its forms (the patent's vehicle without "
+                    "faults; wheels and faults), into numba's cache (about 30 s, once per "
+                    "install and machine; every later command loads it). 'pip install' does "
+                    "this already when it builds allsky; this command is for editable "
+                    "installs, a cache under NUMBA_CACHE_DIR, or a wheel built on another "
+                    "machine. A Dask worker does the same with --preload allsky.apps.warm.",
         epilog="examples:\n"
-               "  allsky warm-up                 # after pip install, in a CI image or on a node\n"
+               "  allsky warm-up                 # after pip install -e, or on a node\n"
                "  dask worker tcp://10.0.0.5:8786 --preload allsky.apps.warm   # the same, "
                "per worker")
 

@@ -102,19 +102,57 @@ def _misses(dispatchers) -> int:
                for d in dispatchers if getattr(d, "stats", None) is not None)
 
 
-def warm_up() -> bool:
-    """Compile, or load from the cache, all a mission needs; True if it compiled.
+#: The loops :func:`warm_up` can compile: the patent's vehicle without faults (every
+#: default command), and the general one (reaction wheels, faults, the historical
+#: scenarios).
+LOOPS = ("plain", "any")
 
-    Flies the default mission once (about 0.1 s once compiled): the loop has
-    one compiled form for every plan and scenario, so this covers ``allsky
-    run``, ``step``, ``compare`` and ``montecarlo``.
-    """
+
+def loop_entries(loops=LOOPS) -> tuple:
+    """The compiled entries of ``loops`` (names of :data:`LOOPS`)."""
+    from allsky.sim import frame_loop
+
+    entries = {"plain": frame_loop._run_leg_plain, "any": frame_loop._run_leg_any}
+    return tuple(entries[loop] for loop in loops)
+
+
+def _mission_for(loop: str):
     from allsky.config.scenario import load_scenario
     from allsky.sim.mission import Mission
 
-    def fly():
-        m = Mission(load_scenario(), telemetry=True)
-        m.run()
-        m.summary()
+    if loop == "plain":
+        return Mission(load_scenario(), telemetry=True)
+    if loop == "any":
+        return Mission(load_scenario(overrides=['actuators.kind="wheels"']), telemetry=True)
+    raise ValueError(f"unknown loop {loop!r}: one of {', '.join(LOOPS)}")
 
-    return compile_once(fly)
+
+def warm_up(loops=("plain",), lock=True) -> bool:
+    """Compile, or load from the cache, what a mission needs; True if it compiled.
+
+    Flies one short mission per loop of ``loops`` (:data:`LOOPS`; about 0.1 s
+    each once compiled). The plain loop has one compiled form for every plan
+    and scenario on the jets without faults, so it covers ``allsky run``,
+    ``step``, ``compare`` and ``montecarlo``; ``"any"`` adds the wheels and
+    the faults. ``lock=False`` compiles without the machine's lock (a build
+    compiling the loops side by side).
+    """
+    from allsky.sim import frame_loop
+
+    compiled = False
+    for loop in loops:
+        m = _mission_for(loop)
+        entry = frame_loop.leg_entry(m.params)
+        ds = (entry,) + entry_points()[1:]
+
+        def fly(m=m):
+            m.run()
+            m.summary()
+
+        if lock:
+            compiled |= compile_once(fly, ds)
+        else:
+            misses = _misses(ds)
+            fly()
+            compiled |= _misses(ds) > misses
+    return compiled

@@ -38,3 +38,14 @@ def test_config_commands_and_command_help_leave_out_the_heavy_packages(argv):
     code, loaded = _imported_by(argv)
     assert code == 0
     assert not set(loaded) & set(HEAVY), loaded
+
+
+@pytest.mark.parametrize("argv", [["config", "show"],
+                                  ["config", "check", "--set", "actuators.kind=\"wheels\"",
+                                   "--set", "gyro.scale_factor_error_ppm=[800,-300,1500]"]])
+def test_validating_a_scenario_needs_no_numpy(argv):
+    """config show/check validate the whole default scenario (inertia, wheel axes, dispersions)
+    in pure Python: NumPy's import is most of what they would otherwise cost."""
+    code, loaded = _imported_by(argv)
+    assert code == 0
+    assert loaded == [], loaded

@@ -685,3 +685,23 @@ def test_reference_star_inside_a_wider_window_is_accepted_in_catalog_spelling():
     cfg = load_scenario(overrides=["star_tracker.magnitude_window=[-1.5, -0.3]",
                                    'star_tracker.reference_star="sirius"'])
     assert cfg.star_tracker.reference_star == "Sirius"
+
+
+def test_symmetric_eigenvalues_match_numpys():
+    """The closed form that validates inertia tensors and wheel arrays without NumPy."""
+    import numpy as np
+
+    from allsky.config.checkers import symmetric_eigenvalues
+
+    rng = np.random.default_rng(7)
+    cases = [np.diag([3.0, 1.0, 2.0]), np.eye(3), np.diag([1.0, 1.0, 4.0]),
+             np.array([[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 5.0]]),  # a repeated pair
+             np.array([[1.0, 1.0, 1.0]] * 3)]  # rank one
+    for _ in range(500):
+        a = rng.normal(size=(3, 3)) * 10.0 ** rng.uniform(-3, 3)
+        cases.append(a + a.T)
+    for m in cases:
+        want = np.linalg.eigvalsh(m)
+        got = symmetric_eigenvalues(m.tolist())
+        scale = float(np.abs(want).max())
+        assert np.allclose(got, want, rtol=0, atol=1e-13 * scale), (m, got, want)

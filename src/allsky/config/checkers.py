@@ -12,8 +12,6 @@ import functools
 import math
 from datetime import UTC, date, datetime, time
 
-import numpy as np
-
 from allsky.config.rules import (
     EPHEMERIS_END_UTC,
     EPHEMERIS_START_UTC,
@@ -60,24 +58,52 @@ def utc_datetime(key, v):
     return v
 
 
+def symmetric_eigenvalues(m) -> tuple:
+    """Eigenvalues of a symmetric 3x3 matrix (nested sequences), ascending.
+
+    The closed form of Smith (Commun. ACM 4(4), 168, 1961): the eigenvalues
+    are ``q + 2 p cos(phi + 2 pi k / 3)`` with ``q`` the mean of the
+    diagonal, ``p`` the RMS of ``(m - q I)`` over six, and ``phi`` from the
+    determinant of ``(m - q I) / p``. Pure Python, so validating a scenario
+    needs no NumPy; accurate to a few units in 1e-16 of the largest
+    magnitude, which is all the checks that use it need.
+    """
+    off = m[0][1] ** 2 + m[0][2] ** 2 + m[1][2] ** 2
+    if off == 0.0:
+        return tuple(sorted(float(m[i][i]) for i in range(3)))
+    q = (m[0][0] + m[1][1] + m[2][2]) / 3.0
+    p = math.sqrt(((m[0][0] - q) ** 2 + (m[1][1] - q) ** 2 + (m[2][2] - q) ** 2
+                   + 2.0 * off) / 6.0)
+    b = [[(m[r][k] - (q if r == k else 0.0)) / p for k in range(3)] for r in range(3)]
+    det = (b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1])
+           - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
+           + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]))
+    phi = math.acos(min(1.0, max(-1.0, det / 2.0))) / 3.0
+    largest = q + 2.0 * p * math.cos(phi)
+    smallest = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+    return smallest, 3.0 * q - largest - smallest, largest
+
+
 def inertia_tensor(key, v):
     """Rigid-body inertia tensor: symmetric, positive definite, triangle inequalities."""
-    j = np.array(real_array(key, v, (3, 3)))
-    scale = float(np.abs(j).max())
+    j = real_array(key, v, (3, 3))
+    scale = max(abs(x) for row in j for x in row)
     if scale == 0.0:
         raise ConfigError(key, v, "must be positive definite (all elements are 0)")
-    js = j / scale  # dimensionless, so no overflow for any finite input
-    if not np.all(np.abs(js - js.T) <= 1e-9):
+    js = [[x / scale for x in row] for row in j]  # dimensionless: no overflow for finite input
+    if any(abs(js[r][k] - js[k][r]) > 1e-9 for r in range(3) for k in range(3)):
         raise ConfigError(key, v, "must be symmetric (to a relative 1e-9)")
-    a, b, c = np.linalg.eigvalsh(js)  # ascending
-    moments = ", ".join(f"{float(m) * scale:.6g}" for m in (a, b, c))
+    # The upper triangle, mirrored: the matrix that is returned.
+    a, b, c = symmetric_eigenvalues([[js[min(r, k)][max(r, k)] for k in range(3)]
+                                     for r in range(3)])
+    moments = ", ".join(f"{m * scale:.6g}" for m in (a, b, c))
     if a <= 1e-12 * c:
         raise ConfigError(key, v, f"must be positive definite (principal moments {moments})")
     if a + b < c * (1 - 1e-9):
         raise ConfigError(key, v, f"principal moments {moments} break the triangle inequality"
                           " (each must be <= the sum of the other two)")
     # Mirror the upper triangle: exactly symmetric, and unchanged when loaded again.
-    return tuple(tuple(float(j[min(r, k), max(r, k)]) for k in range(3)) for r in range(3))
+    return tuple(tuple(float(j[min(r, k)][max(r, k)]) for k in range(3)) for r in range(3))
 
 
 def misalignment_matrix(key, v):
@@ -108,6 +134,8 @@ def attitude(key, v):
         raise ConfigError(key, v, "quaternion [w, x, y, z] must not be all zero")
     if abs(math.fsum(x * x for x in given) - 1.0) <= 4e-16:
         return given  # already unit: kept bit for bit, so a saved scenario loads unchanged
+    import numpy as np  # only here: validating a scenario otherwise needs no NumPy
+
     q = np.array(given) / big  # scaled first so that 1e-320 or 1e308 normalise too
     return tuple(float(x) for x in q / np.linalg.norm(q))
 

@@ -6,10 +6,9 @@ scenario needs (it runs before any draw, on the merged table).
 """
 
 import difflib
+import math
 from collections.abc import Mapping
 from datetime import timedelta
-
-import numpy as np
 
 from allsky.config.checkers import (
     boolean,
@@ -229,10 +228,17 @@ def _validate_number(where, entry, shape):
             out[p] = _param(f"{where}.{p}", entry[p], shape,
                             NON_NEGATIVE if p in ("sigma", "half_width") else None)
     if "low" in out:
-        lo, hi = np.broadcast_to(out["low"], shape), np.broadcast_to(out["high"], shape)
-        if np.any(hi < lo):
+        if any(h < lo for lo, h in zip(_flat(out["low"], shape), _flat(out["high"], shape),
+                                       strict=True)):
             raise ConfigError(f"{where}.high", entry["high"], "must be >= low (element by element)")
     return out
+
+
+def _flat(x, shape) -> list:
+    """A parameter of :func:`_param` (a number, or nested lists of ``shape``), flattened."""
+    if isinstance(x, list):
+        return [y for row in x for y in row] if len(shape) == 2 else list(x)
+    return [x] * math.prod(shape)
 
 
 def _param(key, v, shape, cond):

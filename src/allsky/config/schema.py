@@ -11,11 +11,10 @@ rule.
 
 import difflib
 import functools
+import math
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
-
-import numpy as np
 
 from allsky.config.checkers import (
     attitude,
@@ -25,6 +24,7 @@ from allsky.config.checkers import (
     misalignment_matrix,
     mode_timeouts,
     star_name,
+    symmetric_eigenvalues,
     utc_datetime,
 )
 from allsky.config.rules import (
@@ -157,20 +157,30 @@ def wheel_axes(key, v):
         got = f"{len(v)} rows" if isinstance(v, list) else type_name(v)
         raise ConfigError(key, v, f"must be an array of 3 to {WHEELS_MAX} spin axes "
                           f"[x, y, z] (one per wheel), not {got}")
-    g = np.array(real_array(key, v, (len(rows), 3)))
-    length = np.linalg.norm(g, axis=1)
-    for i, n in enumerate(length):
+    g = real_array(key, v, (len(rows), 3))
+    for i, r in enumerate(g):
+        n = math.sqrt(math.fsum(x * x for x in r))
         if abs(n - 1.0) > WHEEL_AXIS_LENGTH_TOL:
             raise ConfigError(key, v, f"row {i} has length {n:.6g}: spin axes are unit "
                               f"vectors (lengths within {WHEEL_AXIS_LENGTH_TOL:g} of 1 are "
                               "normalised)")
-    s = np.linalg.svd(g, compute_uv=False)
-    if s[-1] <= WHEEL_SPAN_TOL * s[0]:
+    # The singular values of g are the square roots of the eigenvalues of g'g.
+    gram = [[math.fsum(r[a] * r[b] for r in g) for b in range(3)] for a in range(3)]
+    smallest, _, largest = symmetric_eigenvalues(gram)
+    if smallest <= WHEEL_SPAN_TOL ** 2 * largest:
         raise ConfigError(key, v, "the spin axes lie in one plane (or on one line): they "
                           "must span 3-D to give torque about every axis")
     # Rows already of unit length are kept bit for bit (a saved scenario loads unchanged).
+    # A row whose squared length rounds to exactly 1 is within 1.1e-16 of unit length,
+    # and any three-term dot product of it (errors below 2.8e-16 for positive terms)
+    # passes the 4e-16 test below: such rows need no NumPy to tell.
+    if all(math.fsum(x * x for x in r) == 1.0 for r in g):
+        return g
+    import numpy as np  # only to normalise: validating a scenario otherwise needs no NumPy
+
+    a = np.array(g)
     return tuple(tuple(float(x) for x in (r if abs(float(r @ r) - 1.0) <= 4e-16 else r / n))
-                 for r, n in zip(g, length, strict=True))
+                 for r, n in zip(a, np.linalg.norm(a, axis=1), strict=True))
 
 
 wheel_axes.allowed = (f"an array of 3 to {WHEELS_MAX} spin axes [x, y, z] spanning 3-D, "

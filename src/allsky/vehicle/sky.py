@@ -36,6 +36,8 @@ Dates are ``datetime`` objects in UTC: naive ones are taken as UTC, aware
 ones are converted to UTC. PyEphem applies Delta T (TT - UT) itself.
 """
 
+from __future__ import annotations
+
 import difflib
 import functools
 import math
@@ -44,7 +46,6 @@ from typing import NamedTuple
 
 import ephem
 import ephem.stars
-import numpy as np
 
 #: First and last calendar years (inclusive, UTC) of accepted dates.
 #: PyEphem's Sun theory is good across them.
@@ -121,6 +122,8 @@ def radec_to_unit(ra_deg: float, dec_deg: float) -> np.ndarray:
     numpy.ndarray
         Shape (3,), ``[cos d cos a, cos d sin a, sin d]``.
     """
+    import numpy as np  # here, not above: scenario checks use this module without NumPy
+
     ra_rad, dec_rad = math.radians(ra_deg), math.radians(dec_deg)
     return np.array([math.cos(dec_rad) * math.cos(ra_rad),
                      math.cos(dec_rad) * math.sin(ra_rad),
@@ -165,6 +168,8 @@ def separation_deg(u, v) -> float:
     float
         The angle [deg], in [0, 180].
     """
+    import numpy as np
+
     u_arr, v_arr = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
     return math.degrees(math.atan2(float(np.linalg.norm(np.cross(u_arr, v_arr))),
                                    float(u_arr @ v_arr)))

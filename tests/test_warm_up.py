@@ -123,3 +123,52 @@ def test_the_cache_keys_quick_import_scan_finds_every_import_the_parser_finds():
         scanned = {layers.module_name(Path(p)) for p in jit._read_module(str(path))[1]}
         missed = layers.imports_of(path) - scanned
         assert not missed, f"{path.name}: {sorted(missed)}"
+
+
+def _installed_from_a_wheel():
+    """The installed allsky's files per its RECORD, or None for an editable or source tree."""
+    import importlib.metadata as md
+    import json
+
+    import allsky
+
+    try:
+        dist = md.distribution("allsky")
+    except md.PackageNotFoundError:
+        return None
+    direct = json.loads(dist.read_text("direct_url.json") or "{}")
+    if direct.get("dir_info", {}).get("editable"):
+        return None
+    files = {str(f): f for f in dist.files or ()}
+    init = files.get("allsky/__init__.py")
+    if init is None or os.path.realpath(init.locate()) != os.path.realpath(allsky.__file__):
+        return None
+    return files
+
+
+@needs_jit
+def test_the_installed_wheel_carried_the_compiled_loop_and_nothing_compiled_it_again():
+    """pip install . built the wheel with the loop compiled (setup.py), and it was used as is.
+
+    The loop's cache index is in the wheel's RECORD with its hash; numba rewrites an index
+    when it compiles a new entry, so an unchanged hash means no process of this install has
+    compiled the loop: every mission of the test suite loaded the build's.
+    """
+    import base64
+    import hashlib
+
+    files = _installed_from_a_wheel()
+    if files is None:
+        pytest.skip("allsky is not installed from a wheel here (editable or source tree)")
+    if os.environ.get("ALLSKY_BUILD_COMPILE") == "0" or numba.config.CACHE_DIR:
+        pytest.skip("the build was told not to compile, or the cache is elsewhere")
+    warm_up.warm_up(warm_up.LOOPS)
+    for loop in ("_run_leg_plain", "_run_leg_any"):
+        index = [f for name, f in files.items()
+                 if name.startswith(f"allsky/sim/__pycache__/frame_loop.{loop}-")
+                 and name.endswith(".nbi")]
+        assert len(index) == 1, f"the wheel carries no compiled {loop}"
+        shipped = index[0].hash
+        data = index[0].locate().read_bytes()
+        now = base64.urlsafe_b64encode(hashlib.new(shipped.mode, data).digest()).rstrip(b"=")
+        assert now.decode() == shipped.value, f"{loop} was compiled again after the install"

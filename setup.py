@@ -6,7 +6,7 @@ patent's vehicle without faults, and the general one) are compiled there side
 by side, one process each, into numba's cache beside the sources; the wheel
 carries the cache and the install puts it where the loop looks for it. The
 cache is keyed by the sources, numba's and NumPy's versions and this machine's
-CPU (``allsky.jit.PackageCacheLocator``): installed anywhere else, or with
+CPU (``allsky.jit_cache.PackageCacheLocator``): installed anywhere else, or with
 other versions, it is ignored and the loop compiles on first use, as it would
 without this step. A build that cannot compile (no numba in the build
 environment, an editable install, ``ALLSKY_BUILD_COMPILE=0``) goes on without.

@@ -25,7 +25,7 @@ READERS = {
                               "are the keys' meanings that config show and the docs print",
     "allsky.layers": "the package's own source, parsed for its imports (the layer order "
                      "that tests/test_layers.py holds and docs/architecture.md draws)",
-    "allsky.jit": "the package's own sources, hashed (with the allsky modules each one "
+    "allsky.sources": "the package's own sources, hashed (with the allsky modules each one "
                   "imports) into the key of numba's on-disk cache",
     "allsky.sim.warm_up": "the frame loop's own source, opened read-only to hold an flock "
                           "on it: the machine's compile lock (one process compiles, the "

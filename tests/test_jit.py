@@ -145,3 +145,24 @@ def test_the_patent_vehicle_without_faults_flies_its_own_loop(default_cfg):
     faulty = load_scenario(overrides=['faults=[{kind="gyro_dead", axis="roll", start_s=5.0}]'])
     for cfg in (wheels, faulty):
         assert frame_loop.leg_entry(Mission(cfg).params) is frame_loop._run_leg_any
+
+
+def test_numba_loads_when_compiled_code_is_first_used():
+    """Importing every module and building a mission loads no numba; flying one does."""
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "import allsky.apps.report, allsky.studies.montecarlo, allsky.sim.mission as m\n"
+            "from allsky.config import load_scenario\n"
+            "mission = m.Mission(load_scenario(), telemetry=False)\n"
+            "print('numba' in sys.modules)\n"
+            "from allsky.sim import frame_loop\n"
+            "print(type(frame_loop._run_leg_plain).__name__)\n"
+            "frame_loop._run_leg_plain.signatures\n"
+            "print('numba' in sys.modules, type(frame_loop._run_leg_plain).__name__ != "
+            "'CompiledFunction' or frame_loop._run_leg_plain is frame_loop._run_leg_plain.py_func)\n")
+    env = dict(__import__("os").environ, ALLSKY_AOT="0")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env=env).stdout.split()
+    assert out == ["False", "CompiledFunction", "True", "True"], out

@@ -56,8 +56,8 @@ def test_warm_up_command_says_what_it_did(capsys):
 _STAMP = textwrap.dedent("""
     import sys
     sys.path.insert(0, sys.argv[1])
-    from allsky import jit
-    print(jit.source_stamp(jit.PACKAGE_DIR + "/sim/frame_loop.py"))
+    from allsky import sources
+    print(sources.source_stamp(sources.PACKAGE_DIR + "/sim/frame_loop.py"))
 """)
 
 
@@ -79,16 +79,16 @@ def _stamp_of(root):
 
 def test_the_cache_key_covers_every_block_the_loop_reaches(tmp_path):
     """An edited block in another file makes the loop's cache stale; a copy elsewhere does not."""
-    from allsky import jit
+    from allsky import sources
 
-    reached = {os.path.relpath(p, jit.PACKAGE_DIR)
-               for p in jit.source_closure(os.path.join(jit.PACKAGE_DIR, "sim", "frame_loop.py"))}
+    reached = {os.path.relpath(p, sources.PACKAGE_DIR) for p in sources.source_closure(
+        os.path.join(sources.PACKAGE_DIR, "sim", "frame_loop.py"))}
     assert {"hardware/gyro.py", "hardware/vfc.py", "gauss.py", "vehicle/plant.py",
             "sequencer/watch.py", "jit.py"} <= {p.replace(os.sep, "/") for p in reached}
     assert not any(p.startswith("apps") for p in reached)  # front ends are not compiled
 
     pkg = _copy_package(tmp_path)
-    here = jit.source_stamp(os.path.join(jit.PACKAGE_DIR, "sim", "frame_loop.py"))
+    here = sources.source_stamp(os.path.join(sources.PACKAGE_DIR, "sim", "frame_loop.py"))
     assert _stamp_of(tmp_path) == here  # relocatable: an installed copy matches its build
     with open(pkg / "apps" / "plots.py", "a") as f:
         f.write("\n# a front end edited\n")
@@ -114,13 +114,13 @@ def test_a_copy_of_the_package_with_its_cache_starts_without_compiling(tmp_path)
 
 
 def test_the_cache_keys_quick_import_scan_finds_every_import_the_parser_finds():
-    """jit's regular-expression scan (run at every start) misses no import that ast finds."""
+    """The regular-expression scan (run at every start) misses no import that ast finds."""
     from pathlib import Path
 
-    from allsky import jit, layers
+    from allsky import layers, sources
 
-    for path in sorted(Path(jit.PACKAGE_DIR).rglob("*.py")):
-        scanned = {layers.module_name(Path(p)) for p in jit._read_module(str(path))[1]}
+    for path in sorted(Path(sources.PACKAGE_DIR).rglob("*.py")):
+        scanned = {layers.module_name(Path(p)) for p in sources._read_module(str(path))[1]}
         missed = layers.imports_of(path) - scanned
         assert not missed, f"{path.name}: {sorted(missed)}"
 

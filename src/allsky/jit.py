@@ -23,143 +23,106 @@ entry point added to the cold start.
 :func:`njit_alloc` keeps the runtime, for the few compiled helpers that
 return new arrays (outside the frame loop, or once per leg).
 
-Compiled code is cached on disk by :class:`PackageCacheLocator`, which keys
-each function by the sources of every allsky module its module reaches
-through imports (numba's own locators key it by its own file only, so an
-edited block in another file would leave a stale compiled loop behind).
+The decorators do not import numba: they return a :class:`CompiledFunction`
+that imports numba, and makes every compiled function of the package, the
+first time one of them is called or inspected. A command that never calls
+compiled code from Python (``config``, ``--help``, a mission flown by the
+loop compiled ahead of time, :mod:`allsky.sim.aot`) starts without numba.
+
+Compiled code is cached on disk by :class:`allsky.jit_cache.PackageCacheLocator`,
+which keys each function by :func:`allsky.sources.source_stamp`: the sources of every allsky
+module its module reaches through imports (numba's own locators key it by
+its own file only, so an edited block in another file would leave a stale
+compiled loop behind).
 """
 
 import functools
-import hashlib
-import os
-import re
+import sys
 
-import numba
-from numba.core import caching
-
-#: The allsky package directory.
-PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
-_IMPORT = re.compile(r"^[ \t]*(?:from[ \t]+(allsky(?:\.\w+)*)[ \t]+import[ \t]+(\([^)]*\)|.*)"
-                     r"|import[ \t]+(allsky(?:\.\w+)*))", re.M)
+#: numba, once a compiled function has been used (None before).
+_numba = None
+#: Every CompiledFunction made before numba was loaded.
+_waiting = []
 
 
-@functools.lru_cache(maxsize=None)
-def _module_file(name: str):
-    """The source file of allsky module ``name`` (a package's ``__init__.py``), or None."""
-    base = os.path.join(os.path.dirname(PACKAGE_DIR), *name.split("."))
-    for path in (base + ".py", os.path.join(base, "__init__.py")):
-        if os.path.isfile(path):
-            return path
-    return None
+def load_numba():
+    """Import numba and make every compiled function waiting for it; return numba.
 
-
-@functools.lru_cache(maxsize=None)
-def _read_module(path: str) -> tuple:
-    """(SHA-256 of the file, the allsky source files its imports run)."""
-    with open(path, "rb") as f:
-        data = f.read()
-    deps = set()
-    for package, names, module in _IMPORT.findall(data.decode("utf-8")):
-        found = [module] if module else [package] + [
-            f"{package}.{n}" for n in re.findall(r"\w+", names)]
-        for name in found:
-            # "allsky.a.b" also runs allsky/__init__.py and allsky/a/__init__.py
-            parts = name.split(".")
-            for k in range(1, len(parts) + 1):
-                dep = _module_file(".".join(parts[:k]))
-                if dep is not None:
-                    deps.add(dep)
-    return hashlib.sha256(data).hexdigest(), tuple(sorted(deps))
-
-
-def source_closure(py_file: str) -> tuple:
-    """``py_file`` and the allsky source files it reaches through imports, sorted."""
-    seen, todo = set(), [os.path.abspath(py_file)]
-    while todo:
-        path = todo.pop()
-        if path not in seen:
-            seen.add(path)
-            todo.extend(_read_module(path)[1])
-    return tuple(sorted(seen))
-
-
-@functools.lru_cache(maxsize=None)
-def source_stamp(py_file: str) -> str:
-    """What a compiled function of ``py_file`` is valid for: sources, NumPy version.
-
-    A SHA-256 over the contents of :func:`source_closure` (paths relative to
-    the package, so an installed copy matches the tree it was built from) and
-    NumPy's major.minor version, which decides numba's type promotion rules.
-    numba's own version is checked by numba.
+    The module attributes of the package that hold a :class:`CompiledFunction`
+    are replaced by its numba dispatcher, so that numba, compiling a function,
+    finds dispatchers (not wrappers) among its globals.
     """
-    import numpy
+    global _numba
+    if _numba is None:
+        import numba
 
-    h = hashlib.sha256(".".join(numpy.__version__.split(".")[:2]).encode())
-    for path in source_closure(py_file):
-        rel = os.path.relpath(path, PACKAGE_DIR).replace(os.sep, "/")
-        h.update(f"{rel}\0{_read_module(path)[0]}\n".encode())
-    return h.hexdigest()
+        from allsky import jit_cache
+
+        jit_cache.install()
+        _numba = numba
+        for f in _waiting:
+            f._make()
+        _waiting.clear()
+        for name, module in list(sys.modules.items()):
+            if module is not None and (name == "allsky" or name.startswith("allsky.")):
+                for attr, value in list(vars(module).items()):
+                    if isinstance(value, CompiledFunction):
+                        setattr(module, attr, value._make())
+    return _numba
 
 
-class PackageCacheLocator(caching._CacheLocator):
-    """numba's on-disk cache for allsky's compiled functions.
+class CompiledFunction:
+    """A function numba compiles, made when first used (numba is imported then).
 
-    The cache lives where numba would put it: under ``NUMBA_CACHE_DIR`` when
-    that is set, else in ``__pycache__`` beside the source (where an install
-    ships the compiled loop), else, if that cannot be written, in the user's
-    cache directory. The stamp is :func:`source_stamp`. Functions outside the
-    package are left to numba's own locators.
+    Calling it, or reading any attribute of numba's dispatcher from it
+    (``signatures``, ``targetoptions``, ``stats``...), loads numba
+    (:func:`load_numba`); ``py_func`` is the Python function itself.
     """
 
-    def __init__(self, py_func, py_file, cache_path):
-        self._py_file = py_file
-        self._lineno = py_func.__code__.co_firstlineno
-        self._cache_path = cache_path
+    def __init__(self, py_func, options):
+        self.py_func = py_func
+        self._options = options
+        self._dispatcher = None
+        functools.update_wrapper(self, py_func)
 
-    def get_cache_path(self):
-        """The directory of this function's cache files."""
-        return self._cache_path
+    def _make(self):
+        if self._dispatcher is None:
+            self._dispatcher = _numba.njit(**self._options)(self.py_func)
+        return self._dispatcher
 
-    def get_source_stamp(self):
-        """The key the cache index is valid for (:func:`source_stamp`)."""
-        return source_stamp(self._py_file)
+    @property
+    def dispatcher(self):
+        """numba's dispatcher of this function (numba is loaded for it)."""
+        load_numba()
+        return self._make()
 
-    def get_disambiguator(self):
-        """The function's first line: tells apart functions of one name in a file."""
-        return str(self._lineno)
+    def __call__(self, *args, **kwargs):
+        """Call the compiled function."""
+        return self.dispatcher(*args, **kwargs)
 
-    @classmethod
-    def from_function(cls, py_func, py_file):
-        """A locator for ``py_func`` of allsky's ``py_file``; None outside the package."""
-        py_file = os.path.abspath(py_file)
-        if not (py_file.startswith(PACKAGE_DIR + os.sep) and os.path.isfile(py_file)):
-            return None
-        sub = cls.get_suitable_cache_subpath(py_file)
-        if numba.config.CACHE_DIR:
-            places = [os.path.join(numba.config.CACHE_DIR, sub)]
-        else:
-            from numba.misc.appdirs import AppDirs
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.dispatcher, name)
 
-            places = [os.path.join(os.path.dirname(py_file), "__pycache__"),
-                      os.path.join(AppDirs(appname="numba", appauthor=False).user_cache_dir,
-                                   sub)]
-        for place in places:
-            self = cls(py_func, py_file, place)
-            try:
-                self.ensure_cache_path()
-            except OSError:  # not writable: the next place
-                continue
-            return self
-        return None
+    def __repr__(self):
+        return f"<compiled function {self.__qualname__} (numba loads on first use)>"
 
 
-_CACHE_IMPL = getattr(caching, "CacheImpl", None) or caching._CacheImpl
-if PackageCacheLocator not in _CACHE_IMPL._locator_classes:
-    _CACHE_IMPL._locator_classes.insert(0, PackageCacheLocator)
+def _decorator(**options):
+    def decorate(py_func):
+        if _numba is not None:
+            return _numba.njit(**options)(py_func)
+        f = CompiledFunction(py_func, options)
+        _waiting.append(f)
+        return f
+
+    return decorate
+
 
 # cache=True keeps compiled code between processes (Monte Carlo workers,
 # repeated CLI runs); fastmath stays off so that the plain-Python path gives
 # the same bits.
-njit = numba.njit(cache=True, nogil=True, _nrt=False)
-njit_stage = numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
-njit_alloc = numba.njit(cache=True, nogil=True)
+njit = _decorator(cache=True, nogil=True, _nrt=False)
+njit_stage = _decorator(cache=True, nogil=True, _nrt=False, inline="always")
+njit_alloc = _decorator(cache=True, nogil=True)

@@ -8,8 +8,16 @@ carries the cache and the install puts it where the loop looks for it. The
 cache is keyed by the sources, numba's and NumPy's versions and this machine's
 CPU (``allsky.jit_cache.PackageCacheLocator``): installed anywhere else, or with
 other versions, it is ignored and the loop compiles on first use, as it would
-without this step. A build that cannot compile (no numba in the build
-environment, an editable install, ``ALLSKY_BUILD_COMPILE=0``) goes on without.
+without this step.
+
+The first process then builds what a mission calls from Python ahead of time
+(``allsky.aot``: an extension module made by numba's ``pycc``), so that a
+mission runs without loading numba at all. That needs a C compiler and
+Python's headers; without them the build goes on, and missions use numba's
+cache.
+
+A build that cannot compile (no numba in the build environment, an editable
+install, ``ALLSKY_BUILD_COMPILE=0``) goes on without either.
 """
 
 import os
@@ -46,8 +54,9 @@ def compile_frame_loop(build_lib: str) -> None:
     print("allsky: compiling the frame loop for this machine, once (about 20 s)",
           file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    procs = [subprocess.Popen([sys.executable, "-m", "allsky.apps.warm", loop, "--no-lock"],
-                              env=env, cwd=build_lib) for loop in ("plain", "any")]
+    procs = [subprocess.Popen([sys.executable, "-m", "allsky.apps.warm", *loop, "--no-lock"],
+                              env=env, cwd=build_lib)
+             for loop in (("plain", "--ahead-of-time"), ("any",))]
     for proc in procs:
         try:
             proc.wait(timeout=max(1.0, COMPILE_TIMEOUT_S - (time.perf_counter() - t0)))

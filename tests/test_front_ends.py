@@ -25,6 +25,8 @@ READERS = {
                               "are the keys' meanings that config show and the docs print",
     "allsky.layers": "the package's own source, parsed for its imports (the layer order "
                      "that tests/test_layers.py holds and docs/architecture.md draws)",
+    "allsky.aot": "the manifest of the functions built ahead of time at install, and "
+                  "/proc/cpuinfo for the CPU they were built for",
     "allsky.sources": "the package's own sources, hashed (with the allsky modules each one "
                   "imports) into the key of numba's on-disk cache",
     "allsky.sim.warm_up": "the frame loop's own source, opened read-only to hold an flock "

@@ -121,11 +121,17 @@ def _needs_compiling_in_a_new_process(env):
 @__import__("pytest").mark.skipif(__import__("os").environ.get("NUMBA_DISABLE_JIT") == "1",
                                   reason="nothing is compiled without the JIT")
 def test_compile_detection_reads_numba_cache(default_cfg, tmp_path):
-    """An empty cache directory means a compile; the cache this process wrote means none."""
+    """An empty cache directory means a compile; the cache this process wrote means none.
+
+    (With the loop built ahead of time at install, allsky.aot, nothing compiles at all:
+    ALLSKY_AOT=0 asks for numba's loop here.)
+    """
     Mission(default_cfg, telemetry=False).run_mode()  # compiled and cached here, if not yet
     assert progress.frame_loop_needs_compiling() is False  # compiled in this process
-    assert _needs_compiling_in_a_new_process({"NUMBA_CACHE_DIR": str(tmp_path)}) == "True"
-    assert _needs_compiling_in_a_new_process({}) == "False"
+    jit_only = {"ALLSKY_AOT": "0"}
+    assert _needs_compiling_in_a_new_process(
+        {**jit_only, "NUMBA_CACHE_DIR": str(tmp_path)}) == "True"
+    assert _needs_compiling_in_a_new_process(jit_only) == "False"
 
 
 def test_progress_line_moves_with_the_slices(default_cfg, monkeypatch):

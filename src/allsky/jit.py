@@ -26,8 +26,9 @@ return new arrays (outside the frame loop, or once per leg).
 The decorators do not import numba: they return a :class:`CompiledFunction`
 that imports numba, and makes every compiled function of the package, the
 first time one of them is called or inspected. A command that never calls
-compiled code from Python (``config``, ``--help``, a mission flown by the
-loop compiled ahead of time, :mod:`allsky.sim.aot`) starts without numba.
+compiled code from Python (``config``, ``--help``), or calls only what was
+built ahead of time at install (:mod:`allsky.aot`: a mission on the
+patent's vehicle without faults), runs without numba.
 
 Compiled code is cached on disk by :class:`allsky.jit_cache.PackageCacheLocator`,
 which keys each function by :func:`allsky.sources.source_stamp`: the sources of every allsky
@@ -38,6 +39,8 @@ compiled loop behind).
 
 import functools
 import sys
+
+from allsky import aot
 
 #: numba, once a compiled function has been used (None before).
 _numba = None
@@ -83,6 +86,7 @@ class CompiledFunction:
         self.py_func = py_func
         self._options = options
         self._dispatcher = None
+        self.qualified = f"{py_func.__module__}.{py_func.__qualname__}"
         functools.update_wrapper(self, py_func)
 
     def _make(self):
@@ -97,8 +101,16 @@ class CompiledFunction:
         return self._make()
 
     def __call__(self, *args, **kwargs):
-        """Call the compiled function."""
+        """Call the compiled function: built ahead of time if it can be (:mod:`allsky.aot`)."""
+        if _numba is None and not kwargs:
+            ahead = aot.entry(self.qualified, args)
+            if ahead is not None:
+                return ahead(*args)
         return self.dispatcher(*args, **kwargs)
+
+    def ahead_of_time(self) -> bool:
+        """Whether calls can go to the function built ahead of time (numba not loaded)."""
+        return _numba is None and aot.available() and self.qualified in aot.EXPORTS
 
     def __getattr__(self, name):
         if name.startswith("__"):

@@ -43,12 +43,27 @@ def main(argv=None) -> int:
                     help=f"which loops: {', '.join(LOOPS)} (default: plain)")
     ap.add_argument("--no-lock", action="store_true",
                     help="compile without the machine's compile lock")
+    ap.add_argument("--ahead-of-time", action="store_true",
+                    help="then build what a mission calls from Python ahead of time, into the "
+                         "package (allsky.aot; needs a C compiler and Python's headers)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     compiled = warm_up(tuple(args.loops), lock=not args.no_lock)
     what = "compiled" if compiled else "already in the cache"
     print(f"allsky: frame loop ({', '.join(args.loops)}) {what} in "
           f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    if args.ahead_of_time:
+        from allsky.apps.aot_build import build
+
+        t0 = time.perf_counter()
+        try:
+            path = build()
+        except Exception as e:  # noqa: BLE001 - no compiler, no headers: numba at run time
+            print(f"allsky: not built ahead of time ({type(e).__name__}: {e}); missions use "
+                  "numba's compiled loop", file=sys.stderr)
+            return 0
+        print(f"allsky: built ahead of time in {time.perf_counter() - t0:.1f} s: {path}",
+              file=sys.stderr)
     return 0
 
 

@@ -35,7 +35,11 @@ def needs_compiling(dispatchers=None) -> bool:
     for its current source (read the way numba reads it: an index of another
     source or numba version counts as empty).
     """
+    from allsky.jit import CompiledFunction
+
     for d in entry_points() if dispatchers is None else dispatchers:
+        if isinstance(d, CompiledFunction) and d.ahead_of_time():
+            continue  # built at install (allsky.aot): nothing to load or compile
         if not hasattr(d, "signatures") or d.signatures:
             continue
         try:
@@ -137,8 +141,10 @@ def warm_up(loops=("plain",), lock=True) -> bool:
     the faults. ``lock=False`` compiles without the machine's lock (a build
     compiling the loops side by side).
     """
+    from allsky.jit import load_numba
     from allsky.sim import frame_loop
 
+    load_numba()  # the just-in-time loops, even where the install built them ahead of time
     compiled = False
     for loop in loops:
         m = _mission_for(loop)

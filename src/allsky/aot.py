@@ -1,0 +1,162 @@
+"""What a mission calls from Python, built ahead of time: no numba at run time.
+
+A mission calls three compiled functions from Python (:data:`EXPORTS`): the
+plain frame loop (the patent's vehicle without faults), CPU 22's target
+step and the body-from-inertial matrix. ``pip install`` builds them
+(:func:`allsky.apps.aot_build.build`, run by ``setup.py``) into an extension
+module ``allsky._aot`` with numba's ahead-of-time compiler, for this
+machine's CPU, beside a manifest ``allsky/_aot.json``. While numba is not
+loaded, :class:`allsky.jit.CompiledFunction` calls the module's function
+(:func:`entry`) when the manifest matches: the same sources
+(:func:`allsky.sources.source_stamp`), the same CPU (:func:`cpu_fingerprint`),
+the same Python, and arguments of the structure it was compiled for
+(:func:`structure`). Then neither numba, LLVM nor SciPy is loaded; the code
+is what numba compiles just in time, so the results are the same bits.
+Anything else (edited sources, another machine, the general loop, a build
+without a C compiler) goes to numba.
+"""
+
+import functools
+import hashlib
+import importlib
+import json
+import os
+import sys
+import threading
+
+from allsky.sources import PACKAGE_DIR, source_stamp
+
+#: The extension module and its manifest.
+MODULE = "allsky._aot"
+MANIFEST = os.path.join(PACKAGE_DIR, "_aot.json")
+#: The compiled functions a mission calls from Python, by module and name.
+EXPORTS = ("allsky.sim.frame_loop._run_leg_plain", "allsky.computer.cpu.target_step",
+           "allsky.vehicle.quaternion.dcm_body_from_inertial")
+
+
+def export_name(qualified: str) -> str:
+    """The extension module's name for the function ``qualified`` (module.name)."""
+    return qualified.replace(".", "__")
+
+
+def stamp() -> str:
+    """The key of the exported functions: the sources of every module they reach."""
+    h = hashlib.sha256()
+    for qualified in EXPORTS:
+        module = qualified.rsplit(".", 1)[0]
+        path = os.path.join(os.path.dirname(PACKAGE_DIR), *module.split(".")) + ".py"
+        h.update(source_stamp(path).encode())
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def cpu_fingerprint():
+    """What the compiled code assumes of the CPU: vendor, family, model, flags (Linux).
+
+    None where ``/proc/cpuinfo`` cannot be read; the loop is then never
+    compiled ahead of time.
+    """
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
+            text = f.read()
+    except OSError:
+        return None
+    first = text.split("\n\n", 1)[0]
+    keep = [line for line in first.splitlines()
+            if line.split(":")[0].strip() in ("vendor_id", "cpu family", "model", "flags")]
+    if not keep:
+        return None
+    return hashlib.sha256("\n".join(" ".join(k.split()) for k in keep).encode()).hexdigest()
+
+
+def structure(x):
+    """The shape of an argument as numba types it: nested tuples, array kinds, scalars.
+
+    Two arguments of the same structure get the same numba type, so code
+    compiled for one reads the other correctly.
+    """
+    fields = getattr(x, "_fields", None)
+    if fields is not None:
+        return ["tuple", type(x).__qualname__, list(fields), [structure(v) for v in x]]
+    if isinstance(x, tuple):
+        return ["tuple", "", [], [structure(v) for v in x]]
+    if x is None:
+        return ["none"]
+    if isinstance(x, bool):
+        return ["bool"]
+    if isinstance(x, int):
+        return ["int"]
+    if isinstance(x, float):
+        return ["float"]
+    flags = getattr(x, "flags", None)
+    if flags is not None and hasattr(x, "ndim"):
+        layout = "C" if flags.c_contiguous else ("F" if flags.f_contiguous else "A")
+        return ["array", x.dtype.str, x.ndim, layout, bool(flags.writeable),
+                bool(flags.aligned)]
+    if hasattr(x, "dtype"):  # a NumPy scalar
+        return ["scalar", x.dtype.str]
+    return ["other", type(x).__qualname__]
+
+
+@functools.lru_cache(maxsize=1)
+def _manifest():
+    try:
+        with open(MANIFEST, encoding="utf-8") as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+
+@functools.lru_cache(maxsize=None)
+def _module_if_valid():
+    """The extension module when its manifest matches this tree and CPU; else None."""
+    m = _manifest()
+    if (m is None or os.environ.get("ALLSKY_AOT", "1") == "0"
+            or os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
+            or m.get("cache_tag") != sys.implementation.cache_tag
+            or m.get("stamp") != stamp() or m.get("cpu") != cpu_fingerprint()):
+        return None
+    try:
+        return importlib.import_module(MODULE)
+    except ImportError:
+        return None
+
+
+#: Named tuples whose structure was checked: id -> (the tuple, its structure).
+_seen = {}
+
+
+def _structure_of(a):
+    if getattr(a, "_fields", None) is None:
+        return structure(a)
+    seen = _seen.get(id(a))
+    if seen is None or seen[0] is not a:  # the parameters and state: once a mission
+        if len(_seen) > 64:
+            _seen.clear()
+        seen = _seen[id(a)] = (a, structure(a))
+    return seen[1]
+
+
+def entry(qualified: str, args):
+    """The function ``qualified`` built ahead of time if it can take ``args``, or None.
+
+    Only on the main thread: the functions built ahead of time hold Python's
+    global lock while they run, where numba's release it (``nogil``), so
+    threads (a Dask worker's) keep numba's and fly in parallel.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    module = _module_if_valid()
+    if module is None:
+        return None
+    want = _manifest()["exports"].get(qualified)
+    if want is None or len(want) != len(args):
+        return None
+    if any(_structure_of(a) != w for a, w in zip(args, want, strict=True)):
+        return None
+    return getattr(module, export_name(qualified))
+
+
+def available() -> bool:
+    """Whether the functions built ahead of time are there and fit this tree and CPU."""
+    return _module_if_valid() is not None

@@ -39,6 +39,7 @@ compiled loop behind).
 
 import functools
 import sys
+import threading
 
 from allsky import aot
 
@@ -46,6 +47,7 @@ from allsky import aot
 _numba = None
 #: Every CompiledFunction made before numba was loaded.
 _waiting = []
+_loading = threading.RLock()
 
 
 def load_numba():
@@ -56,21 +58,24 @@ def load_numba():
     finds dispatchers (not wrappers) among its globals.
     """
     global _numba
-    if _numba is None:
-        import numba
+    if _numba is not None:
+        return _numba
+    with _loading:  # threads (a Dask worker's) starting together make each function once
+        if _numba is None:
+            import numba
 
-        from allsky import jit_cache
+            from allsky import jit_cache
 
-        jit_cache.install()
-        _numba = numba
-        for f in _waiting:
-            f._make()
-        _waiting.clear()
-        for name, module in list(sys.modules.items()):
-            if module is not None and (name == "allsky" or name.startswith("allsky.")):
-                for attr, value in list(vars(module).items()):
-                    if isinstance(value, CompiledFunction):
-                        setattr(module, attr, value._make())
+            jit_cache.install()
+            for f in _waiting:
+                f._make(numba)
+            _waiting.clear()
+            for name, module in list(sys.modules.items()):
+                if module is not None and (name == "allsky" or name.startswith("allsky.")):
+                    for attr, value in list(vars(module).items()):
+                        if isinstance(value, CompiledFunction):
+                            setattr(module, attr, value._make(numba))
+            _numba = numba
     return _numba
 
 
@@ -89,16 +94,15 @@ class CompiledFunction:
         self.qualified = f"{py_func.__module__}.{py_func.__qualname__}"
         functools.update_wrapper(self, py_func)
 
-    def _make(self):
+    def _make(self, numba):
         if self._dispatcher is None:
-            self._dispatcher = _numba.njit(**self._options)(self.py_func)
+            self._dispatcher = numba.njit(**self._options)(self.py_func)
         return self._dispatcher
 
     @property
     def dispatcher(self):
         """numba's dispatcher of this function (numba is loaded for it)."""
-        load_numba()
-        return self._make()
+        return self._make(load_numba())
 
     def __call__(self, *args, **kwargs):
         """Call the compiled function: built ahead of time if it can be (:mod:`allsky.aot`)."""

@@ -42,7 +42,7 @@ def compile_frame_loop(build_lib: str) -> None:
     check = "import allsky, numba; print(allsky.__file__)"
     try:
         where = subprocess.run([sys.executable, "-c", check], env=env, cwd=build_lib,
-                               capture_output=True, text=True, timeout=120)
+                               capture_output=True, text=True, timeout=120, check=False)
     except (OSError, subprocess.SubprocessError) as e:
         print(f"allsky: not compiling the frame loop at build time ({e})", file=sys.stderr)
         return

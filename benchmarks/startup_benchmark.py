@@ -35,6 +35,7 @@ time is the steadier figure.
 """
 
 import argparse
+import math
 import os
 import shutil
 import statistics
@@ -167,7 +168,7 @@ def _table(names, labels, results):
             cell = f"{statistics.median(walls) * scale:.3g} {unit}"
             if len(rs) > 1:
                 cell += f" [{min(walls) * scale:.3g}-{max(walls) * scale:.3g}]"
-            if cpu == cpu:
+            if not math.isnan(cpu):
                 cell += f" ({cpu:.2f} s cpu), {rss:.0f} MB"
             cells.append(cell)
         print(f"| {name} | " + " | ".join(cells) + " |")

@@ -107,7 +107,7 @@ def _manifest():
         return None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _module_if_valid():
     """The extension module when its manifest matches this tree and CPU; else None."""
     m = _manifest()

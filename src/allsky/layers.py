@@ -36,7 +36,8 @@ LAYERS = (
           "scenario rules, loading and merging, dispersions"),
     Layer("vehicle", "vehicle and sky",
           "rigid body (compiled and python-control), quaternions, Sun and stars, envelopes"),
-    Layer("", "foundations", "units and conversions, the jit decorators and their caches (the on-disk key, the functions built ahead of time), the noise source"),
+    Layer("", "foundations", "units and conversions, the jit decorators and their caches "
+          "(the on-disk key, the functions built ahead of time), the noise source"),
 )
 #: Package -> rank (0 = bottom).
 RANK = {layer.package: len(LAYERS) - 1 - i for i, layer in enumerate(LAYERS)}

@@ -13,10 +13,10 @@ import re
 #: The allsky package directory.
 PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
 _IMPORT = re.compile(r"^[ \t]*(?:from[ \t]+(allsky(?:\.\w+)*)[ \t]+import[ \t]+(\([^)]*\)|.*)"
-                     r"|import[ \t]+(allsky(?:\.\w+)*))", re.M)
+                     r"|import[ \t]+(allsky(?:\.\w+)*))", re.MULTILINE)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _module_file(name: str):
     """The source file of allsky module ``name`` (a package's ``__init__.py``), or None."""
     base = os.path.join(os.path.dirname(PACKAGE_DIR), *name.split("."))
@@ -26,7 +26,7 @@ def _module_file(name: str):
     return None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _read_module(path: str) -> tuple:
     """(SHA-256 of the file, the allsky source files its imports run)."""
     with open(path, "rb") as f:
@@ -56,7 +56,7 @@ def source_closure(py_file: str) -> tuple:
     return tuple(sorted(seen))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def source_stamp(py_file: str) -> str:
     """What a compiled function of ``py_file`` is valid for: sources, NumPy version.
 

@@ -227,10 +227,9 @@ def _validate_number(where, entry, shape):
         if p in entry:
             out[p] = _param(f"{where}.{p}", entry[p], shape,
                             NON_NEGATIVE if p in ("sigma", "half_width") else None)
-    if "low" in out:
-        if any(h < lo for lo, h in zip(_flat(out["low"], shape), _flat(out["high"], shape),
-                                       strict=True)):
-            raise ConfigError(f"{where}.high", entry["high"], "must be >= low (element by element)")
+    if "low" in out and any(h < lo for lo, h in zip(
+            _flat(out["low"], shape), _flat(out["high"], shape), strict=True)):
+        raise ConfigError(f"{where}.high", entry["high"], "must be >= low (element by element)")
     return out
 
 

@@ -42,10 +42,13 @@ import difflib
 import functools
 import math
 from datetime import UTC, datetime
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import ephem
 import ephem.stars
+
+if TYPE_CHECKING:  # NumPy is imported where it computes: checking a scenario needs none
+    import numpy as np
 
 #: First and last calendar years (inclusive, UTC) of accepted dates.
 #: PyEphem's Sun theory is good across them.

@@ -117,7 +117,9 @@ class CompiledFunction:
         return _numba is None and aot.available() and self.qualified in aot.EXPORTS
 
     def __getattr__(self, name):
-        if name.startswith("__"):
+        # Not for its own attributes: an instance not yet initialised (a copy being made)
+        # must not recurse into self.dispatcher.
+        if name.startswith("__") or name in ("_dispatcher", "_options", "py_func", "qualified"):
             raise AttributeError(name)
         return getattr(self.dispatcher, name)
 

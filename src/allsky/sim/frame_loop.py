@@ -195,7 +195,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     # branches that test them are dropped when that loop compiles (leg_entry).
     fault_state = s.fault_state
     for frame_in_leg in range(done, n_max):
-        _sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
+        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
         t_frame = s.time_s[0]
         tracker_p = p.tracker
         if faults is not None:
@@ -261,7 +261,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
 
 
 @njit_stage
-def _sun_inertial(sun0_inertial, sun_rate_inertial, t_s, out):
+def sun_inertial(sun0_inertial, sun_rate_inertial, t_s, out):
     """Unit vector to the Sun at mission time ``t_s`` (linear in time, renormalised)."""
     n = 0.0
     for i in range(3):

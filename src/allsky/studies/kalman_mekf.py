@@ -47,6 +47,7 @@ from allsky.computer import word_registers as wr
 from allsky.hardware.dac import dac
 from allsky.jit import njit, njit_alloc
 from allsky.sequencer.modes import MODE_CODE
+from allsky.sim.frame_loop import sun_inertial
 from allsky.sim.mission import LEGACY_PLAN, Mission
 from allsky.sim.recorder import INDEX
 from allsky.sim.results import fly_calibrating
@@ -495,13 +496,7 @@ def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, 
         # -- updates: sun sensor 104, then star tracker 105
         t = time_s[k]
         if sun[k, VALID] > 0.5:
-            nrm = 0.0
-            for i in range(3):
-                vec[i] = sun0[i] + sun_rate[i] * t
-                nrm += vec[i] * vec[i]
-            nrm = math.sqrt(nrm)
-            for i in range(3):
-                vec[i] /= nrm
+            sun_inertial(sun0, sun_rate, t, vec)
             rotate_to_body(q, vec, body)
             if body[0] > 0.0:
                 # pitch = atan2(-s_z, s_x)

@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky.jit import njit
+from allsky.jit import njit, njit_stage
 
 N_STATE = 7
 # Integrated vector: plant state plus the 3 angle increments of the frame.
@@ -78,6 +78,41 @@ def derivatives(p, y, torque_n_m, dy):
     dy[9] = y[6]
 
 
+@njit_stage
+def _rk4_finish(x, dtheta_rad, dt_s, s, a, b, c, d, bw, cw):
+    """RK4's last stage and weighted sum: state ``s`` (q, w) and stage derivatives into ``x``.
+
+    ``a`` to ``d`` are the four stages' derivatives of (q, w), ``bw``/``cw``
+    the rates at stages b and c (the angle increments' derivatives). The
+    quaternion is renormalised; the angle increments start at 0.
+    """
+    qw, qx, qy, qz, wx, wy, wz = s
+    a0, a1, a2, a3, a4, a5, a6 = a
+    b0, b1, b2, b3, b4, b5, b6 = b
+    c0, c1, c2, c3, c4, c5, c6 = c
+    d0, d1, d2, d3, d4, d5, d6 = d
+    bx, by, bz = bw
+    cx, cy, cz = cw
+    dx, dy, dz = wx + dt_s * c4, wy + dt_s * c5, wz + dt_s * c6
+    k = dt_s / 6.0
+    qw = qw + k * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
+    qx = qx + k * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+    qy = qy + k * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
+    qz = qz + k * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
+    n = np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    x[0] = qw / n
+    x[1] = qx / n
+    x[2] = qy / n
+    x[3] = qz / n
+    x[4] = wx + k * (a4 + 2.0 * b4 + 2.0 * c4 + d4)
+    x[5] = wy + k * (a5 + 2.0 * b5 + 2.0 * c5 + d5)
+    x[6] = wz + k * (a6 + 2.0 * b6 + 2.0 * c6 + d6)
+    # The angle increments start at 0 and their derivative at each stage is its w.
+    dtheta_rad[0] = 0.0 + k * (wx + 2.0 * bx + 2.0 * cx + dx)
+    dtheta_rad[1] = 0.0 + k * (wy + 2.0 * by + 2.0 * cy + dy)
+    dtheta_rad[2] = 0.0 + k * (wz + 2.0 * bz + 2.0 * cz + dz)
+
+
 @njit
 def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad):
     """Advance the plant state ``x`` (7) by ``dt_s`` in place.
@@ -107,24 +142,10 @@ def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad):
     d0, d1, d2, d3, d4, d5, d6 = _rates(
         j, ji, qw + dt_s * c0, qx + dt_s * c1, qy + dt_s * c2, qz + dt_s * c3,
         wx + dt_s * c4, wy + dt_s * c5, wz + dt_s * c6, tx, ty, tz)
-    dx, dy, dz = wx + dt_s * c4, wy + dt_s * c5, wz + dt_s * c6
-    k = dt_s / 6.0
-    qw = qw + k * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-    qx = qx + k * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-    qy = qy + k * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
-    qz = qz + k * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
-    n = np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    x[0] = qw / n
-    x[1] = qx / n
-    x[2] = qy / n
-    x[3] = qz / n
-    x[4] = wx + k * (a4 + 2.0 * b4 + 2.0 * c4 + d4)
-    x[5] = wy + k * (a5 + 2.0 * b5 + 2.0 * c5 + d5)
-    x[6] = wz + k * (a6 + 2.0 * b6 + 2.0 * c6 + d6)
-    # The angle increments start at 0 and their derivative at each stage is its w.
-    dtheta_rad[0] = 0.0 + k * (wx + 2.0 * bx + 2.0 * cx + dx)
-    dtheta_rad[1] = 0.0 + k * (wy + 2.0 * by + 2.0 * cy + dy)
-    dtheta_rad[2] = 0.0 + k * (wz + 2.0 * bz + 2.0 * cz + dz)
+    _rk4_finish(x, dtheta_rad, dt_s, (qw, qx, qy, qz, wx, wy, wz),
+                (a0, a1, a2, a3, a4, a5, a6), (b0, b1, b2, b3, b4, b5, b6),
+                (c0, c1, c2, c3, c4, c5, c6), (d0, d1, d2, d3, d4, d5, d6), (bx, by, bz),
+                (cx, cy, cz))
 
 
 # ---------------------------------------------------------------------------
@@ -231,23 +252,10 @@ def rk4_step_gyrostat(p, x, torque_n_m, hw_n_m_s, hw_dot_n_m, dt_s, dtheta_rad):
         j, ji, qw + dt_s * c0, qx + dt_s * c1, qy + dt_s * c2, qz + dt_s * c3,
         wx + dt_s * c4, wy + dt_s * c5, wz + dt_s * c6, tx, ty, tz,
         h0x + dt_s * rx, h0y + dt_s * ry, h0z + dt_s * rz)
-    dx, dy, dz = wx + dt_s * c4, wy + dt_s * c5, wz + dt_s * c6
-    k = dt_s / 6.0
-    qw = qw + k * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-    qx = qx + k * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-    qy = qy + k * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
-    qz = qz + k * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
-    n = np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    x[0] = qw / n
-    x[1] = qx / n
-    x[2] = qy / n
-    x[3] = qz / n
-    x[4] = wx + k * (a4 + 2.0 * b4 + 2.0 * c4 + d4)
-    x[5] = wy + k * (a5 + 2.0 * b5 + 2.0 * c5 + d5)
-    x[6] = wz + k * (a6 + 2.0 * b6 + 2.0 * c6 + d6)
-    dtheta_rad[0] = 0.0 + k * (wx + 2.0 * bx + 2.0 * cx + dx)
-    dtheta_rad[1] = 0.0 + k * (wy + 2.0 * by + 2.0 * cy + dy)
-    dtheta_rad[2] = 0.0 + k * (wz + 2.0 * bz + 2.0 * cz + dz)
+    _rk4_finish(x, dtheta_rad, dt_s, (qw, qx, qy, qz, wx, wy, wz),
+                (a0, a1, a2, a3, a4, a5, a6), (b0, b1, b2, b3, b4, b5, b6),
+                (c0, c1, c2, c3, c4, c5, c6), (d0, d1, d2, d3, d4, d5, d6), (bx, by, bz),
+                (cx, cy, cz))
 
 
 def gyrostat_momentum_inertial(p: RigidBodyParams, x, wheel_momentum_body_n_m_s) -> np.ndarray:

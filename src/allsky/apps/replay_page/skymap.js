@@ -19,11 +19,8 @@ const SKY = (function () {
   function background(w, h) {
     const key = `${w}x${h}`;
     if (bg && bgKey === key) return bg;
-    bg = document.createElement("canvas");
-    const dpr = window.devicePixelRatio || 1;
-    bg.width = Math.round(w * dpr); bg.height = Math.round(h * dpr);
-    const ctx = bg.getContext("2d");
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    const off = offscreenCanvas(w, h), ctx = off.ctx;
+    bg = off.canvas;
     ctx.fillStyle = "#0d1630"; ctx.fillRect(0, 0, w, h);
     ctx.strokeStyle = "#26345a"; ctx.lineWidth = 1; ctx.fillStyle = "#7c8bb0";
     ctx.font = "9px sans-serif";

@@ -36,11 +36,8 @@ const TRACES = (function () {
     const key = `${w}x${h}`;
     if (bg && bgKey === key) return bg;
     geom = layout(w, h);
-    bg = document.createElement("canvas");
-    const dpr = window.devicePixelRatio || 1;
-    bg.width = Math.round(w * dpr); bg.height = Math.round(h * dpr);
-    const ctx = bg.getContext("2d");
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    const off = offscreenCanvas(w, h), ctx = off.ctx;
+    bg = off.canvas;
     ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, w, h);
     for (const m of D.timeline) {
       const x0 = geom.x(m.start_s), x1 = geom.x(m.end_s);

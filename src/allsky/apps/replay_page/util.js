@@ -215,6 +215,16 @@ function fitCanvas(canvas) {
   return { ctx: ctx, w: w, h: h };
 }
 
+/** An offscreen canvas of w x h CSS pixels in device pixels; its 2-D context in CSS pixels. */
+function offscreenCanvas(w, h) {
+  const canvas = document.createElement("canvas"), dpr = window.devicePixelRatio || 1;
+  canvas.width = Math.round(w * dpr);
+  canvas.height = Math.round(h * dpr);
+  const ctx = canvas.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  return { canvas: canvas, ctx: ctx };
+}
+
 const SVG_NS = "http://www.w3.org/2000/svg";
 function svgEl(tag, attrs, parent) {
   const el = document.createElementNS(SVG_NS, tag);

@@ -7,7 +7,7 @@ Run from the repository root::
 Measures, for the default mission:
 
 * writing the page after the mission [s] (target <= 3 s) and its size [MB] (<= 6 MB);
-* in headless chromium at 1280x720 (the flags of tests/test_replay_browser.py):
+* in headless chromium at 1280x720 (the flags of tests/apps/test_replay_browser.py):
   page interactive after load [s] (navigation start to ``window.allsky.ready``,
   target <= 2 s); one ``seek`` and redraw [ms] (the script's own time, and to the
   next painted frame; target <= 50 ms); frame times during playback at x50 [ms]

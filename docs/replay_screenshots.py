@@ -1,7 +1,7 @@
 """Screenshots of the replay page for docs/replay.md: one per mode of the default mission.
 
 Run from the repository root (needs chromium, chromedriver and selenium, as
-tests/test_replay_browser.py)::
+tests/apps/test_replay_browser.py)::
 
     python docs/replay_screenshots.py [OUT_DIR]     # default: docs/img
 

@@ -170,7 +170,7 @@ def test_the_manifest_names_the_functions_a_mission_calls_from_python(built):
 
 def test_pip_install_built_them_where_it_could():
     """An install from a wheel that pip built here carries them, if this machine can build."""
-    from test_warm_up import _installed_from_a_wheel
+    from tests.apps.test_warm_up import _installed_from_a_wheel
 
     files = _installed_from_a_wheel()
     if files is None:

@@ -277,7 +277,7 @@ def blocks_reference() -> str:
            ("Every reference numeral of US 4,012,018 (Fig. 1, the vehicle; Fig. 2, the block "
             "diagram; SPEC.md \u00a73), every switch S1\u2013S19, and the parts the patent "
             "leaves out, with the module and function that implement them. Each module's "
-            "docstring names the numerals it implements; `tests/test_block_map.py` checks "
+            "docstring names the numerals it implements; `tests/hardware/test_block_map.py` checks "
             "that every numeral is mapped, that the modules and functions exist and that "
             "the docstrings name the numerals. Units are those at the block's boundary "
             "(arcsec and pulses in the electronics, SI in the physics; see "

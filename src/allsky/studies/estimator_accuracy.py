@@ -48,7 +48,7 @@ spacecraft attitude estimator", J. Guidance, Control, and Dynamics 23(6),
 2000; F. L. Markley and J. L. Crassidis, *Fundamentals of Spacecraft
 Attitude Determination and Control*, Springer 2014, sec. 6.3. The
 expressions here are derived anew in ``docs/kalman.md`` and checked against
-the discrete Riccati equation in ``tests/test_estimator_accuracy.py``.
+the discrete Riccati equation in ``tests/studies/test_estimator_accuracy.py``.
 """
 
 from typing import NamedTuple

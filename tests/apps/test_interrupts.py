@@ -22,7 +22,7 @@ from allsky.sim.mission import Mission
 from allsky.studies import compare as compare_study
 from allsky.studies import montecarlo
 
-SRC = Path(__file__).resolve().parents[1] / "src"
+SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 def _signal_after(monkeypatch, module, name, n, sig=signal.SIGINT, when="after"):

@@ -71,6 +71,6 @@ def test_console_script_entry_point_resolves():
     import tomllib
     from pathlib import Path
 
-    meta = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    meta = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
     module, func = meta["project"]["scripts"]["allsky"].split(":")
     assert callable(getattr(importlib.import_module(module), func))

@@ -6,7 +6,7 @@ manifest and results for ``allsky montecarlo --resume`` -- is fed arbitrary
 bytes and mutations of a valid file. Whatever the content, ``main`` returns
 0, 1 or 2 and raises nothing, and exit 2 comes with exactly one line
 ``allsky: error: ...`` on stderr. (Scenario files have their own property
-test in tests/test_cli_config.py.)
+test in tests/apps/test_cli_config.py.)
 
 Drawing the figures, flying the modes and flying campaign runs are replaced
 by stubs: the readers are under test, and a valid file must not cost a

@@ -29,7 +29,7 @@ Truth:
   anew (to the same few ppm as the first time), while "reacquire" keeps the
   old factor.
 - Each target's hold drifts as its drift store errs: ``60 S^-1 (D - d)``
-  arcsec/min (tests/test_hold.py), within four sigma of the random walks.
+  arcsec/min (tests/flights/test_hold.py), within four sigma of the random walks.
 """
 
 import json

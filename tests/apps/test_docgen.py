@@ -8,7 +8,7 @@ import pytest
 from allsky.apps import docgen
 from allsky.config import schema as config
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.mark.parametrize("name", sorted(docgen.PAGES))
@@ -88,7 +88,7 @@ def test_block_diagram_draws_every_numeral_and_an_existing_module(tmp_path):
     import importlib
 
     from allsky.apps import diagram_layout
-    from test_block_map import DRAWN_NUMERALS
+    from tests.hardware.test_block_map import DRAWN_NUMERALS
 
     fig = docgen.block_diagram(tmp_path / "d.png")
     assert (tmp_path / "d.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

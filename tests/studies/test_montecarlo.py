@@ -26,7 +26,7 @@ from allsky.config import ConfigError, dispersions, load_scenario
 from allsky.studies import montecarlo
 from allsky.studies.montecarlo import columns, row_from_summary, run_campaign, summarize
 
-SRC = Path(__file__).resolve().parents[1] / "src"
+SRC = Path(__file__).resolve().parents[2] / "src"
 #: A spec touching every kind of entry that still flies in a few seconds.
 SPEC = """\
 [dispersions]

@@ -279,7 +279,7 @@ def test_several_targets_show_the_one_flown(page, tmp_path):
     from allsky.sim.mission import Mission
 
     driver, default_path = page
-    scenario = Path(__file__).resolve().parents[1] / "docs" / "examples" / "three_targets.toml"
+    scenario = Path(__file__).resolve().parents[2] / "docs" / "examples" / "three_targets.toml"
     cfg = load_scenario(scenario, ["target.hold_s=0"])
     m = Mission(cfg)
     summary = m.run()

@@ -22,7 +22,7 @@ from allsky.config.toml_io import toml_dumps
 
 DEFAULT_TEXT = DEFAULT_SCENARIO_PATH.read_text()
 DEFAULT = tomllib.loads(DEFAULT_TEXT)
-SRC = Path(__file__).resolve().parents[1] / "src"
+SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 def run_main(capsys, argv):

@@ -10,7 +10,7 @@ module 110. The patent numbers both the yaw rate-command module and the yaw
 contact of S8 128. The table must name every numeral and every switch
 S1-S19; every module it names must import and mention the numeral in its
 docstring, and every function it names must exist, so neither side can drift.
-docs/blocks.md is generated from the table (tests/test_docgen.py keeps it
+docs/blocks.md is generated from the table (tests/apps/test_docgen.py keeps it
 current); here it is checked to show every numeral.
 """
 
@@ -22,7 +22,7 @@ import pytest
 
 from allsky.hardware import blocks, wiring
 
-BLOCKS_MD = Path(__file__).resolve().parents[1] / "docs" / "blocks.md"
+BLOCKS_MD = Path(__file__).resolve().parents[2] / "docs" / "blocks.md"
 
 PATENT_NUMERALS = (
     {str(k) for k in range(1, 37)} | {"39", "40", "41"}

@@ -15,7 +15,7 @@ import pytest
 from allsky.layers import find_cycles
 
 PACKAGE = "allsky.config"
-DIR = Path(__file__).resolve().parents[1] / "src" / "allsky" / "config"
+DIR = Path(__file__).resolve().parents[2] / "src" / "allsky" / "config"
 #: Longest a module of the package may grow before its job should be split [lines].
 MAX_LINES = 400
 

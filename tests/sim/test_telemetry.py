@@ -21,7 +21,7 @@ from allsky.sim import recorder, telemetry
 from allsky.sim.mission import MODE_CODE
 from allsky.sim.state import new_state
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.fixture(scope="module")

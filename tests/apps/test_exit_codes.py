@@ -1,7 +1,7 @@
 """One exit-code contract and the same flags on every command.
 
 0 ok, 1 mission aborted, 2 usage/input/output error (one line), 3 internal
-error (one line and a crash report), 130 interrupted (tests/test_interrupts.py).
+error (one line and a crash report), 130 interrupted (tests/apps/test_interrupts.py).
 """
 
 import json

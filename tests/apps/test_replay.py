@@ -1,6 +1,6 @@
 """The replay page's Python side: its data block, event log, HTML file and commands.
 
-The page in a real browser is tests/test_replay_browser.py.
+The page in a real browser is tests/apps/test_replay_browser.py.
 """
 
 import base64
@@ -232,7 +232,7 @@ def test_notes_say_what_the_interval_hides(data):
 
 # -- several targets: reacquire and recycle ---------------------------------------------
 
-THREE_TARGETS = Path(__file__).resolve().parents[1] / "docs" / "examples" / "three_targets.toml"
+THREE_TARGETS = Path(__file__).resolve().parents[2] / "docs" / "examples" / "three_targets.toml"
 #: Pulses counted between the last telemetry row of a turn and its end (a few at most).
 LATE_PULSES = 10
 

@@ -25,9 +25,11 @@ LAYERS = (
     Layer("studies", "studies",
           "calibration comparison, Monte Carlo campaigns, loop analysis, estimator theory"),
     Layer("sim", "simulation",
-          "compiled frame loop in stages, mission state, mission driver, telemetry recorder"),
+          "compiled frame loop in stages, mission state, mission driver, telemetry schema and "
+          "recorder, the journal"),
     Layer("sequencer", "master sequencer 20",
-          "mode table and rules, the watch, the leg vocabulary, the plans (legacy, dither)"),
+          "mode table and rules, the watch, the leg vocabulary, the plans (legacy, dither), "
+          "the host protocol"),
     Layer("computer", "computer 111",
           "CPU 22, word registers 23/24, computer sequencer 21, register 24's ground program"),
     Layer("hardware", "numbered blocks",
@@ -36,8 +38,9 @@ LAYERS = (
           "scenario rules, loading and merging, dispersions"),
     Layer("vehicle", "vehicle and sky",
           "rigid body (compiled and python-control), quaternions, Sun and stars, envelopes"),
-    Layer("", "foundations", "units and conversions, the jit decorators and their caches "
-          "(the on-disk key, the functions built ahead of time), the noise source"),
+    Layer("", "foundations", "units and conversions, the vocabulary (modes, fault kinds, "
+          "axes, actions, journal kinds), the jit decorators and their caches (the on-disk "
+          "key, the functions built ahead of time), the noise source"),
 )
 #: Package -> rank (0 = bottom).
 RANK = {layer.package: len(LAYERS) - 1 - i for i, layer in enumerate(LAYERS)}

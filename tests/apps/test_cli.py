@@ -17,13 +17,15 @@ def test_run_writes_json_and_telemetry(tmp_path, capsys):
     js, tl = tmp_path / "s.json", tmp_path / "t.csv"
     assert main(["run", "--json", str(js), "--telemetry", str(tl)]) == 0
     report = capsys.readouterr().out
-    assert "Mode timeline" in report and "final pointing error" in report
+    assert "Mode timeline" in report and "final true pointing error" in report
     s = json.loads(js.read_text())
     assert s["status"] == "complete" and s["abort_reason"] is None
     assert [m["mode"] for m in s["modes"]] == ["1", "2", "3", "4", "5", "6-1", "6-2"]
+    assert set(s["calibration"]) == {"drift_deg_h", "drift_applied_deg_h", "scale_factor",
+                                     "cross_coupling"}
+    assert set(s["truth"]) - {"gyro_drift_deg_h", "integrator_drift_deg_h"} == {
+        "drift_deg_h", "scale_factor", "cross_coupling"}
     for part in ("calibration", "truth"):
-        assert set(s[part]) - {"gyro_drift_deg_h", "integrator_drift_deg_h"} == {
-            "drift_deg_h", "scale_factor", "cross_coupling"}
         assert set(s[part]["cross_coupling"]) == {"roll_into_pitch", "roll_into_yaw",
                                                   "yaw_into_pitch", "yaw_into_roll"}
     assert set(s["truth"]) >= {"gyro_drift_deg_h", "integrator_drift_deg_h"}
@@ -31,7 +33,14 @@ def test_run_writes_json_and_telemetry(tmp_path, capsys):
     assert set(s["target"]) >= {"programmed_roll_deg", "programmed_yaw_deg",
                                 "pointing_error_arcsec"}
     assert s["propellant_kg"] > 0
-    header = tl.read_text().splitlines()[0]
+    # Truth beside belief: the end, the saturations, the warnings (none here), the journal.
+    assert s["end"]["target"] == "Sirius" and s["end"]["true_pointing_error_arcsec"] > 0
+    assert s["drift_dac_clipped"] == {"roll": False, "pitch": False, "yaw": False}
+    assert s["warnings"] == []
+    assert [e["mode"] for e in s["events"] if e["kind"] == "mode_start"] == [
+        m["mode"] for m in s["modes"]]
+    first, header = tl.read_text().splitlines()[:2]
+    assert first == "# allsky telemetry format 2"
     assert header.startswith("time [s],mode [-],q_w")
 
 

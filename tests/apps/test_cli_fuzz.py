@@ -187,7 +187,7 @@ def test_plot_answers_any_parquet(capsys, tmp_path, telemetry, no_drawing, data)
 @pytest.fixture()
 def modes_not_flown(monkeypatch):
     """Each mode ends at once: the state file is what is under test, not the flight."""
-    def run_mode(m):
+    def run_mode(m, hooks=None):
         name = m.plan[m.next_mode]
         t = float(m.state.time_s[0])
         rec = ModeRecord(name, t, t, "not flown in this test")

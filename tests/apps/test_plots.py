@@ -65,9 +65,12 @@ def test_mode_spans_follow_the_timeline(flown):
         assert t1 == pytest.approx(r["end_s"], abs=1.01 * dt), name
 
 
+POINTING_TITLE = "Pointing error: CPU 22's estimate beside the truth"
+
+
 def test_attitude_errors_has_three_axes_with_units_and_mode_names(flown):
     fig = plots.attitude_errors(flown[0])
-    assert titles(fig) == ["Roll error", "Pitch error", "Yaw error"]
+    assert titles(fig) == ["Roll error", "Pitch error", "Yaw error", POINTING_TITLE]
     for ax, axis in zip(fig.axes, plots.AXES):
         assert ax.get_ylabel() == f"{axis} error [arcsec]"
         assert ax.get_yscale() == "symlog"
@@ -81,6 +84,19 @@ def test_attitude_errors_has_three_axes_with_units_and_mode_names(flown):
     assert np.isfinite(cpu_roll[-1])
 
 
+def test_the_pointing_row_draws_the_truth_beside_the_computer_s_belief(flown):
+    """In Modes 6-1, 6-2: CPU 22's error and the telemetry's true error, row for row."""
+    table, _ = flown
+    ax = plots.attitude_errors(table).axes[3]
+    believed, truth = ax.lines[0].get_ydata(), ax.lines[1].get_ydata()
+    assert ax.lines[1].get_label() == "true error, roll axis to target"
+    cpu = np.isin(table[:, telemetry.INDEX["mode"]], [6.1, 6.2])
+    assert np.array_equal(truth[cpu], table[cpu, telemetry.INDEX["true_error"]])
+    assert np.isnan(truth[~cpu]).all()
+    # At the end the computer's errors have settled; the truth has not gone to zero with them.
+    assert believed[-1] < 50.0 and truth[-1] > 1.0 and abs(truth[-1] - believed[-1]) > 1.0
+
+
 @pytest.fixture(scope="module")
 def dithered(default_cfg):
     """Telemetry and summary of the default vehicle flying the dither plan."""
@@ -92,7 +108,8 @@ def dithered(default_cfg):
 
 def test_attitude_errors_marks_the_true_final_pointing_error(flown):
     table, summary = flown
-    truth = summary["target"]["pointing_error_arcsec"]
+    truth = summary["end"]["true_pointing_error_arcsec"]
+    assert truth == summary["target"]["pointing_error_arcsec"]  # one target, no hold
     fig = plots.attitude_errors(table, summary)
     assert titles(fig)[:3] == ["Roll error", "Pitch error", "Yaw error"]
     ax = fig.axes[3]
@@ -109,12 +126,13 @@ def test_attitude_errors_marks_the_true_final_pointing_error(flown):
     assert fig.axes[-1].get_xlabel() == "mission time [s]"
 
 
-def test_attitude_errors_without_a_final_pointing_error_has_no_pointing_row(flown):
-    table, summary = flown
-    aborted = {**summary, "target": {**summary["target"], "pointing_error_arcsec": None}}
-    for s in (None, aborted):
-        assert titles(plots.attitude_errors(table, s)) == ["Roll error", "Pitch error",
-                                                          "Yaw error"]
+def test_attitude_errors_without_any_truth_has_no_pointing_row(flown):
+    """Telemetry of format 1 (no true error) and no summary: nothing true to draw."""
+    table, _ = flown
+    old = table.copy()
+    old[:, telemetry.INDEX["true_error"]:] = np.nan
+    assert titles(plots.attitude_errors(old, None)) == ["Roll error", "Pitch error",
+                                                       "Yaw error"]
 
 
 def test_write_plots_passes_the_summary_to_the_attitude_figure(tmp_path, flown, monkeypatch):
@@ -135,8 +153,8 @@ def test_dither_hold_is_drawn_on_a_linear_scale(dithered, default_cfg):
     table, summary = dithered
     (hold,) = [r for r in summary["modes"] if r["mode"] == "dither"]
     fig = plots.attitude_errors(table)
-    assert len(fig.axes) == 4  # roll, pitch, yaw, and the dither hold
-    ax = fig.axes[3]
+    assert len(fig.axes) == 5  # roll, pitch, yaw, pointing, and the dither hold
+    ax = fig.axes[4]
     assert ax.get_yscale() == "linear" and "linear" in ax.get_title(loc="left")
     dt = table[1, 0] - table[0, 0]
     assert ax.get_xlim() == pytest.approx((hold["start_s"], hold["end_s"]), abs=1.01 * dt)
@@ -159,7 +177,8 @@ def test_dither_hold_is_drawn_on_a_linear_scale(dithered, default_cfg):
 
 def test_legacy_mission_has_no_dither_row(flown):
     assert plots.dither_span(flown[0]) is None
-    assert all(ax.get_yscale() == "symlog" for ax in plots.attitude_errors(flown[0]).axes)
+    axes = plots.attitude_errors(flown[0]).axes
+    assert [ax.get_yscale() for ax in axes] == ["symlog"] * 3 + ["log"]
 
 
 def test_switch_timing_shows_the_selector_share_on_each_contact(flown, default_cfg):
@@ -307,12 +326,12 @@ def test_plot_command_usage_errors_exit_2(tmp_path, capsys, args, message):
 
 
 def test_plot_command_refuses_a_file_missing_a_column(tmp_path, capsys, files):
-    lines = (files / "tlm.csv").read_text().splitlines()
+    first, *lines = (files / "tlm.csv").read_text().splitlines()
     cut = [",".join(line.split(",")[:-1]) for line in lines[:10]]
-    (tmp_path / "cut.csv").write_text("\n".join(cut) + "\n")
+    (tmp_path / "cut.csv").write_text(first + "\n" + "\n".join(cut) + "\n")
     assert main(["plot", str(tmp_path / "cut.csv")]) == 2
     err = capsys.readouterr().err
-    assert "missing column 'intermediate_pitch [arcsec]'" in err
+    assert "missing column 'jet_on_yaw [s]' of telemetry format 2" in err
 
 
 def test_plot_command_refuses_a_summary_that_is_not_one(tmp_path, capsys, files):
@@ -325,6 +344,6 @@ def test_plot_command_refuses_a_summary_that_is_not_one(tmp_path, capsys, files)
 def test_run_with_plots_writes_the_five_figures(tmp_path, capsys):
     assert main(["run", "--plots", str(tmp_path / "figs")]) == 0
     out = capsys.readouterr().out
-    assert "final pointing error" in out
+    assert "final true pointing error" in out
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "attitude_errors.png", "calibration.png", "counters.png", "jets.png", "switches.png"]

@@ -55,14 +55,9 @@ def test_every_mode_of_every_plan_is_in_the_table():
     assert DITHER_PLAN == ("1", "2", "3", "dither", "6-1", "6-2")
 
 
-def test_codes_and_titles_have_one_home():
+def test_codes_are_the_telemetry_codes_and_every_mode_has_a_title():
     assert modes.MODE_CODE == TELEMETRY_CODES
     assert all(modes.MODE_TITLE[name] for name in modes.BY_NAME)
-    from allsky.apps import plots, step  # noqa: F401  (they read the table)
-    from allsky.sim import mission
-
-    assert plots.MODE_CODE is mission.MODE_CODE is modes.MODE_CODE
-    assert mission.MODE_TITLE is modes.MODE_TITLE
 
 
 @pytest.mark.parametrize("name", sorted(SPEC_SWITCH_ACTIONS))
@@ -80,7 +75,6 @@ def test_switch_set_at_each_mode_end_is_the_specs():
 
 def test_every_action_is_a_documented_function_and_every_word_is_known():
     modes.check()
-    assert set(ms.ACTIONS) == set(modes.ACTIONS)
     for name, f in ms.ACTIONS.items():
         assert f.__name__ == name and f.__doc__, name
     for table in (modes.PROGRAMS, modes.WATCHES, modes.SIGNALS):

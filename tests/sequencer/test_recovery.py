@@ -129,7 +129,7 @@ def test_a_failed_recovery_aborts_naming_mode_symptom_fault_and_recovery():
 
 
 def test_each_recovery_is_flown_once_per_flight_of_a_mode():
-    calls = []
+    calls, notes = [], []
 
     class Stub:
         def __init__(self):
@@ -142,8 +142,11 @@ def test_each_recovery_is_flown_once_per_flight_of_a_mode():
         def extend_mode(self, seconds):
             calls.append(seconds)
 
-        def switch(self, close=(), open_=()):
+        def switch(self, close=(), open_=(), step="", waits_for=""):
             pass
+
+        def note(self, kind, **fields):
+            notes.append(kind)
 
     with pytest.raises(ms.ModeAbort) as e:
         ms.run_mode(Stub(), "1")
@@ -151,6 +154,7 @@ def test_each_recovery_is_flown_once_per_flight_of_a_mode():
     assert str(e.value).endswith("; recovery tried: go on acquiring the Sun for one more "
                                  "Mode 1 timeout")
     assert e.value.failure == "timeout"
+    assert notes == ["action"]  # the recovery, journaled by the sequencer
 
 
 def test_whole_turns_counted_from_the_counter():

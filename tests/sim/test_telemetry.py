@@ -6,6 +6,8 @@ Truth: the column list in docs/telemetry.md is generated from
 a file read back equals the table written, bit for bit.
 """
 
+import csv
+import itertools
 import re
 from pathlib import Path
 
@@ -20,6 +22,7 @@ from allsky.hardware import switch_bank
 from allsky.sim import recorder, telemetry
 from allsky.sim.mission import MODE_CODE
 from allsky.sim.state import new_state
+from allsky.vehicle import quaternion, sky
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 
@@ -37,9 +40,7 @@ def bits(a):
 
 # -- the columns and their documentation -------------------------------------------------
 
-def test_columns_match_the_recorder():
-    assert telemetry.COLUMNS is recorder.COLUMNS and telemetry.INDEX is recorder.INDEX
-    assert recorder.N_TLM == len(telemetry.COLUMNS)
+def test_columns_have_unique_names_a_unit_and_a_meaning():
     names = [c.name for c in telemetry.COLUMNS]
     assert len(set(names)) == len(names)
     for c in telemetry.COLUMNS:
@@ -61,9 +62,13 @@ def test_the_recorder_writes_every_value_under_its_name():
     tlm, rows = np.full((2, recorder.N_TLM), np.nan), np.zeros(1, dtype=np.int64)
     fine, trk, volts = np.array([9.0, 10.0, 1.0]), np.array([12.0, 13.0, 0.0]), np.array(
         [-0.5, 0.25, 2.0])
-    recorder.record_telemetry(tlm, rows, 7, s, 6.2, fine, trk, volts)  # frame 20: not a 7th
+    s.target_inertial[:] = sky.radec_to_unit(30.0, -40.0)
+    s.jet_on_s[:] = [1.25, 2.5, 3.75]
+    hb, ub = np.array([0.5, -0.25, 0.125]), np.array([0.01, 0.02, -0.03])
+    args = (s, 6.2, fine, trk, volts, hb, ub, 1)
+    recorder.record_telemetry(tlm, rows, 7, *args)  # frame 20: not a 7th
     assert rows[0] == 0
-    recorder.record_telemetry(tlm, rows, 10, s, 6.2, fine, trk, volts)
+    recorder.record_telemetry(tlm, rows, 10, *args)
     assert rows[0] == 1
     row = dict(zip((c.name for c in telemetry.COLUMNS), tlm[0]))
     expect = {
@@ -80,8 +85,17 @@ def test_the_recorder_writes_every_value_under_its_name():
         "propellant": 3.25, "switches": switch_bank.bitmask(s.switches), "s7_s8": 2,
         "overflow": 0b100010,
         "corrected_roll": 101.0, "corrected_yaw": 102.0, "intermediate_pitch": 103.0,
+        "wheel_h_x": 0.5, "wheel_h_y": -0.25, "wheel_h_z": 0.125,
+        "wheel_torque_x": 0.01, "wheel_torque_y": 0.02, "wheel_torque_z": -0.03,
+        "unloading": 1, "jet_on_roll": 1.25, "jet_on_pitch": 2.5, "jet_on_yaw": 3.75,
     }
+    true_error = row.pop("true_error")
     assert row == expect
+    # The true error: the roll axis (first row of the body-from-inertial matrix) to the
+    # target, by the vehicle's own quaternion helpers and the sky's separation.
+    x_inertial = quaternion.dcm_body_from_inertial(s.x[0:4])[0]
+    assert true_error == pytest.approx(
+        sky.separation_deg(x_inertial, s.target_inertial) * 3600.0, abs=1e-6)
     assert np.isnan(tlm[1]).all()
 
 
@@ -101,7 +115,35 @@ def test_committed_column_list_is_what_the_code_generates():
 def test_column_list_names_every_column_with_unit_and_meaning():
     page = telemetry_files.markdown()
     for i, (c, h) in enumerate(zip(telemetry.COLUMNS, telemetry.header())):
-        assert f"| {i} | `{h}` | {c.unit} | {c.meaning} |" in page
+        assert f"| {i} | `{h}` | {c.unit} | {c.kind} |" in page
+        assert page.count(c.meaning) >= 1
+
+
+def test_every_column_is_a_whole_record():
+    """Kind, allowed values and the replay's encoding agree with one another."""
+    for c in telemetry.COLUMNS:
+        assert c.kind in (recorder.TIME, recorder.CODE, recorder.REAL, recorder.INTEGER,
+                          recorder.FLAG, recorder.SET, recorder.BITMASK), c
+        if c.kind in (recorder.FLAG, recorder.SET, recorder.BITMASK, recorder.CODE):
+            assert c.allowed is not None, c
+        if c.kind == recorder.FLAG:
+            assert tuple(c.allowed) == (0, 1)
+        if c.replay == recorder.EXACT:
+            assert c.kind == recorder.INTEGER, c
+        if isinstance(c.replay, float):
+            assert c.kind == recorder.REAL and c.replay > 0, c
+    assert set(telemetry_files.INTEGER_COLUMNS) == {
+        c.name for c in telemetry.COLUMNS
+        if c.kind in (recorder.INTEGER, recorder.FLAG, recorder.SET, recorder.BITMASK)}
+
+
+def test_formats_only_append_columns():
+    numbers = sorted(recorder.FORMATS)
+    assert numbers == list(range(1, recorder.FORMAT + 1))
+    for a, b in itertools.pairwise(numbers):
+        old, new = recorder.FORMATS[a], recorder.FORMATS[b]
+        assert new[:len(old)] == old and len(new) > len(old)
+    assert recorder.FORMATS[recorder.FORMAT] == tuple(c.name for c in telemetry.COLUMNS)
 
 
 def test_module_prints_the_column_list(capsys):
@@ -181,9 +223,10 @@ def test_other_suffixes_are_refused_by_name(tmp_path, name):
 
 
 def _drop_csv_column(src, dst, name):
-    rows = [line.split(",") for line in src.read_text().splitlines()]
+    first, *lines = src.read_text().splitlines()
+    rows = [line.split(",") for line in lines]
     k = rows[0].index(name)
-    dst.write_text("\n".join(",".join(r[:k] + r[k + 1:]) for r in rows) + "\n")
+    dst.write_text(first + "\n" + "\n".join(",".join(r[:k] + r[k + 1:]) for r in rows) + "\n")
 
 
 def test_csv_without_a_documented_column_is_refused_naming_it(tmp_path, table):
@@ -235,10 +278,10 @@ def test_not_a_parquet_file_is_refused(tmp_path):
 def test_csv_with_text_values_is_refused(tmp_path, table):
     src = telemetry_files.write(tmp_path / "t.csv", table[:3])
     lines = src.read_text().splitlines()
-    lines[2] = "abc" + lines[2][lines[2].index(","):]
+    lines[3] = "abc" + lines[3][lines[3].index(","):]
     src.write_text("\n".join(lines) + "\n")
     with pytest.raises(telemetry_files.TelemetryError,
-                       match=r"row 2 \(line 3\), column 'time \[s\]': 'abc' is not a number"):
+                       match=r"row 2 \(line 4\), column 'time \[s\]': 'abc' is not a number"):
         telemetry_files.read(src)
 
 
@@ -261,17 +304,17 @@ def _shuffled(t):
 
 
 @pytest.mark.parametrize("edit, words", [
-    (_set("rate_y", np.nan), "row 6 (line 7), column 'rate_y [rad/s]': nan is not a finite number"),
-    (_set("amp31", -np.inf), "row 6 (line 7), column 'amp31 [V]': -inf is not a finite number"),
-    (_set("time", 0.3), "row 6 (line 7), column 'time [s]': 0.3 does not follow 0.5"),
-    (_set("time", -0.1, 0), "row 1 (line 2), column 'time [s]': -0.1: mission time is >= 0"),
+    (_set("rate_y", np.nan), "row 6 (line 8), column 'rate_y [rad/s]': nan is not a finite number"),
+    (_set("amp31", -np.inf), "row 6 (line 8), column 'amp31 [V]': -inf is not a finite number"),
+    (_set("time", 0.3), "row 6 (line 8), column 'time [s]': 0.3 does not follow 0.5"),
+    (_set("time", -0.1, 0), "row 1 (line 3), column 'time [s]': -0.1: mission time is >= 0"),
     (_shuffled, "column 'time [s]': "),
-    (_set("mode", 9.0), ("row 6 (line 7), column 'mode [-]': 9.0 is not a mode code (1, 2, 3, 4, "
+    (_set("mode", 9.0), ("row 6 (line 8), column 'mode [-]': 9.0 is not a mode code (1, 2, 3, 4, "
                         "5, 6.1, 6.2, 6.3, 6.4, 6.5, 7)")),
     (_set("mode", 6.15), "6.15 is not a mode code"),
-    (_set("q_w", 1e308), "row 6 (line 7), column 'q_w [-]': quaternion [1e+308, "),
+    (_set("q_w", 1e308), "row 6 (line 8), column 'q_w [-]': quaternion [1e+308, "),
     (_set("q_x", 0.01), "is not of unit norm (within 1e-06)"),
-    (_set("counter16", 2.5), ("row 6 (line 7), column 'counter16 [pulses]': 2.5 is not an "
+    (_set("counter16", 2.5), ("row 6 (line 8), column 'counter16 [pulses]': 2.5 is not an "
                              "integer")),
     (_set("valve_yaw", 2.0), "column 'valve_yaw [-]': 2.0 is not one of -1, 0, 1"),
     (_set("star_present", 0.5), "column 'star_present [-]': 0.5 is not one of 0, 1"),
@@ -300,7 +343,8 @@ def test_values_no_mission_writes_are_refused(tmp_path, capsys, table, edit, wor
     (lambda p, t: p.mkdir(), "cannot read it: a directory, not a file"),
     (lambda p, t: None, "cannot read it: no such file"),
     (lambda p, t: p.write_text('time [s]\n"unclosed\n'), ("missing column 'mode [-]' (and 38 "
-                                                           "more); see docs/telemetry.md")),
+                                                           "more) of telemetry format 1; see "
+                                                           "docs/telemetry.md")),
 ])
 def test_files_that_are_not_csv_telemetry_are_refused(tmp_path, capsys, table, make, words):
     path = tmp_path / "t.csv"
@@ -333,8 +377,8 @@ def test_parquet_with_text_or_empty_cells_is_refused(tmp_path, table):
 def test_a_csv_row_of_the_wrong_width_is_refused(tmp_path, table):
     path = telemetry_files.write(tmp_path / "t.csv", table[:4])
     path.write_text(path.read_text() + "1.0,2.0\n")
-    with pytest.raises(telemetry_files.TelemetryError, match=r"row 5 \(line 6\): 2 fields, the "
-                                                             "header has 40"):
+    with pytest.raises(telemetry_files.TelemetryError, match=r"row 5 \(line 7\): 2 fields, the "
+                                                             "header has 51"):
         telemetry_files.read(path)
 
 
@@ -355,3 +399,66 @@ def test_run_refuses_a_bad_telemetry_suffix_before_flying(tmp_path, capsys):
     assert len(err.strip().splitlines()) == 1
     assert "Mode timeline" not in out  # refused before the mission was flown
     assert not (tmp_path / "tlm.xlsx").exists()
+
+
+# -- files of an earlier format -------------------------------------------------------------
+
+def _format1_csv(path, table):
+    """A file as allsky wrote it before the format number: format 1's columns, no number."""
+    n = len(recorder.FORMATS[1])
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(telemetry.header()[:n])
+        w.writerows([repr(float(v)) for v in row[:n]] for row in table)
+    return path
+
+
+def test_a_file_of_an_earlier_format_is_read_with_what_it_lacks_as_nan(tmp_path, table):
+    path = _format1_csv(tmp_path / "old.csv", table[:30])
+    back, names = telemetry_files.read(path)
+    n = len(recorder.FORMATS[1])
+    assert names == telemetry.header() and back.shape == (30, len(telemetry.COLUMNS))
+    assert np.array_equal(bits(back[:, :n]), bits(table[:30, :n]))
+    assert np.isnan(back[:, n:]).all()
+    old = pq.read_table(telemetry_files.write(tmp_path / "new.parquet", table[:30]))
+    old = old.select(telemetry.header()[:n]).replace_schema_metadata({})
+    pq.write_table(old, tmp_path / "old.parquet")
+    back, _ = telemetry_files.read(tmp_path / "old.parquet")
+    assert np.array_equal(bits(back[:, :n]), bits(table[:30, :n]))
+    assert np.isnan(back[:, n:]).all()
+
+
+def test_a_file_of_a_later_format_is_refused_in_one_line(tmp_path, table):
+    path = telemetry_files.write(tmp_path / "t.csv", table[:5])
+    text = path.read_text().replace(f"format {recorder.FORMAT}", f"format {recorder.FORMAT + 1}")
+    path.write_text(text)
+    with pytest.raises(telemetry_files.TelemetryError,
+                       match=f"telemetry format {recorder.FORMAT + 1}, written by a newer "
+                             "allsky"):
+        telemetry_files.read(path)
+    t = pq.read_table(telemetry_files.write(tmp_path / "t.parquet", table[:5]))
+    t = t.replace_schema_metadata({telemetry_files.PARQUET_FORMAT_KEY: b"9"})
+    pq.write_table(t, tmp_path / "later.parquet")
+    with pytest.raises(telemetry_files.TelemetryError, match="telemetry format 9"):
+        telemetry_files.read(tmp_path / "later.parquet")
+
+
+def test_an_earlier_format_file_with_a_later_column_is_refused(tmp_path, table):
+    """Format 1 never had the true error: such a file is not one allsky wrote."""
+    n = len(recorder.FORMATS[1])
+    path = tmp_path / "mixed.csv"
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(telemetry.header()[:n + 1])
+        w.writerows([repr(float(v)) for v in row[:n + 1]] for row in table[:3])
+    with pytest.raises(telemetry_files.TelemetryError,
+                       match=r"unexpected column 'true_error \[arcsec\]' of telemetry "
+                             "format 1"):
+        telemetry_files.read(path)
+
+
+def test_files_carry_their_format(tmp_path, table):
+    csv_path = telemetry_files.write(tmp_path / "t.csv", table[:3])
+    assert csv_path.read_text().splitlines()[0] == f"# allsky telemetry format {recorder.FORMAT}"
+    meta = pq.read_table(telemetry_files.write(tmp_path / "t.parquet", table[:3])).schema.metadata
+    assert meta[telemetry_files.PARQUET_FORMAT_KEY] == str(recorder.FORMAT).encode()

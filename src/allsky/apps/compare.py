@@ -18,6 +18,7 @@ from allsky.studies.compare import (
     label_percentiles,
 )
 from allsky.units import FRACTION2PPM
+from allsky.vocabulary import AXES as BODY_AXES
 
 
 def _fmt(v, spec=".1f"):
@@ -287,7 +288,7 @@ def format_kalman(result) -> str:
                  [(get(c, "scale_factor_error_ppm", ax) or {}).get("std") for c in cols])
     for k in CC_KEYS:
         line(f"{k} error [arcsec]", [get(c, "cross_coupling_error_arcsec", k) for c in cols])
-    for ax in ("roll", "pitch", "yaw"):
+    for ax in BODY_AXES:
         line(f"drift error {ax} [deg/h]", [get(c, "drift_error_deg_h", ax) for c in cols],
              ".4f")
     line("calibration time [s]", [get(c, "time_s") for c in cols], ".1f")

@@ -11,7 +11,9 @@
 * In ``docs/theory_of_operation.md``, the sections between
   ``<!-- BEGIN GENERATED: name -->`` and ``<!-- END GENERATED: name -->``:
   the mode table (:data:`allsky.sequencer.modes.MODE_TABLE`) and the switch
-  wiring.
+  wiring; in ``docs/journal.md`` the journal's kinds and saturations
+  (:data:`allsky.vocabulary.EVENT_KINDS`, :data:`~allsky.vocabulary.SATURATIONS`);
+  in ``docs/architecture.md`` the layers.
 * ``docs/img/block_diagram.png``: the block diagram, boxes from the block
   table, switch labels from the wiring table, positions from
   :mod:`allsky.apps.diagram_layout`.
@@ -39,6 +41,7 @@ from allsky.config.meanings import (  # noqa: F401 - re-exported for the docs
 )
 from allsky.hardware import blocks, switch_bank, wiring
 from allsky.sequencer import modes
+from allsky.vocabulary import AXES, EVENT_KINDS, SATURATIONS
 
 
 def default_toml_text() -> str:
@@ -256,7 +259,7 @@ def wiring_reference() -> str:
             "by hand."), "",
            "| switch | connects, when closed | axis | coupled with |", "|---|---|---|---|"]
     for sw in wiring.SWITCHES:
-        axis = wiring.AXES[sw.axis] if sw.axis != wiring.NONE else "selector: all three"
+        axis = AXES[sw.axis] if sw.axis != wiring.NONE else "selector: all three"
         mate = f"S{sw.coupled_with}" if sw.coupled_with else "-"
         out.append(f"| S{sw.number} | {sw.text} | {axis} | {mate} |")
     return "\n".join(out) + "\n"
@@ -314,11 +317,27 @@ def _switch_rows() -> list:
     return out
 
 
+def journal_reference() -> str:
+    """The journal's kinds and fields (:data:`allsky.vocabulary.EVENT_KINDS`), a table."""
+    lines = ["| kind | fields beside `t_s`, `mode`, `kind` |", "|---|---|"]
+    lines += [f"| `{k.name}` | {k.fields} |" for k in EVENT_KINDS]
+    return "\n".join(lines) + "\n"
+
+
+def saturations_reference() -> str:
+    """The saturations the journal records (:data:`allsky.vocabulary.SATURATIONS`)."""
+    lines = ["| `what` | blocks | meaning |", "|---|---|---|"]
+    lines += [f"| `{name}` | {', '.join(blocks)} | {meaning} |"
+              for name, (blocks, meaning) in SATURATIONS.items()]
+    return "\n".join(lines) + "\n"
+
+
 PAGES = {"configuration.md": config_reference, "cli.md": cli_reference,
          "blocks.md": blocks_reference}
 #: Generated sections inside hand-written pages: page -> {section name: generator}.
 SECTIONS = {"theory_of_operation.md": {"modes": mode_reference, "wiring": wiring_reference},
-            "architecture.md": {"layers": architecture.layers_table}}
+            "architecture.md": {"layers": architecture.layers_table},
+            "journal.md": {"kinds": journal_reference, "saturations": saturations_reference}}
 
 
 def fill_sections(text: str, sections: dict) -> str:

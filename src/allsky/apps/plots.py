@@ -40,8 +40,8 @@ from allsky.hardware import switch_bank, wiring
 from allsky.sequencer.modes import MODE_CODE
 from allsky.sim.telemetry import INDEX, switch_closed
 from allsky.vehicle import quaternion
+from allsky.vocabulary import AXES
 
-AXES = ("roll", "pitch", "yaw")
 AXIS_COLOURS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
 #: [in] figure size at report width, and [dpi] of the PNG files.
 FIGSIZE_IN = (10.0, 7.0)
@@ -156,14 +156,21 @@ def dither_span(table: np.ndarray):
 def final_pointing_error_arcsec(summary):
     """The true final pointing error [arcsec] of a mission summary, or None.
 
-    It is the angle between the body roll axis and the target at the end of
-    the mission, computed by the simulator from the true attitude; the
-    telemetry alone cannot give it (the sensors and CPU 22 see only their
-    own errors).
+    It is the angle between the body roll axis and the target flown last at
+    the end of the mission (the summary's ``end``), computed by the
+    simulator from the true attitude; the sensors and CPU 22 see only their
+    own errors.
     """
     if summary is None:
         return None
+    if summary.get("end"):
+        return summary["end"]["true_pointing_error_arcsec"]
     return (summary.get("target") or {}).get("pointing_error_arcsec")
+
+
+def _true_error_recorded(table) -> bool:
+    """Whether the telemetry holds the true error (a file of format 2 or later)."""
+    return not np.isnan(_col(table, "true_error")).any()
 
 
 def attitude_errors(table: np.ndarray, summary=None) -> Figure:
@@ -175,18 +182,21 @@ def attitude_errors(table: np.ndarray, summary=None) -> Figure:
     only while the Sun or star is present, CPU errors only in Modes 6-1/6-2.
     Symmetric-log scale: linear within +-10 arcsec.
 
-    With a ``summary`` that holds the true final pointing error, a row
-    "Pointing error" draws CPU 22's own estimate sqrt(pitch^2 + yaw^2) in
-    Mode 6 and marks the truth at the end of the record. When the telemetry
+    A row "Pointing error" draws, in Mode 6 and the hold, CPU 22's own
+    estimate sqrt(pitch^2 + yaw^2) beside the true error to the target
+    (the telemetry's ``true_error``), and with a ``summary`` marks the truth
+    at the end of the flight. When the telemetry
     holds a dither hold, a last row shows the hold on a linear scale, where
     the sinusoids keep their shape (symlog bends them at +-10 arcsec).
     """
     t = _col(table, "time")
     signals = _sensor_signals(table)
     pointing_arcsec = final_pointing_error_arcsec(summary)
+    truth = _true_error_recorded(table)
+    pointing = pointing_arcsec is not None or truth
     span = dither_span(table)
-    rows = 3 + (pointing_arcsec is not None) + (span is not None)
-    ratios = [1.0, 1.0, 1.0] + [0.8] * (pointing_arcsec is not None) + [1.1] * (span is not None)
+    rows = 3 + pointing + (span is not None)
+    ratios = [1.0, 1.0, 1.0] + [0.8] * pointing + [1.1] * (span is not None)
     fig = Figure(figsize=(FIGSIZE_IN[0], FIGSIZE_IN[1] + 1.9 * (rows - 3)), layout="constrained")
     grid = fig.add_gridspec(rows, 1, height_ratios=ratios)
     fig.suptitle("Attitude errors by axis (modes shaded)", fontsize=12)
@@ -204,10 +214,10 @@ def attitude_errors(table: np.ndarray, summary=None) -> Figure:
                      pad=TITLE_PAD_PT if i == 0 else None)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    if pointing_arcsec is not None:
+    if pointing:
         ax = fig.add_subplot(grid[3, 0], sharex=timeline[0])
         timeline.append(ax)
-        _pointing_panel(ax, table, spans, float(pointing_arcsec))
+        _pointing_panel(ax, table, spans, pointing_arcsec, truth)
     for ax in timeline[:-1]:
         ax.tick_params(labelbottom=False)
     timeline[-1].set_xlabel("mission time [s]")
@@ -216,23 +226,28 @@ def attitude_errors(table: np.ndarray, summary=None) -> Figure:
     return fig
 
 
-def _pointing_panel(ax, table, spans, pointing_arcsec):
-    """CPU 22's pitch/yaw error magnitude in Mode 6, and the true final pointing error."""
+def _pointing_panel(ax, table, spans, pointing_arcsec, truth):
+    """CPU 22's pitch/yaw error magnitude in Mode 6 beside the true error, and the end."""
     t = _col(table, "time")
     _shade_modes(ax, spans, label=False)
     cpu = _cpu_modes(_col(table, "mode"))
     believed = np.hypot(_col(table, "error_pitch"), _col(table, "error_yaw"))
     ax.plot(t, _masked(believed, cpu & (believed > 0.0)), lw=0.8, color="black",
             label="CPU 22 √(pitch² + yaw²) error")
-    ax.plot([t[-1]], [pointing_arcsec], marker="*", ms=13, ls="none", color="tab:red",
-            mec="black", mew=0.5, zorder=5,
-            label="true final pointing error\n(roll axis to target, summary)")
-    ax.annotate(f"true final pointing error {pointing_arcsec:.1f}″", (t[-1], pointing_arcsec),
-                xytext=(-8, 8), textcoords="offset points", ha="right", va="bottom",
-                fontsize=9, color="tab:red", fontweight="bold")
+    if truth:
+        true_error = _col(table, "true_error")
+        ax.plot(t, _masked(true_error, cpu & (true_error > 0.0)), lw=1.0, color="tab:red",
+                label="true error, roll axis to target")
+    if pointing_arcsec is not None:
+        ax.plot([t[-1]], [pointing_arcsec], marker="*", ms=13, ls="none", color="tab:red",
+                mec="black", mew=0.5, zorder=5,
+                label="true final pointing error\n(roll axis to target, summary)")
+        ax.annotate(f"true final pointing error {pointing_arcsec:.1f}″",
+                    (t[-1], pointing_arcsec), xytext=(-8, 8), textcoords="offset points",
+                    ha="right", va="bottom", fontsize=9, color="tab:red", fontweight="bold")
     ax.set_yscale("log")
     ax.set_ylabel("pointing error [arcsec]")
-    ax.set_title("Pointing error: CPU 22's estimate, and the truth at the end", fontsize=10,
+    ax.set_title("Pointing error: CPU 22's estimate beside the truth", fontsize=10,
                  loc="left")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))

@@ -60,6 +60,8 @@ def fly(m, quiet=False, stream=None):
         return m.run()
     from tqdm import tqdm
 
+    from allsky.sim.mission import Hooks
+
     columns, lines = _fixed_size(stream)
     with tqdm(total=len(m.plan), initial=m.next_mode, unit="mode", file=stream,
               leave=False, dynamic_ncols=columns is None and lines is None, ncols=columns,
@@ -72,15 +74,11 @@ def fly(m, quiet=False, stream=None):
             bar.set_description_str(f"Mode {name} {MODE_TITLE[name]}, "
                                     f"t = {m.state.time_s[0]:.0f} s{note}")
 
-        m.pause_every_s = PROGRESS_EVERY_S
-        m.on_pause = m.on_slice = lambda mm, what: describe()
-        try:
-            while not m.finished:
-                describe(first_use=first)
-                first = False
-                m.run_mode()
-                bar.update(1)
-        finally:
-            m.pause_every_s = None
-            m.on_pause = m.on_slice = None
+        hooks = Hooks(pause_every_s=PROGRESS_EVERY_S, on_pause=lambda mm, what: describe(),
+                      on_slice=lambda mm, what: describe())
+        while not m.finished:
+            describe(first_use=first)
+            first = False
+            m.run_mode(hooks)
+            bar.update(1)
     return m.summary()

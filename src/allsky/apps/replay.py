@@ -1,14 +1,16 @@
 """The mission replay: one self-contained HTML page that plays a flown mission.
 
 :func:`replay_data` turns a telemetry table (and, when given, the mission
-summary and the scenario) into compact JSON: the columns the page shows,
-the block diagram's layout (:mod:`allsky.apps.diagram_layout`, boxes named
-from :data:`allsky.hardware.blocks.BLOCKS`), the wiring table
+summary and the scenario) into compact JSON: the columns the page shows
+(as the telemetry schema, :data:`allsky.sim.recorder.COLUMNS`, says to
+carry each), the block diagram's layout (:mod:`allsky.apps.diagram_layout`,
+boxes named from :data:`allsky.hardware.blocks.BLOCKS`), the wiring table
 (:data:`allsky.hardware.wiring.SWITCHES`), the mode table's titles and
-sentences, the event log (:mod:`allsky.apps.replay_events`), the sky (Sun,
-catalog, every target with the times it was flown, tracker slit) and the
-word registers 23 and 24: one entry per write, so a mission that recycles
-shows each calibration and each target's programmed angles in turn.
+sentences, the mission's journal (the summary's ``events``) and the event
+log made from it (:mod:`allsky.apps.events`), the sky (Sun, catalog, every
+target with the times it was flown, tracker slit) and the word registers 23
+and 24 as the journal recorded each write, so a mission that recycles shows
+each calibration and each target's programmed angles in turn.
 :func:`render_html` inlines the page's style and scripts
 (``replay_page/``) and the data into one file; :func:`write_replay` writes
 it. The page makes no network request: a Content-Security-Policy allows
@@ -34,34 +36,24 @@ from pathlib import Path
 
 import numpy as np
 
-from allsky import units
 from allsky.apps import diagram_layout as layout
-from allsky.apps import replay_events
-from allsky.computer import calibration_sequencer as cal19
-from allsky.computer import cpu
-from allsky.computer import word_registers as wr
+from allsky.apps import events as event_words
 from allsky.hardware import blocks, wiring
 from allsky.sequencer import modes
-from allsky.sim.telemetry import INDEX
+from allsky.sim import recorder
+from allsky.sim.telemetry import COLUMNS, INDEX
 
 #: Version of the page's data block.
 DATA_FORMAT = 2
 #: Rows above which the continuous columns are thinned (the exact ones never are).
 MAX_CONTINUOUS_ROWS = 60_000
-#: Continuous columns: name -> scale (stored as round(value * scale), delta-encoded).
-CONTINUOUS = {
-    "q_w": 1e5, "q_x": 1e5, "q_y": 1e5, "q_z": 1e5,
-    "rate_x": units.RAD2ARCSEC, "rate_y": units.RAD2ARCSEC, "rate_z": units.RAD2ARCSEC,
-    "sun_pitch": 10.0, "sun_yaw": 10.0, "tracker_yaw": 10.0, "tracker_pitch": 10.0,
-    "error_roll": 10.0, "error_pitch": 10.0, "error_yaw": 10.0,
-    "corrected_roll": 10.0, "corrected_yaw": 10.0, "intermediate_pitch": 10.0,
-    "amp31": 1e4, "amp32": 1e4, "amp33": 1e4, "propellant": 1e5,
-}
+#: Continuous columns: name -> scale (stored as round(value * scale), delta-encoded), as
+#: the telemetry schema says.
+CONTINUOUS = {c.name: c.replay for c in COLUMNS if isinstance(c.replay, float)}
 #: Integer columns kept exactly at every row (delta-encoded).
-EXACT = ("counter14", "counter16", "counter18", "drift_counter13", "drift_counter15",
-         "drift_counter17", "register25", "register26", "register27")
+EXACT = tuple(c.name for c in COLUMNS if c.replay == recorder.EXACT)
 #: Flag columns kept as runs ``[[first row, value], ...]``.
-RUNS = ("mode", "switches", "sun_present", "star_present", "overflow")
+RUNS = tuple(c.name for c in COLUMNS if c.replay == recorder.RUNS)
 #: The page's parts, inlined in this order.
 STYLE_FILES = ("replay.css",)
 SCRIPT_FILES = ("util.js", "diagram.js", "vehicle3d.js", "skymap.js", "traces.js", "main.js")
@@ -86,11 +78,13 @@ def _encode_columns(table) -> dict:
     stride = max(1, math.ceil(n / MAX_CONTINUOUS_ROWS))
     t_ms = np.round(table[:, INDEX["time"]] * 1000.0).astype(np.int64)
     cont_rows = np.arange(0, n, stride)
+    # Columns a file of an earlier telemetry format lacks (NaN) are left out.
+    recorded = {c.name for c in COLUMNS if not np.isnan(table[:, INDEX[c.name]]).any()}
     out = {"n": n, "t_ms": _delta(t_ms), "stride": stride,
-           "exact": {c: _delta(np.round(table[:, INDEX[c]])) for c in EXACT},
-           "runs": {c: _runs(table[:, INDEX[c]]) for c in RUNS},
+           "exact": {c: _delta(np.round(table[:, INDEX[c]])) for c in EXACT if c in recorded},
+           "runs": {c: _runs(table[:, INDEX[c]]) for c in RUNS if c in recorded},
            "cont": {c: {"scale": s, "d": _delta(np.round(table[cont_rows, INDEX[c]] * s))}
-                    for c, s in CONTINUOUS.items()},
+                    for c, s in CONTINUOUS.items() if c in recorded},
            "selector": "".join("012"[int(v)] for v in table[:, INDEX["s7_s8"]]),
            "valves": ["".join("012"[int(v) + 1] for v in table[:, INDEX[c]])
                       for c in ("valve_roll", "valve_pitch", "valve_yaw")]}
@@ -148,23 +142,13 @@ def diagram() -> dict:
             "extent": layout.EXTENT}
 
 
-def _mode_steps(action):
-    """Mode name -> args of its ``Do(action)`` steps, for the modes that have one."""
-    out = {}
-    for m in modes.MODE_TABLE:
-        found = [s.args for s in m.steps if isinstance(s, modes.Do) and s.action == action]
-        if found:
-            out[m.name] = found
-    return out
-
-
 def _targets(cfg, summary, timeline, t_end_s) -> list:
     """Every target begun, in flight order: name, direction, when it was flown.
 
-    The summary's ``targets`` (or its one ``target``) when given, with their
-    start times; else the scenario's, each begun by the first mode flown
-    after the last target's Mode 6-2 (and hold). A target ends where the
-    next begins, or with the record.
+    The summary's ``targets`` (or its one ``target``), as the mission
+    recorded them; without a summary, the scenario's, each begun as the
+    telemetry's mode column first shows a new Mode 6-1 after a Mode 6-2 (or
+    hold). A target ends where the next begins, or with the record.
     """
     from allsky.sim import mission
     from allsky.vehicle import sky
@@ -177,7 +161,7 @@ def _targets(cfg, summary, timeline, t_end_s) -> list:
         if flown and r["mode"] not in (modes.TARGET_MODES[-1], modes.HOLD_MODE):
             starts.append(r["start_s"])
         flown = r["mode"] in (modes.TARGET_MODES[-1], modes.HOLD_MODE)
-    count = max(len(records), min(len(starts), len(specs)))
+    count = len(records) if records else min(len(starts), len(specs))
     out = []
     for k in range(count):
         rec = dict(records[k]) if k < len(records) else {}
@@ -207,13 +191,11 @@ def target_at(targets, t_s) -> dict:
 
 def _sky(cfg, summary, targets) -> dict:
     """Sun, catalog, targets and tracker slit for the sky map and the 3-D view."""
-    from allsky.sim import mission
     from allsky.vehicle import sky
 
     date = cfg.mission.date_utc
     lo, hi = cfg.star_tracker.magnitude_window
-    params = mission.build_params(cfg)  # the Sun the mission flew with
-    s0, sdot = params.sun0_inertial, params.sun_rate_inertial
+    s0, sdot = sky.sun_motion(date)  # the Sun the frame loop flew with
     reference = (summary or {}).get("reference_star") or cfg.star_tracker.reference_star
     stars = [{"name": s["name"], "ra": round(s["ra_deg"], 3), "dec": round(s["dec_deg"], 3),
               "mag": s["magnitude"], "win": s["in_window"]}
@@ -228,96 +210,22 @@ def _sky(cfg, summary, targets) -> dict:
             "sun_cone_half_deg": float(cfg.sun_sensor.presence_half_angle_deg)}
 
 
-#: Register 23 word -> its slot (:mod:`allsky.computer.word_registers`), in page order.
-WORD23 = {"sf_roll": wr.SF_ROLL, "sf_yaw": wr.SF_YAW, "roll_into_pitch": wr.ROLL_INTO_PITCH,
-          "roll_into_yaw": wr.ROLL_INTO_YAW, "yaw_into_pitch": wr.YAW_INTO_PITCH,
-          "yaw_into_roll": wr.YAW_INTO_ROLL}
-#: Register 23 words each calibration writes: a turn's axis, or "all" (the dither).
-WORDS_WRITTEN = {"roll": ("sf_roll", "roll_into_pitch", "roll_into_yaw"),
-                 "yaw": ("sf_yaw", "yaw_into_pitch", "yaw_into_roll"), "all": tuple(WORD23)}
+def _registers(events) -> dict:
+    """Registers 23 and 24 as the journal recorded each write (:func:`register_history`).
 
-
-def _words(w) -> dict:
-    return {name: float(w[slot]) for name, slot in WORD23.items()}
-
-
-def _counted_words(table, record, axis, cfg):
-    """Register 23's words of ``axis`` from the counters at the turn's last row, or None.
-
-    Calibration sequencer 19 reads counters 14/16/18 at the last frame of the
-    turn; the last telemetry row is at most one interval earlier, so these
-    words differ from the stored ones by the few pulses counted in between.
-    The true angle is the whole number of turns counted (one, or with
-    ``sequencer.recovery`` the nearest whole number), of the counter's sign.
+    Register 23's entries carry ``source``: "start" (neutral at ejection),
+    "withheld" (made neutral, ``calibration.apply`` false) or "journal".
+    Without a journal (no summary) nothing is known of them.
     """
-    t = table[:, INDEX["time"]]
-    i = int(np.searchsorted(t, record["end_s"] + 1e-6, side="right")) - 1
-    code = modes.MODE_CODE[record["mode"]]
-    if i < 0 or t[i] < record["start_s"] - 1e-6 or abs(table[i, INDEX["mode"]] - code) > 1e-6:
-        return None
-    counts = np.array([table[i, INDEX[c]] for c in ("counter14", "counter16", "counter18")])
-    counts_arcsec = counts * cfg.electronics.vfc_pulse_weight_arcsec
-    turned = counts_arcsec[0 if axis == "roll" else 2]
-    if turned == 0.0:
-        return None
-    turns = (max(1, round(abs(turned) / cal19.FULL_TURN_ARCSEC)) if cfg.sequencer.recovery
-             else 1)
-    w = wr.neutral_computed()
-    calibrate = cpu.calibrate_roll if axis == "roll" else cpu.calibrate_yaw
-    calibrate(w, counts_arcsec, math.copysign(turns * cal19.FULL_TURN_ARCSEC, turned))
-    return _words(w)
-
-
-def _registers(summary, timeline, cfg, table, targets) -> dict:
-    """Register 23's calibration words and register 24's angles, with when they were written.
-
-    Every calibration flown writes its words when its mode ends (a mission
-    that recycles calibrates once per target). The words the summary holds
-    are the last ones written; each earlier one is computed from the
-    counters (:func:`_counted_words`). ``source`` says which: "start"
-    (neutral at ejection), "summary", "counters", "withheld" (neutral,
-    ``calibration.apply`` false) or "later" (an earlier dither analysis,
-    whose estimates the summary does not keep: the last one's words shown).
-    """
-    words = [{"t_s": 0.0, "source": "start", **_words(wr.neutral_computed())}]
-    if summary is None:
-        return {"23": words, "24": [], "known": False}
-    cal = summary.get("calibration")
-    applied = summary.get("calibration_applied", True)
-    stored = None
-    if cal and applied:
-        sf, cc = cal["scale_factor"], cal["cross_coupling"]
-        stored = {"sf_roll": sf["roll"], "sf_yaw": sf["yaw"], **cc}
-    writers = {name: [a[0] if a else "all" for a in args]
-               for name, args in {**_mode_steps("calibration_sequencer"),
-                                  **_mode_steps("dither_analysis")}.items()}
-    withholders = _mode_steps("withhold_calibration")
-    flown = [r for r in timeline if not r["exit"].startswith("aborted")]
-    last = {axis: max((k for k, r in enumerate(flown) if axis in writers.get(r["mode"], ())),
-                      default=None) for axis in WORDS_WRITTEN}
-    for k, r in enumerate(flown):
-        if r["mode"] in withholders and not applied:
-            words.append({**words[-1], "t_s": r["start_s"], "source": "withheld",
-                          **_words(wr.neutral_computed())})
-        for axis in writers.get(r["mode"], ()):
-            if stored is not None and k == last[axis]:
-                new, source = stored, "summary"
-            elif axis == "all":
-                new, source = stored, "later"
-            else:
-                new, source = _counted_words(table, r, axis, cfg), "counters"
-            if new is not None:
-                words.append({**words[-1], "t_s": r["end_s"], "source": source,
-                              **{w: new[w] for w in WORDS_WRITTEN[axis]}})
-    # Register 24 is loaded at the start of each Mode 6-1 with the angles of its target.
-    loaders = _mode_steps("load_register_24")
-    programmed = []
-    for r in timeline:
-        tgt = target_at(targets, r["start_s"])
-        if r["mode"] in loaders and tgt["programmed_roll_deg"] is not None:
-            programmed.append({"t_s": r["start_s"], "roll_deg": tgt["programmed_roll_deg"],
-                               "yaw_deg": tgt["programmed_yaw_deg"], "target": tgt["name"]})
-    return {"23": words, "24": programmed, "known": True}
+    if events is None:
+        return {"23": [{"t_s": 0.0, "source": "start",
+                        **event_words.register_history([])["23"][0]}], "24": [],
+                "known": False}
+    history = event_words.register_history(events)
+    words23 = [{**w, "source": "start" if w["by"] is None else
+                ("withheld" if w["by"] == "withhold_calibration" else "journal")}
+               for w in history["23"]]
+    return {"23": words23, "24": history["24"], "known": True}
 
 
 def _timeline(table, summary, cfg) -> list:
@@ -325,7 +233,7 @@ def _timeline(table, summary, cfg) -> list:
     if summary and summary.get("modes"):
         return [dict(r) for r in summary["modes"]]
     t = table[:, INDEX["time"]]
-    runs = replay_events.mode_runs(table)
+    runs = mode_runs(table)
     out = []
     for k, (row, name) in enumerate(runs):
         end = t[runs[k + 1][0]] if k + 1 < len(runs) else t[-1]
@@ -334,6 +242,14 @@ def _timeline(table, summary, cfg) -> list:
         out.append({"mode": name, "start_s": float(t[row]), "end_s": float(end),
                     "exit": exit_text})
     return out
+
+
+def mode_runs(table):
+    """Runs of equal mode code in the telemetry: ``[(first row, mode name), ...]``."""
+    code = table[:, INDEX["mode"]]
+    names = {round(c, 6): n for n, c in modes.MODE_CODE.items()}
+    cuts = np.r_[0, np.flatnonzero(np.diff(code) != 0) + 1] if len(code) else []
+    return [(int(i), names.get(round(float(code[i]), 6), "?")) for i in cuts]
 
 
 def _config(cfg, table) -> dict:
@@ -380,8 +296,8 @@ def replay_data(table, summary=None, cfg=None) -> dict:
         exit_text = next((r["exit"] for r in timeline if r["mode"] == m.name),
                          m.exit.format(cfg=cfg))
         mode_info[m.name] = {"code": m.code, "title": m.title,
-                             "sentence": replay_events.mode_sentence(m.name, exit_text),
-                             "look": replay_events.LOOK_FOR.get(m.name, "")}
+                             "sentence": event_words.mode_sentence(m.name, exit_text),
+                             "look": event_words.LOOK_FOR.get(m.name, "")}
     config = _config(cfg, table)
     info = {k: summary.get(k) for k in ("status", "abort_reason", "propellant_kg",
                                         "mission_time_s", "seed", "locked_star",
@@ -390,15 +306,16 @@ def replay_data(table, summary=None, cfg=None) -> dict:
         info["pointing_error_arcsec"] = (summary.get("target") or {}).get(
             "pointing_error_arcsec")
     targets = _targets(cfg, summary, timeline, float(table[-1, INDEX["time"]]))
-    registers = _registers(summary, timeline, cfg, table, targets)
+    journal = (summary or {}).get("events")
+    registers = _registers(journal)
     return {"format": DATA_FORMAT, "columns": _encode_columns(table), "timeline": timeline,
-            "modes": mode_info, "events": replay_events.events(table, timeline),
-            "diagram": diagram(), "sky": _sky(cfg, summary, targets),
+            "modes": mode_info, "events": event_words.page_log(journal or []),
+            "journal": journal or [], "diagram": diagram(), "sky": _sky(cfg, summary, targets),
             "registers": registers, "config": config,
-            "summary": info, "notes": notes(config, registers)}
+            "summary": info, "notes": notes(config, journal is not None)}
 
 
-def notes(config, registers=None) -> list:
+def notes(config, journal=True) -> list:
     """What the telemetry interval hides, in words, for the page."""
     dt = config["interval_s"]
     out = [(f"Telemetry is one row every {dt:g} s (the loop runs every "
@@ -406,19 +323,16 @@ def notes(config, registers=None) -> list:
            (f"Jet pulses shorter than {dt:g} s (the shortest is "
             f"{config['min_on_time_s']:g} s) fall between rows: a jet lights only when a row "
             "catches its valve open, so the lit jets are samples, not every pulse."),
-           (f"A switch moves at a frame between two rows: its time is known to {dt:g} s; "
-            "steps of the mode table inside one interval show as one change."),
+           ("The switch bank drawn is the row's: a switch moves at a frame between two "
+            "rows (its time, to the frame, is in the event log)."),
            ("S7/S8 step every frame or few in the CPU modes: the selector shown is the "
             "contact sampled at each row.")]
-    sources = {w["source"] for w in (registers or {}).get("23", ())}
-    if "counters" in sources:
-        out.append("Register 23: the summary keeps the last words written; those of an earlier "
-                   "calibration are computed here from counters 14/16/18 at the last row of "
-                   f"its turn, up to {dt:g} s before sequencer 19 read them (a few pulses; "
-                   "marked \u2248).")
-    if "later" in sources:
-        out.append("Register 23: an earlier dither analysis's words are not kept; the last "
-                   "analysis's are shown in their place (marked ?).")
+    if journal:
+        out.append("The event log and registers 23 and 24 are the mission's journal: each "
+                   "entry at the frame it happened, not at a telemetry row.")
+    else:
+        out.append("No summary was given: without its journal the page shows no event log "
+                   "and no register 23 or 24 words (allsky replay ... --summary JSON).")
     return out
 
 

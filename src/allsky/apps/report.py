@@ -4,13 +4,18 @@ import json
 import sys
 
 from allsky.apps import telemetry_files
+from allsky.sim.journal import DRIFT_DAC
 from allsky.sim.results import calibration_errors
 from allsky.units import RAD2ARCSEC
+from allsky.vocabulary import AXES
 
 
 def format_report(summary: dict, tracker_star=None) -> str:
     """A plain-text report of a mission summary (:meth:`Mission.summary`).
 
+    The machine's judgement (status, the mode timeline, the computer's
+    calibration) and, beside it, what happened: the drift each DAC applies,
+    the truth at the end of the flight (``end``), and the ``warnings``.
     ``tracker_star`` (:class:`allsky.vehicle.sky.Star`), when given, is named
     as the planned reference star; one line says so when the tracker locked
     another star.
@@ -21,26 +26,14 @@ def format_report(summary: dict, tracker_star=None) -> str:
     lines = [f"allsky mission: {status}"]
     if summary["abort_reason"]:
         lines.append(f"  abort reason: {summary['abort_reason']}")
+    warnings = summary.get("warnings") or []
+    if warnings:
+        lines += ["", f"Warnings ({len(warnings)})"] + [f"  ! {w}" for w in warnings]
     lines += ["", "Mode timeline", f"  {'mode':<5}{'start s':>9}{'end s':>9}{'dur s':>8}  exit"]
     for r in summary["modes"]:
         lines.append(f"  {r['mode']:<5}{r['start_s']:>9.1f}{r['end_s']:>9.1f}"
                      f"{r['end_s'] - r['start_s']:>8.1f}  {r['exit']}")
-    cal, truth = summary["calibration"], summary["truth"]
-    if cal is not None:
-        lines += ["", "Calibration (stored)      measured        truth        error"]
-        err = calibration_errors(cal, truth)
-        for ax in ("roll", "pitch", "yaw"):
-            m, t = cal["drift_deg_h"][ax], truth["drift_deg_h"][ax]
-            e = err["drift_deg_h"][ax]
-            lines.append(f"  drift {ax:<6} [deg/h] {m:>12.4f} {t:>12.4f} {e:>+12.4f}")
-        for ax in ("roll", "yaw"):
-            m, t = cal["scale_factor"][ax], truth["scale_factor"][ax]
-            e = err["scale_factor_ppm"][ax]
-            lines.append(f"  scale factor {ax:<4}    {m:>12.7f} {t:>12.7f} {e:>+9.1f} ppm")
-        for k, t in truth["cross_coupling"].items():
-            m, e = cal["cross_coupling"][k], err["cross_coupling_arcsec"][k]
-            lines.append(f"  {k:<16}[arcsec] {m * RAD2ARCSEC:>9.2f} {t * RAD2ARCSEC:>12.2f}"
-                         f" {e:>+12.2f}")
+    lines += _calibration_lines(summary)
     tgt = summary["target"]
     name = tgt.get("star") or (f"RA {tgt['ra_deg'] / 15.0:.3f} h, "
                                f"Dec {tgt['dec_deg']:+.2f} deg")
@@ -56,43 +49,95 @@ def format_report(summary: dict, tracker_star=None) -> str:
     if tgt["programmed_roll_deg"] is not None:
         lines.append(f"  programmed roll {tgt['programmed_roll_deg']:+.4f} deg, "
                      f"yaw {tgt['programmed_yaw_deg']:+.4f} deg")
-    if tgt["pointing_error_arcsec"] is not None:
-        applied = "" if summary["calibration_applied"] else " (calibration NOT applied)"
-        lines.append(f"  final pointing error {tgt['pointing_error_arcsec']:.1f} arcsec{applied}")
-    lines += _targets_lines(summary.get("targets"))
-    hold = summary.get("hold")
+    targets = summary.get("targets") or []
+    lines += _targets_lines(targets)
+    hold = (targets[-1].get("hold") if targets else None) or summary.get("hold")
     if hold is not None:
         drift = hold["drift_arcsec_per_min"]
-        lines += ["", f"Hold on target ({hold['hold_s']:.1f} s, gyros alone)",
+        on = f" on {targets[-1]['name']}" if len(targets) > 1 else ""
+        lines += ["", f"Hold on target{on} ({hold['hold_s']:.1f} s, gyros alone)",
                   (f"  pointing error {hold['start_pointing_error_arcsec']:.1f} arcsec at the "
                    f"start, {hold['end_pointing_error_arcsec']:.1f} arcsec at the end"),
                   "  drift [arcsec/min] " + ", ".join(f"{ax} {drift[ax]:+.3f}"
-                                                      for ax in ("roll", "pitch", "yaw"))]
-    lines += ["", (f"Propellant used {summary['propellant_kg']:.3f} kg; "
-                  f"mission time {summary['mission_time_s']:.1f} s")]
+                                                      for ax in AXES)]
+    lines += _end_lines(summary)
     flagged = [k for k, v in summary["counter_overflow"].items() if v]
     if flagged:
         lines.append(f"Counter overflow flagged: {', '.join(flagged)}")
     return "\n".join(lines)
 
 
+def _calibration_lines(summary) -> list:
+    """The calibration: counted and applied drift, register 23, each beside the truth."""
+    cal, truth = summary["calibration"], summary["truth"]
+    if cal is None:
+        return []
+    err = calibration_errors(cal, truth)
+    applied = cal.get("drift_applied_deg_h", cal["drift_deg_h"])
+    clipped = summary.get("drift_dac_clipped") or {}
+    lines = ["", "Calibration             counted      applied        truth  error (applied)"]
+    for ax in AXES:
+        m, a, t = cal["drift_deg_h"][ax], applied[ax], truth["drift_deg_h"][ax]
+        flag = "  CLIPPED" if clipped.get(ax) else ""
+        lines.append(f"  drift {ax:<6}[deg/h] {m:>10.4f} {a:>12.4f} {t:>12.4f} "
+                     f"{err['drift_deg_h'][ax]:>+12.4f}{flag}")
+    for ax in AXES:
+        if clipped.get(ax):
+            lines.append(f"  ! drift DAC {DRIFT_DAC[AXES.index(ax)]} ({ax}) applies its full "
+                         f"scale {applied[ax]:+.4f} deg/h, not the {cal['drift_deg_h'][ax]:+.4f}"
+                         " deg/h counted")
+    lines.append("                         stored                     truth        error")
+    for ax in ("roll", "yaw"):
+        m, t = cal["scale_factor"][ax], truth["scale_factor"][ax]
+        e = err["scale_factor_ppm"][ax]
+        lines.append(f"  scale factor {ax:<4}    {m:>12.7f} {t:>25.7f} {e:>+9.1f} ppm")
+    for k, t in truth["cross_coupling"].items():
+        m, e = cal["cross_coupling"][k], err["cross_coupling_arcsec"][k]
+        lines.append(f"  {k:<16}[arcsec] {m * RAD2ARCSEC:>9.2f} {t * RAD2ARCSEC:>25.2f}"
+                     f" {e:>+12.2f}")
+    return lines
+
+
+def _end_lines(summary) -> list:
+    """The truth at the end of the flight: the last target, its true error, rates, gas."""
+    end = summary.get("end")
+    if end is None:  # a summary written before the journal
+        return ["", (f"Propellant used {summary['propellant_kg']:.3f} kg; "
+                     f"mission time {summary['mission_time_s']:.1f} s")]
+    applied = "" if summary["calibration_applied"] else " (calibration NOT applied)"
+    rates = end["body_rate_deg_s"]
+    final = "final" if summary["status"] != "running" else "at the stop,"
+    return ["", f"End (what really happened) at t = {end['t_s']:.1f} s, Mode {end['mode']}",
+            (f"  {final} true pointing error {end['true_pointing_error_arcsec']:.1f} arcsec "
+             f"to {end['target']}{applied}"),
+            "  body rates [deg/s] " + ", ".join(f"{ax} {rates[ax]:+.5f}" for ax in AXES),
+            (f"  propellant used {end['propellant_kg']:.3f} kg "
+             f"({end['propellant_remaining_kg']:.3f} kg left); "
+             f"mission time {summary['mission_time_s']:.1f} s")]
+
+
 def _targets_lines(targets) -> list:
-    """The table of a sequence's targets: angles, pointing errors [arcsec], times [s]."""
+    """The table of a sequence's targets: angles, true errors [arcsec] and rates, times [s]."""
     if not targets:
         return []
-    head = ("#", "target", "roll deg", "yaw deg", "6-2 err\"", "hold end\"", "start s", "end s")
-    lines = ["", (f"Targets ({len(targets)}): programmed angles, true pointing error at the "
-                 "end of Mode 6-2 and of the hold"),
+    head = ("#", "target", "roll deg", "yaw deg", "6-2 err\"", "rate deg/s", "hold end\"",
+            "start s", "end s")
+    lines = ["", (f"Targets ({len(targets)}): programmed angles; where Mode 6-2 declared each "
+                  "on target, the true pointing error and the largest body rate; the true "
+                  "error at the end of the hold"),
              (f"  {head[0]:>2} {head[1]:<26}{head[2]:>10}{head[3]:>10}{head[4]:>10}"
-              f"{head[5]:>11}{head[6]:>9}{head[7]:>9}")]
+              f"{head[5]:>11}{head[6]:>11}{head[7]:>9}{head[8]:>9}")]
 
     def cell(v, spec, width):
         return f"{'-':>{width}}" if v is None else f"{format(v, spec):>{width}}"
 
     for i, t in enumerate(targets, 1):
+        rates = t.get("body_rate_deg_s")
+        rate = max(map(abs, rates.values())) if rates else None
         lines.append(f"  {i:>2} {t['name'][:25]:<26}{cell(t['programmed_roll_deg'], '+.3f', 10)}"
                      f"{cell(t['programmed_yaw_deg'], '+.3f', 10)}"
                      f"{cell(t['pointing_error_arcsec'], '.1f', 10)}"
+                     f"{cell(rate, '.4f', 11)}"
                      f"{cell(t['hold_end_pointing_error_arcsec'], '.1f', 11)}"
                      f"{cell(t['start_s'], '.1f', 9)}{cell(t['end_s'], '.1f', 9)}")
     return lines

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from allsky import gauss, units
+from allsky.apps.events import event_text, worth_a_line
 from allsky.computer import word_registers as wr
 from allsky.hardware import switch_bank
 from allsky.hardware.dac import dac
@@ -30,8 +31,7 @@ from allsky.hardware.star_tracker import star_tracker
 from allsky.hardware.sun_sensor import sun_sensor
 from allsky.sequencer.modes import MODE_TITLE, PLANS, target_count
 from allsky.vehicle import quaternion
-
-AXES = ("roll", "pitch", "yaw")
+from allsky.vocabulary import AXES
 
 
 class StopStepping(Exception):
@@ -165,6 +165,10 @@ def format_stop(snap, number=None) -> str:
                  f"yaw {r24['yaw']:+.4f} deg")
     lines.append(f"  propellant    {snap['propellant_kg']:.3f} kg left "
                  f"({snap['propellant_used_kg']:.3f} kg used)")
+    happened = [e for e in snap.get("events", ()) if worth_a_line(e)]
+    if happened:
+        lines.append(f"  since the last stop ({len(happened)} journal entries):")
+        lines += [f"    {e['t_s']:9.2f} s  {event_text(e)}" for e in happened]
     if snap.get("saved_state"):
         lines.append(f"  state saved   {snap['saved_state']} (resume: allsky step --from ...)")
     return "\n".join(lines)
@@ -177,8 +181,9 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
     ----------
     m : allsky.sim.mission.Mission
     on_stop : callable
-        Receives each stop's :func:`snapshot`; raising :class:`StopStepping`
-        ends the session with the mission where it is.
+        Receives each stop's :func:`snapshot`, with ``events``: the journal's
+        entries since the stop before; raising :class:`StopStepping` ends the
+        session with the mission where it is.
     every_s : float, optional
         Also stop every this many simulated seconds inside modes [s].
     until : str, optional
@@ -194,6 +199,7 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
         The snapshots shown.
     """
     from allsky.apps import states
+    from allsky.sim.mission import Hooks
 
     shown = []
 
@@ -204,19 +210,25 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
     if until is not None and until not in m.plan[m.next_mode:]:
         raise ValueError(f"--until {until}: not a mode still to fly "
                          f"(remaining: {', '.join(m.plan[m.next_mode:]) or 'none'})")
+    read = [len(m.journal)]  # journal entries shown at the stops before
+
+    def since_last(snap):
+        snap["events"] = [dict(e) for e in m.journal.events[read[0]:]]
+        read[0] = len(m.journal)
+        return snap
+
     def pause(mm, what):
         if until is None or mm.current_mode == until:
-            show(snapshot(mm, "every", f"waiting for: {what}"))
+            show(since_last(snapshot(mm, "every", f"waiting for: {what}")))
 
-    m.pause_every_s = every_s
-    m.on_pause = pause if every_s else None
+    hooks = Hooks(pause_every_s=every_s, on_pause=pause if every_s else None)
     try:
         while not m.finished:
-            rec = m.run_mode()
+            rec = m.run_mode(hooks)
             saved = (states.save(m, Path(save_dir) / state_file_name(m, rec.mode)) if save_dir
                      else None)
             if until is None or rec.mode == until or m.finished:
-                snap = snapshot(m, "mode end", rec.exit)
+                snap = since_last(snapshot(m, "mode end", rec.exit))
                 if saved:
                     snap["saved_state"] = str(saved)
                 show(snap)
@@ -224,9 +236,6 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
                 break
     except StopStepping:
         pass
-    finally:
-        m.pause_every_s = None
-        m.on_pause = None
     return shown
 
 

@@ -5,14 +5,20 @@ Also the column page, ``docs/telemetry.md``.
 A telemetry table (:meth:`allsky.sim.mission.Mission.telemetry`) has one
 float64 column per entry of :data:`allsky.sim.recorder.COLUMNS`. Files
 carry the unit in every column name, ``name [unit]`` (``time [s]``,
-:func:`allsky.sim.telemetry.header`). The format follows the file's
-suffix: ``.csv`` (text, every value written with its shortest exact
-decimal form) or ``.parquet`` (Apache Parquet, float64 columns). Both read
-back bit-identical (:func:`read`). Reading refuses, in one line naming the
-file and the first bad row and column, a file whose columns are not the
-documented ones and values no mission writes (:func:`check_table`): a
-non-finite cell, time not increasing, an unknown mode code, a quaternion off
-unit norm, a fraction in an integer column.
+:func:`allsky.sim.telemetry.header`), and the schema's format number
+(:data:`allsky.sim.recorder.FORMAT`): a first line ``# allsky telemetry
+format N`` in CSV, the key ``allsky.telemetry_format`` of the Parquet
+file's metadata. The format follows the file's suffix: ``.csv`` (text,
+every value written with its shortest exact decimal form) or ``.parquet``
+(Apache Parquet, float64 columns). Both read back bit-identical
+(:func:`read`). A file of an earlier format (no number: format 1) is read
+when the later formats only appended columns, its missing columns NaN ("not
+recorded"); a file of a later format than this allsky knows is refused.
+Reading refuses, in one line naming the file and the first bad row and
+column, a file whose columns are not its format's and values no mission
+writes (:func:`check_table`): a non-finite cell, time not increasing, an
+unknown mode code, a quaternion off unit norm, a value outside an integer
+column's set.
 
 ``python -m allsky.apps.telemetry_files --markdown`` prints
 ``docs/telemetry.md``, the column list generated from ``COLUMNS``.
@@ -26,8 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from allsky.config.toml_io import os_reason
-from allsky.hardware.wiring import N_SWITCHES
-from allsky.sequencer.modes import MODE_CODE
+from allsky.sim import recorder
 from allsky.sim.telemetry import COLUMNS, INDEX, header
 
 #: File suffix -> format name.
@@ -67,12 +72,19 @@ def write(path, table: np.ndarray, option=None) -> Path:
                                                                               option)
 
 
+#: The first line of a CSV file: the schema's format.
+CSV_FORMAT_LINE = "# allsky telemetry format {}"
+#: The Parquet metadata key holding the schema's format.
+PARQUET_FORMAT_KEY = b"allsky.telemetry_format"
+
+
 def write_csv(path, table: np.ndarray, option=None) -> Path:
     """Write the telemetry table to CSV (each float as ``repr``: exact on reading)."""
     from allsky.apps.output import write_atomic
 
     def writer(tmp):
         with tmp.open("w", newline="") as f:
+            f.write(CSV_FORMAT_LINE.format(recorder.FORMAT) + "\n")
             w = csv.writer(f)
             w.writerow(header())
             for row in table:
@@ -90,27 +102,55 @@ def write_parquet(path, table: np.ndarray, option=None) -> Path:
 
     arrays = [pa.array(np.ascontiguousarray(table[:, i]), type=pa.float64())
               for i in range(len(COLUMNS))]
+    schema = pa.schema([(n, pa.float64()) for n in header()],
+                       metadata={PARQUET_FORMAT_KEY: str(recorder.FORMAT).encode()})
     return write_atomic(path, writer=lambda tmp: pq.write_table(
-        pa.Table.from_arrays(arrays, names=header()), tmp), option=option)
+        pa.Table.from_arrays(arrays, schema=schema), tmp), option=option)
 
 
 def _refuse(path, what) -> TelemetryError:
     return TelemetryError(f"telemetry file {str(path)!r}: {what}")
 
 
-def _checked_order(path, names) -> list:
-    """Indices that put the file's columns in :data:`COLUMNS` order; refuse others."""
-    expected = header()
+def _format_columns(path, number) -> int:
+    """How many of :data:`COLUMNS` a file of format ``number`` holds; refuse unknown ones."""
+    if number > recorder.FORMAT:
+        raise _refuse(path, f"telemetry format {number}, written by a newer allsky; this one "
+                            f"reads formats 1 to {recorder.FORMAT}")
+    if number not in recorder.FORMATS:
+        raise _refuse(path, f"telemetry format {number} is not one allsky wrote "
+                            f"(formats {', '.join(map(str, recorder.FORMATS))})")
+    return len(recorder.FORMATS[number])
+
+
+def _checked_order(path, names, number=recorder.FORMAT) -> list:
+    """Indices that put the file's columns in :data:`COLUMNS` order; refuse others.
+
+    The file is of format ``number``: it holds that format's columns, the
+    first of :data:`COLUMNS` (later formats only append).
+    """
+    expected = header()[:_format_columns(path, number)]
     missing = [n for n in expected if n not in names]
     if missing:
         more = f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""
-        raise _refuse(path, f"missing column {missing[0]!r}{more}; see docs/telemetry.md")
+        raise _refuse(path, f"missing column {missing[0]!r}{more} of telemetry format "
+                            f"{number}; see docs/telemetry.md")
     extra = [n for n in names if n not in expected]
     if extra:
-        raise _refuse(path, f"unexpected column {extra[0]!r}; see docs/telemetry.md")
+        later = "" if number == recorder.FORMAT else f" of telemetry format {number}"
+        raise _refuse(path, f"unexpected column {extra[0]!r}{later}; see docs/telemetry.md")
     if len(set(names)) != len(names):
         raise _refuse(path, "duplicated columns")
     return [names.index(n) for n in expected]
+
+
+def _widened(table: np.ndarray) -> np.ndarray:
+    """A table of an earlier format with the columns it lacks, NaN: not recorded."""
+    if table.shape[1] == len(COLUMNS):
+        return table
+    out = np.full((table.shape[0], len(COLUMNS)), np.nan)
+    out[:, :table.shape[1]] = table
+    return out
 
 
 #: Parquet files begin (and end) with these four bytes.
@@ -118,16 +158,10 @@ PARQUET_MAGIC = b"PAR1"
 #: Largest departure of a row's quaternion from unit norm: the plant keeps it within
 #: 1e-15; a file off by more was not written by a mission.
 QUATERNION_NORM_TOLERANCE = 1e-6
-#: Columns of integers and the values each may hold (None: any integer).
-INTEGER_COLUMNS = {
-    "sun_present": (0, 1), "star_present": (0, 1),
-    **dict.fromkeys(("valve_roll", "valve_pitch", "valve_yaw"), (-1, 0, 1)),
-    "s7_s8": (0, 1, 2),
-    "switches": range(2 ** N_SWITCHES), "overflow": range(2 ** 6),
-    **dict.fromkeys(("counter14", "counter16", "counter18", "drift_counter13",
-                     "drift_counter15", "drift_counter17", "register25", "register26",
-                     "register27"), None),
-}
+#: Columns of integers and the values each may hold (None: any integer), from the schema.
+INTEGER_COLUMNS = {c.name: c.allowed for c in COLUMNS
+                   if c.kind in (recorder.INTEGER, recorder.FLAG, recorder.SET,
+                                 recorder.BITMASK)}
 
 
 def read(path, check=True):
@@ -144,7 +178,8 @@ def read(path, check=True):
     Returns
     -------
     table : numpy.ndarray, shape (rows, len(COLUMNS))
-        float64, columns in :data:`COLUMNS` order.
+        float64, columns in :data:`COLUMNS` order; the columns a file of an
+        earlier format lacks are NaN.
     names : list of str
         Column names with units, :func:`header`.
 
@@ -168,7 +203,7 @@ def read(path, check=True):
     table, lines = (_read_csv(path, data) if fmt == "csv" else (_read_parquet(path, data), None))
     if check:
         check_table(table, path, lines)
-    return table, header()
+    return _widened(table), header()
 
 
 def _read_csv(path, data: bytes):
@@ -180,6 +215,12 @@ def _read_csv(path, data: bytes):
     except UnicodeDecodeError as e:
         line = data.count(b"\n", 0, e.start) + 1
         raise _refuse(path, f"line {line}: not UTF-8 text (byte 0x{data[e.start]:02x})") from None
+    number, skipped = 1, 0
+    first = text.split("\n", 1)[0].rstrip("\r")
+    if first.startswith("#"):
+        number = _csv_format(path, first)
+        skipped = 1
+        text = text.split("\n", 1)[1] if "\n" in text else ""
     reader = csv.reader(io.StringIO(text, newline=""))
     rows, lines = [], []
     try:
@@ -187,10 +228,11 @@ def _read_csv(path, data: bytes):
             rows.append(record)
             lines.append(reader.line_num)
     except csv.Error as e:  # a field over the size limit, an unclosed quote
-        raise _refuse(path, f"line {reader.line_num}: not CSV ({e})") from None
+        raise _refuse(path, f"line {reader.line_num + skipped}: not CSV ({e})") from None
+    lines = [n + skipped for n in lines]
     if not rows:
         raise _refuse(path, "empty (no header)")
-    order = _checked_order(path, rows[0])
+    order = _checked_order(path, rows[0], number)
     width, body = len(rows[0]), rows[1:]
     for r, (record, line) in enumerate(zip(body, lines[1:], strict=True), start=1):
         if len(record) != width:
@@ -210,6 +252,15 @@ def _read_csv(path, data: bytes):
     return np.ascontiguousarray(table[:, order]), lines[1:]
 
 
+def _csv_format(path, line) -> int:
+    """The format number of a CSV file's first line ``# allsky telemetry format N``."""
+    head, _, number = line.rpartition(" ")
+    if head != CSV_FORMAT_LINE.format("").rstrip() or not number.isdigit():
+        raise _refuse(path, f"line 1: {_shown(line)} is not "
+                            f"{CSV_FORMAT_LINE.format('N')!r}")
+    return int(number)
+
+
 def _shown(text, limit=40) -> str:
     return repr(text if len(text) <= limit else text[:limit] + "...")
 
@@ -220,14 +271,21 @@ def _read_parquet(path, data: bytes) -> np.ndarray:
     import pyarrow.parquet as pq
 
     if not (data.startswith(PARQUET_MAGIC) and data.endswith(PARQUET_MAGIC)):
-        looks_csv = data[:len("time [s]") + 1].lstrip(b'"').startswith(b"time [s]")
+        head = data[:200]
+        looks_csv = head.lstrip(b'"').startswith(b"time [s]") or head.startswith(
+            CSV_FORMAT_LINE.format("").encode())
         raise _refuse(path, "a CSV file, not Parquet: name it .csv" if looks_csv
                       else "not a Parquet file")
     try:
         t = pq.read_table(pa.BufferReader(data))
     except (pa.ArrowException, OSError, ValueError) as e:  # a damaged file
         raise _refuse(path, f"not a readable Parquet file ({_one_line(e)})") from None
-    order = _checked_order(path, list(t.column_names))
+    meta = t.schema.metadata or {}
+    number = meta.get(PARQUET_FORMAT_KEY, b"1")
+    if not number.isdigit():
+        raise _refuse(path, f"metadata {PARQUET_FORMAT_KEY.decode()} = {number[:20]!r} is not "
+                            "a format number")
+    order = _checked_order(path, list(t.column_names), int(number))
     table = np.empty((t.num_rows, t.num_columns))
     for i, name in enumerate(t.column_names):
         col = t.column(i)
@@ -266,7 +324,7 @@ def check_table(table, path="", lines=None) -> None:
     TelemetryError
         The first value that breaks a rule, by row (1-based) and column.
     """
-    names = header()
+    names = header()[:table.shape[1]]
 
     def bad(row_index, col, what):
         line = f" (line {lines[row_index]})" if lines is not None else ""
@@ -284,7 +342,7 @@ def check_table(table, path="", lines=None) -> None:
         r = int(back[0]) + 1
         raise bad(r, INDEX["time"], f"{float(t[r])!r} does not follow {float(t[r - 1])!r}: "
                                     "times must increase from row to row")
-    codes = sorted(set(MODE_CODE.values()))
+    codes = sorted(set(COLUMNS[INDEX["mode"]].allowed))
     mode = table[:, INDEX["mode"]]
     unknown = np.flatnonzero(~np.isin(mode, codes))
     if unknown.size:
@@ -301,6 +359,8 @@ def check_table(table, path="", lines=None) -> None:
                                    f"(within {QUATERNION_NORM_TOLERANCE:g})")
     for name, allowed in INTEGER_COLUMNS.items():
         c = INDEX[name]
+        if c >= table.shape[1]:  # a column a file of an earlier format lacks
+            continue
         x = table[:, c]
         wrong = x != np.round(x)
         if isinstance(allowed, range):
@@ -319,8 +379,25 @@ def _allowed_words(allowed) -> str:
     return ", ".join(map(str, allowed))
 
 
+def _allowed_text(c) -> str:
+    if c.allowed is None:
+        return "any" if c.kind != recorder.INTEGER else "any integer"
+    return _allowed_words(c.allowed)
+
+
+def _replay_text(c) -> str:
+    if isinstance(c.replay, float):
+        return f"x {c.replay:g}, rounded"
+    return {recorder.EXACT: "exact", recorder.RUNS: "runs", recorder.DIGITS: "digits"}.get(
+        c.replay, "-")
+
+
 def markdown() -> str:
     """The column page ``docs/telemetry.md``, from :data:`allsky.sim.recorder.COLUMNS`."""
+    first = {}
+    for number in sorted(recorder.FORMATS):
+        for name in recorder.FORMATS[number]:
+            first.setdefault(name, number)
     lines = [
         "# Telemetry columns",
         "",
@@ -335,11 +412,24 @@ def markdown() -> str:
          "`allsky.apps.telemetry_files.read(path)` reads either format back and refuses a "
          "file whose columns are not these. `allsky plot` draws the figures from such a file."),
         "",
-        "| # | column in the file | unit | meaning |",
-        "|---|---|---|---|",
+        (f"Files carry the schema's format number, now {recorder.FORMAT}: a first line "
+         f"`{CSV_FORMAT_LINE.format(recorder.FORMAT)}` in CSV, the metadata key "
+         f"`{PARQUET_FORMAT_KEY.decode()}` in Parquet (a file without one is format 1). "
+         "A format only appends columns to the one before, so a file of an earlier format "
+         "is read, the columns it lacks given as NaN (not recorded); a file of a later "
+         "format than the reader knows is refused in one line."),
+        "",
+        ("Each column is one record of `allsky.sim.recorder.COLUMNS`: the writer, the "
+         "reader's checks (*values*), this page and the replay page's encoding (*replay*) "
+         "are all derived from it. What happened between rows, when it happened, is in the "
+         "journal of the summary (`events`, [journal.md](journal.md))."),
+        "",
+        "| # | column in the file | unit | kind | values | replay | since | meaning |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for i, (c, h) in enumerate(zip(COLUMNS, header())):
-        lines.append(f"| {i} | `{h}` | {c.unit} | {c.meaning} |")
+        lines.append(f"| {i} | `{h}` | {c.unit} | {c.kind} | {_allowed_text(c)} | "
+                     f"{_replay_text(c)} | {first[c.name]} | {c.meaning} |")
     return "\n".join(lines) + "\n"
 
 

@@ -17,10 +17,11 @@ import numpy as np
 from allsky import units
 from allsky.computer import cpu
 from allsky.hardware import switch_bank
+from allsky.vocabulary import SCALE_FACTOR_AXES
 
 FULL_TURN_ARCSEC = 360.0 * units.DEG2ARCSEC
 #: The axes a calibration turn can be about.
-AXES = ("roll", "yaw")
+AXES = SCALE_FACTOR_AXES
 
 
 def calibrate(axis, switches, counters, pulse_weight_arcsec, turn_sign, word23) -> np.ndarray:

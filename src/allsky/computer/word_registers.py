@@ -32,6 +32,12 @@ def neutral_computed() -> np.ndarray:
     return w
 
 
+#: Register 23's words by name, as the journal and the replay name them -> slot.
+WORD23 = {"sf_roll": SF_ROLL, "sf_yaw": SF_YAW, "roll_into_pitch": ROLL_INTO_PITCH,
+          "roll_into_yaw": ROLL_INTO_YAW, "yaw_into_pitch": YAW_INTO_PITCH,
+          "yaw_into_roll": YAW_INTO_ROLL}
+
+
 def computed_as_dict(w) -> dict:
     """Register 23 as the scale-factor and cross-coupling parts of the summary.
 

@@ -56,25 +56,12 @@ from allsky.config.rules import (
     type_name,
 )
 from allsky.config.schema import DEFAULT_SCENARIO_PATH
+from allsky.vocabulary import AXES, FAULT_KINDS
 
 #: Most faults one scenario may hold (the frame loop's fixed-size fault arrays).
 MAX_FAULTS = 8
-AXES = ("roll", "pitch", "yaw")
-#: Fault kind -> the fields it needs beyond the timing (in this order).
-KINDS = {
-    "jet_stuck_open": ("axis", "sign"),
-    "jet_failed_off": ("axis", "sign"),
-    "gyro_stuck": ("axis",),
-    "gyro_dead": ("axis",),
-    "gyro_bias_step": ("axis", "size_deg_h"),
-    "gyro_scale_factor_step": ("axis", "size_ppm"),
-    "sun_sensor_blind": (),
-    "tracker_dropout": (),
-    "tracker_stray_light": ("offset_deg",),
-    "wrong_star": ("star",),
-    "counter_upset": ("register", "bit"),
-    "propellant_leak": ("rate_kg_s",),
-}
+#: Fault kind -> the fields it needs beyond the timing (in this order): the vocabulary's.
+KINDS = {k.name: k.fields for k in FAULT_KINDS}
 TIMING = ("start_s", "start_mode", "duration_s")
 #: Modes a fault may start with: the patent's, the hold on target, the moves to a next
 #: target, the dither mode (:func:`check_plan`: only those the mission flies).

@@ -16,9 +16,10 @@ from datetime import UTC, date, datetime, time
 from typing import NamedTuple
 
 from allsky.units import DEG2ARCSEC
+from allsky.vocabulary import PATENT_MODES
 
 #: The master-sequencer modes, the keys of ``sequencer.timeout_s``.
-MODE_KEYS = ("1", "2", "3", "4", "5", "6-1", "6-2")
+MODE_KEYS = PATENT_MODES
 #: Dates the ephemeris is trusted for (PyEphem; the same as ``allsky.vehicle.sky.EPHEMERIS_YEARS``).
 EPHEMERIS_START_UTC = datetime(1900, 1, 1, tzinfo=UTC)
 EPHEMERIS_END_UTC = datetime(2100, 12, 31, 23, 59, 59, 999999, tzinfo=UTC)

@@ -22,6 +22,7 @@ from allsky import units
 from allsky.gauss import standard_normal
 from allsky.jit import njit
 from allsky.units import RAD2ARCSEC
+from allsky.vocabulary import AXES
 
 #: [s] interval between steps of the rate random walk
 RRW_STEP_S = 1.0
@@ -95,7 +96,7 @@ def perfect_calibration(p: GyroParams, integrator_drift_arcsec_s=(0.0, 0.0, 0.0)
     integrator = [float(d) for d in integrator_drift_arcsec_s]
     # Sum only where the integrator drifts: adding 0.0 would turn a -0.0 drift into +0.0.
     total = [g + i if i != 0.0 else g for g, i in zip(gyro_drift, integrator)]
-    axes = ("roll", "pitch", "yaw")
+    axes = AXES
     return {
         "drift_deg_h": dict(zip(axes, total)),
         "gyro_drift_deg_h": dict(zip(axes, gyro_drift)),

@@ -25,6 +25,10 @@ from allsky.gauss import standard_normal
 from allsky.jit import njit
 from allsky.units import RAD2ARCSEC
 
+#: What the tracker holds when it holds no star of the catalog but a false target (a glint
+#: of stray light): its index is neither a star's nor -1 (nothing in the slit).
+FALSE_TARGET = -2
+
 
 class StarTrackerParams(NamedTuple):
     """Canopus tracker."""

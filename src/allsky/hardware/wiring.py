@@ -36,7 +36,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-AXES = ("roll", "pitch", "yaw")
 ROLL, PITCH, YAW = 0, 1, 2
 NONE = -1  #: no axis / no switch in the index arrays
 

@@ -33,8 +33,8 @@ import numpy as np
 
 from allsky.computer import word_registers as wr
 from allsky.sequencer import dither, legs
-
-AXES = ("roll", "pitch", "yaw")
+from allsky.sequencer.host import note_register23
+from allsky.vocabulary import AXES
 
 
 def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
@@ -170,6 +170,7 @@ def dither_analysis(m, records):
         if "yaw" in est:
             w[wr.YAW_INTO_PITCH] = est["yaw"]["cross"]["pitch"]
             w[wr.YAW_INTO_ROLL] = est["yaw"]["cross"]["roll"]
+    note_register23(m, tuple(wr.WORD23))
 
 
 def target_hold_dither(m):
@@ -186,11 +187,10 @@ def target_hold_dither(m):
     """
     d = m.cfg.dither
     rec_rows = int(np.ceil((d.lead_in_s + d.record_s) / d.sample_s)) + 4
-    m._mode = "6-2"
-    m._mode_deadline = m.state.time_s[0] + d.lead_in_s + d.record_s + 10.0
-    record = m.leg("dither record on target", legs.PROGRAM_TARGET_DITHER,
-                   legs.WATCH_ELAPSED, hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s,
-                   record_rows=rec_rows)
+    record = m.extra_leg("6-2", d.lead_in_s + d.record_s + 10.0, "dither record on target",
+                         legs.PROGRAM_TARGET_DITHER, legs.WATCH_ELAPSED,
+                         hold_s=d.lead_in_s + d.record_s + 2 * d.sample_s,
+                         record_rows=rec_rows)
     return analyse(record, d.sample_s, d.lead_in_s, d.record_s, m.params.dither.amplitude_arcsec,
                    m.params.dither.omega_rad_s, d.detector,
                    optics_frames=m.params.dither_sample_frames)

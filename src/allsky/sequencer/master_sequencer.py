@@ -28,17 +28,24 @@ end of Modes 4 and 5) is part of computer 111:
 
 import numpy as np
 
-from allsky import units
+from allsky import units, vocabulary
 from allsky.computer import calibration_sequencer as cal19
 from allsky.computer import cpu
 from allsky.computer import word_registers as wr
 from allsky.sequencer import modes
 from allsky.sequencer.dither_mode import dither_analysis
+from allsky.sequencer.host import note_register23
 from allsky.sequencer.legs import WATCH_HANDOVER
 from allsky.vehicle import quaternion
 
 #: The patent's modes in flight order (the legacy plan).
 MODES = modes.LEGACY_PLAN
+#: Up/down counters 14, 16, 18 and drift counters 13, 15, 17, by axis.
+COUNTERS = ("14", "16", "18")
+DRIFT_COUNTERS = ("13", "15", "17")
+#: Register 23's words each calibration turn writes.
+WORDS_OF_TURN = {"roll": ("sf_roll", "roll_into_pitch", "roll_into_yaw"),
+                 "yaw": ("sf_yaw", "yaw_into_pitch", "yaw_into_roll")}
 #: Index of each rate-command module's direction in ``State.rate_sign``: 120 roll, 128 yaw.
 RATE_SIGN = {"roll": 0, "yaw": 1}
 
@@ -74,21 +81,29 @@ def run_mode(m, name) -> str:
     records = {}
     recovery = bool(m.cfg.sequencer.recovery)
     tried = []  # (step index, recovery name) flown in this flight of the mode
+    # What the sequencer last waited for: the reason the journal gives for a switch step.
+    context = {"after": f"start of Mode {name}"}
     i = 0
     while i < len(mode.steps):
         step = mode.steps[i]
+        context["then"] = next_wait(mode.steps[i + 1:])
         try:
-            _fly_step(m, name, step, records)
+            _fly_step(m, name, step, records, context)
         except ModeAbort as e:
             key = _recovery_for(step, e.failure, i, tried) if recovery else None
             if key is None:
                 raise _with_recoveries(e, tried) from None
             tried.append((i, key))
             rule = modes.RETRIES[key]
+            m.note("action", action="recovery", text=f"recovery after {e.failure}: "
+                   f"{rule.text}", recovery=key)
             m.extend_mode(modes.DURATIONS[rule.extend].seconds(m.cfg, name))
+            context["after"] = f"recovery: {rule.text}"
             try:
-                for s in rule.steps:
-                    _fly_step(m, name, s, records)
+                for k, s in enumerate(rule.steps):
+                    context["then"] = next_wait(rule.steps[k + 1:]) or next_wait(
+                        mode.steps[i if rule.resume is None else rule.resume:])
+                    _fly_step(m, name, s, records, context)
             except ModeAbort as e2:
                 raise _with_recoveries(e2, tried) from None
             if rule.resume is not None:
@@ -101,16 +116,28 @@ def run_mode(m, name) -> str:
     return text
 
 
-def _fly_step(m, name, step, records):
-    """One step: operate the bank, fly a leg (keeping its record), or call an action."""
+def _fly_step(m, name, step, records, context):
+    """One step: operate the bank, fly a leg (keeping its record), or call an action.
+
+    Each is journaled: a switch step with what the sequencer had waited for
+    (``context["after"]``), an action with its words; a wait becomes that.
+    """
     if isinstance(step, modes.Operate):
-        m.switch(close=step.close, open_=step.open_)
+        m.switch(close=step.close, open_=step.open_, step=context["after"],
+                 waits_for=context["then"])
     elif isinstance(step, modes.Wait):
         out = fly_leg(m, name, step)
+        context["after"] = f"after \u00ab{step.what}\u00bb"
         if step.record:
             records[step.record] = out
     else:
+        m.note("action", action=step.action, text=modes.action_text(step))
         ACTIONS[step.action](m, records, *step.args)
+
+
+def next_wait(steps) -> str:
+    """What the first wait of ``steps`` waits for ("" if none)."""
+    return next((s.what for s in steps if isinstance(s, modes.Wait)), "")
 
 
 def _recovery_for(step, failure, index, tried):
@@ -154,11 +181,15 @@ def fly_leg(m, name, step):
 def clear_drift_counters(m, records):
     """Clear drift counters 13, 15, 17 before the Mode 3 count."""
     m.state.drift_counters[:] = 0
+    for numeral, axis in zip(DRIFT_COUNTERS, vocabulary.AXES):
+        m.write_register(numeral, axis, 0.0, "deg/h", pulses=0)
 
 
 def clear_counters(m, records):
     """Clear up/down counters 14, 16, 18 before a calibration turn or the target roll."""
     m.state.counters[:] = 0
+    for numeral, axis in zip(COUNTERS, vocabulary.AXES):
+        m.write_register(numeral, axis, 0.0, "arcsec", pulses=0)
 
 
 def roll_rate_positive(m, records):
@@ -184,6 +215,7 @@ def calibration_sequencer(m, records, axis):
     counts = cal19.calibrate(axis, s.switches, s.counters, m.pulse_weight_arcsec,
                              s.rate_sign[RATE_SIGN[axis]] * turns, s.word23)
     m.counted_arcsec[axis] = counts.tolist()
+    note_register23(m, WORDS_OF_TURN[axis])
 
 
 def turns_counted(m, axis) -> int:
@@ -204,7 +236,8 @@ def withhold_calibration(m, records):
     """
     if not m.apply_calibration:
         m.state.word23[:] = wr.neutral_computed()
-        m.switch(open_=(1, 2, 3))
+        note_register23(m, tuple(wr.WORD23))
+        m.switch(open_=(1, 2, 3), step="the calibration withheld (calibration.apply = false)")
 
 
 def load_register_24(m, records):
@@ -217,6 +250,8 @@ def load_register_24(m, records):
         m.program_target()
     m.state.word24[wr.PROGRAMMED_ROLL] = m.programmed_roll_deg * units.DEG2ARCSEC
     m.state.word24[wr.PROGRAMMED_YAW] = m.programmed_yaw_deg * units.DEG2ARCSEC
+    m.write_register("24", "roll", m.programmed_roll_deg, "deg")
+    m.write_register("24", "yaw", m.programmed_yaw_deg, "deg")
 
 
 def start_roll_computation(m, records):
@@ -238,6 +273,9 @@ def preset_counters(m, records):
     pitch_arcsec, yaw_arcsec = cpu.mode6_preset_arcsec(s.word23, s.cpu)
     s.counters[1] = round(pitch_arcsec / m.pulse_weight_arcsec)
     s.counters[2] = round(yaw_arcsec / m.pulse_weight_arcsec)
+    for a in (1, 2):
+        m.write_register(COUNTERS[a], vocabulary.AXES[a], s.counters[a] * m.pulse_weight_arcsec,
+                         "arcsec", pulses=s.counters[a])
 
 
 def start_yaw_computation(m, records):
@@ -288,7 +326,7 @@ def measure_hold(m, records):
               "start_pointing_error_arcsec": h["start_pointing_error_arcsec"],
               "end_pointing_error_arcsec": float(m.pointing_error_arcsec()),
               "drift_arcsec_per_min": {axis: float(v) for axis, v in
-                                       zip(("roll", "pitch", "yaw"), per_min)}}
+                                       zip(vocabulary.AXES, per_min)}}
 
 
 def next_target(m, records):
@@ -301,10 +339,11 @@ def next_target(m, records):
     m.next_target()
 
 
-#: Action name (as the mode table writes it) -> function.
-ACTIONS = {f.__name__: f for f in (
+_FUNCTIONS = {f.__name__: f for f in (
     clear_drift_counters, clear_counters, roll_rate_positive, yaw_rate_positive,
     calibration_sequencer, withhold_calibration, load_register_24, start_roll_computation,
     roll_rate_toward_target, preset_counters, start_yaw_computation, yaw_rate_toward_target,
     record_hold_start, measure_hold, next_target, dither_analysis)}
-assert set(ACTIONS) == set(modes.ACTIONS), set(ACTIONS) ^ set(modes.ACTIONS)
+#: Action name -> function, for each action the vocabulary names (its words are
+#: :data:`allsky.vocabulary.ACTIONS`).
+ACTIONS = {name: _FUNCTIONS[name] for name in vocabulary.ACTIONS}

@@ -31,6 +31,7 @@ import math
 from collections.abc import Callable
 from typing import NamedTuple
 
+from allsky import vocabulary
 from allsky.config.schema import HOLD_TIMEOUT_ALLOWANCE_S
 from allsky.hardware import switch_bank
 from allsky.sequencer import legs
@@ -96,6 +97,12 @@ class Mode(NamedTuple):
     steps: tuple  #: :class:`Operate`, :class:`Wait` and :class:`Do`, in order
     exit: str  #: exit text; ``{cfg.section.key}`` fields are filled from the scenario
     timeout: str = "mode timeout"  #: key of :data:`DURATIONS`: the time the mode is allowed
+
+
+def _mode(name, steps, exit, timeout="mode timeout") -> Mode:
+    """A :class:`Mode` with the code and title the vocabulary gives its name."""
+    return Mode(name, vocabulary.MODE_CODE[name], vocabulary.MODE_TITLE[name], steps, exit,
+                timeout)
 
 
 class Term(NamedTuple):
@@ -220,39 +227,8 @@ def _dither_rows(cfg) -> int:
 #: Samples a leg can keep for an action: name -> rows needed, from the scenario.
 RECORDS = {"dither record": _dither_rows}
 
-#: Named actions, in words ("{0}" is the first argument).
-ACTIONS = {
-    "clear_drift_counters": "clear drift counters 13, 15, 17",
-    "clear_counters": "clear up/down counters 14, 16, 18",
-    "roll_rate_positive": "set roll rate-command module 120 to the positive direction",
-    "yaw_rate_positive": "set yaw rate-command module 128 to the positive direction",
-    "calibration_sequencer": ("calibration sequencer 19: CPU 22 reads counters 14, 16, 18 "
-                              "through S7 and stores the {0} scale factor and the {0} "
-                              "cross-coupling factors in register 23"),
-    "withhold_calibration": ("if the scenario withholds the calibration "
-                             "(`calibration.apply = false`): register 23 neutral, S1-S3 "
-                             "opened"),
-    "load_register_24": ("load register 24 with the programmed roll and yaw angles (computed "
-                         "on the ground for the target, if not given)"),
-    "start_roll_computation": "clear CPU 22 and compute the first roll error",
-    "roll_rate_toward_target": ("set roll rate-command module 120 to the direction of the "
-                                "programmed roll"),
-    "preset_counters": ("preset counters 16 and 18 so that the corrected pitch and yaw start "
-                        "Mode 6-2 at zero"),
-    "start_yaw_computation": ("CPU 22 computes the yaw and pitch errors from the preset "
-                              "counters"),
-    "yaw_rate_toward_target": ("set yaw rate-command module 128 to the direction of the yaw "
-                               "error"),
-    "record_hold_start": ("note the true attitude and pointing error at the start of the "
-                          "hold (for the drift measured at its end)"),
-    "measure_hold": ("measure the hold: pointing error at its end and the attitude's drift "
-                     "per body axis since its start"),
-    "next_target": ("take the next target of `target.sequence`: its programmed angles are "
-                    "computed when Mode 6-1 loads register 24"),
-    "dither_analysis": ("analyse the dither record at each dither frequency; scale factors "
-                        "(with `dither.store_cross_coupling`, cross-coupling too) into "
-                        "register 23"),
-}
+#: Named actions, in words ("{0}" is the first argument): the vocabulary's.
+ACTIONS = vocabulary.ACTIONS
 
 
 def action_text(step: Do) -> str:
@@ -332,12 +308,12 @@ def retry_text(step: Wait) -> str:
 #: The mode table: the patent's six modes (SPEC section 4) and the hold after them, then
 #: the comparison mode.
 MODE_TABLE = (
-    Mode("1", 1.0, "Sun orientation", (
+    _mode("1", (
         Wait("sun acquired and settled", "sun acquisition", "settle",
              ("sun pitch", "sun yaw"), retry=("Sun acquisition again",)),
         Operate(close=(14, 15)),
     ), "sun pitch and yaw settled; S14, S15 closed"),
-    Mode("2", 2.0, "Canopus acquisition", (
+    _mode("2", (
         Do("roll_rate_positive"),
         Operate(close=(16, 18)),
         Wait("star in the magnitude window", "none", "handover", ("tracker yaw",),
@@ -347,7 +323,7 @@ MODE_TABLE = (
         Wait("locked on Sun and star", "none", "settle", OPTICAL,
              retry=("star search again", "Sun again, mode again")),
     ), "tracker yaw and sun pitch/yaw settled"),
-    Mode("3", 3.0, "drift calibration", (
+    _mode("3", (
         Do("clear_drift_counters"),
         Operate(close=(4, 5, 6)),
         # Patent: Mode 4 starts when, S1-S3 closed, the optical errors "have remained
@@ -359,7 +335,7 @@ MODE_TABLE = (
              carry_settle=True,
              retry=("star again, count again", "Sun and star again, count again")),
     ), "drift counted over {cfg.sequencer.drift_count_s:g} s; S1-S3 closed"),
-    Mode("4", 4.0, "roll calibration, 360 deg roll", (
+    _mode("4", (
         Do("clear_counters"),
         Do("roll_rate_positive"),
         Operate(open_=(12,), close=(16, 18)),
@@ -372,7 +348,7 @@ MODE_TABLE = (
              retry=("roll again", "Sun and star again, mode again")),
         Do("calibration_sequencer", ("roll",)),
     ), "roll scale factor and roll cross-coupling stored in register 23"),
-    Mode("5", 5.0, "yaw calibration, 360 deg yaw", (
+    _mode("5", (
         Do("clear_counters"),
         Do("yaw_rate_positive"),
         Operate(close=(13,), open_=(14,)),
@@ -391,7 +367,7 @@ MODE_TABLE = (
              retry=("Sun and star again, Mode 5 again",)),
         Do("calibration_sequencer", ("yaw",)),
     ), "yaw scale factor and yaw cross-coupling stored in register 23"),
-    Mode("6-1", 6.1, "target acquisition, roll", (
+    _mode("6-1", (
         Do("withhold_calibration"),
         Do("load_register_24"),
         Do("clear_counters"),
@@ -405,7 +381,7 @@ MODE_TABLE = (
              ("roll error", "sun pitch", "sun yaw"), retry=("Sun and star again, mode again",)),
         Do("preset_counters"),
     ), "roll settled; pitch and yaw counters preset"),
-    Mode("6-2", 6.2, "target acquisition, yaw", (
+    _mode("6-2", (
         Do("start_yaw_computation"),
         Do("yaw_rate_toward_target"),
         Operate(open_=(14, 15), close=(17, 19, 10)),
@@ -416,7 +392,7 @@ MODE_TABLE = (
     ), "on target: computed errors settled"),
     # After 6-2 the master sequencer may hold the target for any time: CPU 22 keeps forming
     # the errors from counters 14/16/18, S14/S15 stay open, so the gyros alone hold it.
-    Mode("hold", 6.3, "hold on target", (
+    _mode("hold", (
         Do("record_hold_start"),
         Wait("hold on target elapsed", "target", "elapsed", hold="hold"),
         Do("measure_hold"),
@@ -425,16 +401,16 @@ MODE_TABLE = (
     # from the Sun-star reference attitude, so the vehicle first goes back to it: the Sun
     # (Mode 1) and the star (Mode 2), calibration kept; or it recycles through every mode.
     # Neither mode flies a leg: each sets the bank for the modes that follow (BETWEEN_TARGETS).
-    Mode("reacquire", 6.4, "next target: back to the Sun and the star, calibration kept", (
+    _mode("reacquire", (
         Do("next_target"),
         Operate(open_=(9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
     ), "next target; S1-S3 stay closed (drift DACs 7/9/11 and register 23 kept)",
         timeout="no time"),
-    Mode("recycle", 6.5, "next target: every mode again, calibration included", (
+    _mode("recycle", (
         Do("next_target"),
         Operate(open_=(1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
     ), "next target; every switch open, as at ejection", timeout="no time"),
-    Mode("dither", 7.0, "dither calibration (comparison method)", (
+    _mode("dither", (
         Wait("dither record complete", "dither", "elapsed", hold="dither record",
              record="dither record"),
         Wait("optical errors settled after the dither", "none", "settle", OPTICAL),
@@ -451,7 +427,7 @@ MODE_CODE = {mode.name: mode.code for mode in MODE_TABLE}
 MODE_TITLE = {mode.name: mode.title for mode in MODE_TABLE}
 
 #: The patent's mission: Modes 1 to 6-2.
-LEGACY_PLAN = ("1", "2", "3", "4", "5", "6-1", "6-2")
+LEGACY_PLAN = vocabulary.PATENT_MODES
 #: The comparison mission: the dither calibration in place of Modes 4 and 5.
 DITHER_PLAN = ("1", "2", "3", "dither", "6-1", "6-2")
 #: Plans by the name ``--plan`` takes.
@@ -580,6 +556,9 @@ def check(table=MODE_TABLE) -> None:
     for plan in PLANS.values():
         if not set(plan) <= names:
             raise ValueError(f"plan {plan} names modes not in the table")
+    if table is MODE_TABLE and tuple(m.name for m in table) != tuple(
+            w.name for w in vocabulary.MODES):
+        raise ValueError("mode table: its modes must be the vocabulary's, in its order")
 
 
 def _check_steps(mode, steps, fail) -> None:

@@ -33,33 +33,27 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky import units
-from allsky.config.faults import AXES, MAX_FAULTS, describe
-from allsky.hardware.star_tracker import StarTrackerParams
+from allsky.config.faults import MAX_FAULTS, describe
+from allsky.hardware.star_tracker import FALSE_TARGET, StarTrackerParams
 from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
+from allsky.vocabulary import AXES, FAULT_CODE
 
-# Kind codes (FaultParams.kind); 0 = an empty slot.
-JET_STUCK_OPEN = 1
-JET_FAILED_OFF = 2
-GYRO_STUCK = 3
-GYRO_DEAD = 4
-GYRO_BIAS_STEP = 5
-GYRO_SCALE_FACTOR_STEP = 6
-SUN_SENSOR_BLIND = 7
-TRACKER_DROPOUT = 8
-TRACKER_STRAY_LIGHT = 9
-WRONG_STAR = 10
-COUNTER_UPSET = 11
-PROPELLANT_LEAK = 12
-#: Scenario kind -> code.
-KIND_CODE = {
-    "jet_stuck_open": JET_STUCK_OPEN, "jet_failed_off": JET_FAILED_OFF,
-    "gyro_stuck": GYRO_STUCK, "gyro_dead": GYRO_DEAD, "gyro_bias_step": GYRO_BIAS_STEP,
-    "gyro_scale_factor_step": GYRO_SCALE_FACTOR_STEP, "sun_sensor_blind": SUN_SENSOR_BLIND,
-    "tracker_dropout": TRACKER_DROPOUT, "tracker_stray_light": TRACKER_STRAY_LIGHT,
-    "wrong_star": WRONG_STAR, "counter_upset": COUNTER_UPSET,
-    "propellant_leak": PROPELLANT_LEAK,
-}
+#: Scenario kind -> code (FaultParams.kind; 0 = an empty slot): the vocabulary's.
+KIND_CODE = FAULT_CODE
+# The codes the frame loop tests, by name.
+JET_STUCK_OPEN = KIND_CODE["jet_stuck_open"]
+JET_FAILED_OFF = KIND_CODE["jet_failed_off"]
+GYRO_STUCK = KIND_CODE["gyro_stuck"]
+GYRO_DEAD = KIND_CODE["gyro_dead"]
+GYRO_BIAS_STEP = KIND_CODE["gyro_bias_step"]
+GYRO_SCALE_FACTOR_STEP = KIND_CODE["gyro_scale_factor_step"]
+SUN_SENSOR_BLIND = KIND_CODE["sun_sensor_blind"]
+TRACKER_DROPOUT = KIND_CODE["tracker_dropout"]
+TRACKER_STRAY_LIGHT = KIND_CODE["tracker_stray_light"]
+WRONG_STAR = KIND_CODE["wrong_star"]
+COUNTER_UPSET = KIND_CODE["counter_upset"]
+PROPELLANT_LEAK = KIND_CODE["propellant_leak"]
 #: Counter or register numeral -> word index: drift counters 13/15/17 (0-2),
 #: up/down counters 14/16/18 (3-5), storage registers 25-27 (6-8).
 WORD_INDEX = {"13": 0, "15": 1, "17": 2, "14": 3, "16": 4, "18": 5, "25": 6, "26": 7, "27": 8}
@@ -246,7 +240,7 @@ def fault_sense(fp, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, star):
             trk[0] = fp.size[i]
             trk[1] = 0.0
             trk[2] = 1.0
-            star = -1
+            star = FALSE_TARGET
     return star
 
 
@@ -262,7 +256,11 @@ def _flip(value, bit, width_bits):
 
 @njit_stage
 def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
-    """Counter upsets: flip the fault's bit of counter 13-18 or register 25-27, once."""
+    """Counter upsets: flip the fault's bit of counter 13-18 or register 25-27, once.
+
+    Returns True in the frame a drift counter 13/15/17 is upset.
+    """
+    drift = False
     for i in range(fp.n):
         if fp.kind[i] != COUNTER_UPSET or fault_state[LATCHED, i] != 0.0 \
                 or not 0.0 <= fault_state[ONSET, i] <= t_s:
@@ -271,10 +269,12 @@ def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
         w = fp.word[i]
         if w < 3:
             drift_counters[w] = _flip(drift_counters[w], fp.bit[i], fp.width_bits[i])
+            drift = True
         elif w < 6:
             counters[w - 3] = _flip(counters[w - 3], fp.bit[i], fp.width_bits[i])
         else:
             registers[w - 6] = _flip(registers[w - 6], fp.bit[i], fp.width_bits[i])
+    return drift
 
 
 @njit_stage

@@ -78,7 +78,8 @@ from allsky.sequencer.legs import (
     PROGRAM_TARGET_ROLL,
 )
 from allsky.sequencer.watch import EXIT_NONE, sensors_in_use, watch
-from allsky.sim.faults import fault_actuate, fault_sense, fault_tracker, fault_upset
+from allsky.sim.faults import ONSET, fault_actuate, fault_sense, fault_tracker, fault_upset
+from allsky.sim.journal import SEEN_WHEEL, note_clip, note_faults, note_frame, note_wheels
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_telemetry  # noqa: F401
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
@@ -119,6 +120,11 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     Returns ``(exit_code, leg_time_s)``.
     """
     return leg_entry(p)(p, s, leg, tlm, tlm_rows, rec, rec_rows)
+
+
+def entries() -> dict:
+    """The frame loop's compiled entries by name: "plain", "any" (:func:`leg_entry`)."""
+    return {"plain": _run_leg_plain, "any": _run_leg_any}
 
 
 def leg_entry(p):
@@ -194,6 +200,14 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     # ``wheels_p`` and ``faults`` are None on the patent's vehicle without faults: the
     # branches that test them are dropped when that loop compiles (leg_entry).
     fault_state = s.fault_state
+    dac_hi = (1 << (el.drift_dac_bits - 1)) - 1
+    dac_lo = -(1 << (el.drift_dac_bits - 1))
+    fault_seen = SEEN_WHEEL + s.wheel_h.shape[0]  # the journal's first fault slot
+    # A drift DAC's clip can change within a leg only while it is fed and counted at once.
+    clip_every_frame = False
+    for a in range(3):
+        if gates[GATE_DRIFT, a] != 0.0 and gates[GATE_DRIFT_COUNT, a] != 0.0:
+            clip_every_frame = True
     for frame_in_leg in range(done, n_max):
         sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
         t_frame = s.time_s[0]
@@ -212,8 +226,11 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                       s.vfc_residue_pulses, s.overflow, comp, line)
         compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
                 s.word24, sw, s.cpu, s.registers)
-        if faults is not None:
-            fault_upset(faults, fault_state, t_frame, s.drift_counters, s.counters, s.registers)
+        if faults is not None:  # noqa: SIM102 - alone, so numba drops it on the plain loop
+            if fault_upset(faults, fault_state, t_frame, s.drift_counters, s.counters,
+                           s.registers):
+                note_clip(s.journal, s.journal_n, s.journal_seen, t_frame, s.drift_counters,
+                          gates[GATE_DRIFT], dac_hi, dac_lo)
         if program == PROGRAM_MODE1:
             acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
         else:
@@ -232,6 +249,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         if faults is not None:
             tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
                                     s.propellant_kg, torque, tank_ok)
+        count_jet_time(s.pwpf_out, dt, s.jet_on_s)
         if wheels_p is None:
             advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame,
                     s.excursion_ref_q, s.max_excursion_rad)
@@ -240,7 +258,22 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                            wheel_u, s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad,
                            s.time_s, s.frame, s.excursion_ref_q, s.max_excursion_rad)
         t_leg += dt
-        record_telemetry(tlm, tlm_rows, p.telemetry_every, s, leg.mode_code, fine, trk, volts)
+        if wheels_p is not None and p.telemetry_every > 0 \
+                and s.frame[0] % p.telemetry_every == 0:
+            body_vector(wheels_p.axes, s.wheel_h, wheel_hb)  # at the row's time
+        record_telemetry(tlm, tlm_rows, p.telemetry_every, s, leg.mode_code, fine, trk, volts,
+                         wheel_hb, wheel_hdot, s.wheel_unload[0])
+        note_frame(s.journal, s.journal_n, s.journal_seen, t_frame, star, star_in_use, trk[1],
+                   s.overflow)
+        if clip_every_frame or frame_in_leg == done:
+            note_clip(s.journal, s.journal_n, s.journal_seen, t_frame, s.drift_counters,
+                      gates[GATE_DRIFT], dac_hi, dac_lo)
+        if wheels_p is not None:
+            note_wheels(s.journal, s.journal_n, s.journal_seen, t_frame, s.wheel_unload[0],
+                        s.wheel_h, wheels_p.max_momentum_n_m_s)
+        if faults is not None:
+            note_faults(s.journal, s.journal_n, s.journal_seen, fault_seen, t_frame, faults.n,
+                        fault_state, ONSET, faults.duration_s)
         if dithering:
             record_dither(rec, rec_rows, p.dither_sample_frames, t_leg, s.frame[0], s.counters,
                           p.vfc.pulse_weight_arcsec, fine, trk)
@@ -491,6 +524,13 @@ def actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
     body_vector(wheels_p.axes, wheel_h, wheel_hb)
     body_vector(wheels_p.axes, wheel_u, wheel_hdot)
     return tank_ok
+
+
+@njit_stage
+def count_jet_time(valve, dt_s, jet_on_s):
+    """Add the frame to the on-time of each axis whose modulator holds a valve open."""
+    for a in range(3):  # valve is -1, 0 or +1: its square is 1 while open (no branch)
+        jet_on_s[a] += dt_s * (valve[a] * valve[a])
 
 
 @njit_stage

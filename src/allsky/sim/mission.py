@@ -12,7 +12,7 @@ behind ``allsky run``.
 """
 
 import math
-from datetime import timedelta
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -34,13 +34,15 @@ from allsky.hardware import (
     vfc,
     wiring,
 )
+from allsky.hardware.dac import dac
 from allsky.sequencer import dither, legs, modes
 from allsky.sequencer import master_sequencer as ms
 from allsky.sim import faults as sim_faults
-from allsky.sim import frame_loop
+from allsky.sim import frame_loop, journal, results
 from allsky.sim import state as sim_state
 from allsky.sim.telemetry import COLUMNS
 from allsky.vehicle import plant, quaternion, sky, wheels
+from allsky.vocabulary import AXES
 
 EXIT_TEXT = {
     legs.EXIT_PROPELLANT: "propellant exhausted",
@@ -62,6 +64,37 @@ SETTLE_ALLOWANCE_S = 30.0
 SLICE_FRAMES = 100_000
 
 
+def _python(f):
+    """The Python body of a compiled block (itself when compiling is off)."""
+    return getattr(f, "py_func", f)
+
+
+class Hooks(NamedTuple):
+    """What a front end or a study asks to hear while a mission flies (all optional).
+
+    Passed to :meth:`Mission.run_mode` and :meth:`Mission.run`, never set on
+    the mission: the flight is the same with or without them.
+    """
+
+    #: [s] of mission time between calls of ``on_pause`` inside legs (None: no pauses)
+    pause_every_s: float | None = None
+    #: ``on_pause(m, leg_text)`` every ``pause_every_s`` (:mod:`allsky.apps.step`)
+    on_pause: Callable | None = None
+    #: ``on_slice(m, leg_text)`` after each slice of :data:`SLICE_FRAMES` frames or fewer
+    #: (the progress line)
+    on_slice: Callable | None = None
+    #: ``before_leg(m, mode, leg_text) -> bool | None``: before each leg; its answer, when
+    #: not None, says whether the leg records telemetry (a study recording some modes only)
+    before_leg: Callable | None = None
+    #: ``after_leg(m, mode, leg_text, rows)``: after each leg (also one that failed), with
+    #: the telemetry rows it recorded
+    after_leg: Callable | None = None
+
+
+#: No hooks: the flight straight through.
+NO_HOOKS = Hooks()
+
+
 class ModeRecord(NamedTuple):
     """One line of the mode timeline."""
 
@@ -71,17 +104,10 @@ class ModeRecord(NamedTuple):
     exit: str
 
 
-def _sun_motion(date_utc):
-    """Sun direction at the mission start and its rate [1/s] (finite difference over 1 h)."""
-    s0 = sky.sun_direction_inertial(date_utc)
-    s1 = sky.sun_direction_inertial(date_utc + timedelta(hours=1))
-    return s0, (s1 - s0) / units.HOUR_S
-
-
 def build_params(cfg) -> sim_state.Params:
     """Frame-loop parameters from a validated scenario."""
     dt = float(cfg.mission.frame_s)
-    s0, sdot = _sun_motion(cfg.mission.date_utc)
+    s0, sdot = sky.sun_motion(cfg.mission.date_utc)
     lo, hi = cfg.star_tracker.magnitude_window
     stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
     stars_inertial = np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars],
@@ -235,14 +261,18 @@ def new_target_record(cfg, index, start_s) -> dict:
     """The record of target ``index`` as its flight begins at ``start_s`` [s].
 
     Keys: name, the target (star, or ra_deg and dec_deg), start_s and end_s
-    [s], programmed_roll_deg and programmed_yaw_deg, pointing_error_arcsec
-    (true, at the end of its Mode 6-2), hold (the hold's measurements) and
-    hold_end_pointing_error_arcsec, locked_star; None until known.
+    [s], programmed_roll_deg and programmed_yaw_deg; at the end of its Mode
+    6-2, where the sequencer declares it on target, the truth beside the
+    computer's judgement: pointing_error_arcsec (true), body_rate_deg_s
+    (true) and computed_error_arcsec (CPU 22's); hold (the hold's
+    measurements) and hold_end_pointing_error_arcsec, locked_star; None until
+    known.
     """
     spec = target_specs(cfg)[index]
     return {"name": target_name(spec), **spec, "start_s": float(start_s), "end_s": None,
             "programmed_roll_deg": None, "programmed_yaw_deg": None,
-            "pointing_error_arcsec": None, "hold_end_pointing_error_arcsec": None,
+            "pointing_error_arcsec": None, "body_rate_deg_s": None,
+            "computed_error_arcsec": None, "hold_end_pointing_error_arcsec": None,
             "hold": None, "locked_star": None}
 
 
@@ -288,6 +318,8 @@ class Mission:
         self.dither_estimates = None
         self.dither_record = None
         self.params = build_params(cfg)
+        #: [frames] per telemetry row when a leg records (the scenario's)
+        self._telemetry_every = self.params.telemetry_every
         if not telemetry:
             self.params = self.params._replace(telemetry_every=0)
         self.state = ejection_state(cfg) if state is None else state
@@ -313,17 +345,62 @@ class Mission:
         self._allowed_s = None
         self.mode_start_s = None  #: [s] when the mode being flown started
         self._mode = None
-        #: Stepping hooks (:mod:`allsky.apps.step`): call ``on_pause(self, leg_text)`` every
-        #: ``pause_every_s`` of mission time inside legs [s]; None = fly straight through.
-        self.pause_every_s = None
-        self.on_pause = None
-        #: ``on_slice(self, leg_text)`` after each slice of :data:`SLICE_FRAMES` frames or less.
-        self.on_slice = None
+        self._hooks = NO_HOOKS
+        #: What happened, in order (:class:`allsky.sim.journal.Journal`).
+        self.journal = journal.Journal(h.get("events"))
+        self._decoder = journal.Decoder(
+            tracker_star_names(cfg), cfg.as_dict().get("faults", []), fault_config.describe,
+            self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S)
+        self.state.target_inertial[:] = self.target_direction()
 
-    # -- used by the master sequencer's steps ----------------------------------
-    def switch(self, close=(), open_=()):
-        """Operate the switch bank (coupled pairs move together)."""
-        switch_bank.operate(self.state.switches, close=close, open_=open_)
+    # -- the seam: what master sequencer 20's steps use (sequencer.host.Host) -----
+    def now_s(self) -> float:
+        """Mission time [s]."""
+        return float(self.state.time_s[0])
+
+    def note(self, kind, **fields) -> dict:
+        """Write an entry of ``kind`` into the journal, at the mission time, in this mode."""
+        return self.journal.note(self.now_s(), self._mode, kind, **fields)
+
+    def switch(self, close=(), open_=(), step="", waits_for=""):
+        """Operate the switch bank (coupled pairs move together) and journal what moved.
+
+        ``step`` says what the sequencer had waited for (or the recovery that
+        did it), ``waits_for`` what it waits for next. Opening S4-S6 ends a drift count: the drift counters' content
+        is journaled; closing S1-S3 puts it on the drift DACs: each DAC's
+        output, and the count it could not apply if beyond its full scale.
+        """
+        bank = self.state.switches
+        before = bank.copy()
+        switch_bank.operate(bank, close=close, open_=open_)
+        moved_close = [k for k in range(1, len(bank)) if bank[k] and not before[k]
+                       and k not in switch_bank.SELECTORS]
+        moved_open = [k for k in range(1, len(bank)) if before[k] and not bank[k]
+                      and k not in switch_bank.SELECTORS]
+        if not (moved_close or moved_open):
+            return
+        self.note("switch", close=moved_close, open=moved_open, step=step,
+                  waits_for=waits_for)
+        el = self.params.electronics
+        lsb_deg_h = el.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S
+        for a, axis in enumerate(AXES):
+            counted = int(self.state.drift_counters[a])
+            if wiring.ROUTING.drift_count_switch[a] in moved_open:
+                self.note("register", register=journal.DRIFT_COUNTER[a], word=axis,
+                          pulses=counted, value=counted * lsb_deg_h, unit="deg/h")
+            if wiring.ROUTING.drift_switch[a] in moved_close:
+                # The DAC's code: the count, clipped to its word (dac.py, as Python).
+                applied = int(_python(dac)(counted, el.drift_dac_bits, 1))
+                self.note("register", register=journal.DRIFT_DAC[a], word=axis,
+                          pulses=applied, counted_pulses=counted, value=applied * lsb_deg_h,
+                          unit="deg/h")
+
+    def write_register(self, register, word, value, unit, pulses=None):
+        """Journal a write of word ``word`` of register (or counter) ``register``."""
+        fields = {"register": register, "word": word, "value": float(value), "unit": unit}
+        if pulses is not None:
+            fields["pulses"] = int(pulses)
+        self.note("register", **fields)
 
     def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
             on_timeout=None, record_rows=0, carry_settle=False):
@@ -341,15 +418,24 @@ class Mission:
         leg = legs.Leg(seed, MODE_CODE[self._mode], program, watch, mask, signal,
                          float(blank_s), float(hold_s), float(max(remaining, 0.0)),
                          carry_settle=int(carry_settle))
-        every = self.params.telemetry_every
-        rows = math.ceil(leg.timeout_s / self.params.frame_s / every) + 1 if every else 0
+        params = self.params
+        hooks = self._hooks
+        if hooks.before_leg is not None:
+            record = hooks.before_leg(self, self._mode, what)
+            if record is not None:
+                params = params._replace(telemetry_every=(self._telemetry_every if record
+                                                          else 0))
+        every = params.telemetry_every
+        rows = math.ceil(leg.timeout_s / params.frame_s / every) + 1 if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
         rec = np.empty((record_rows, frame_loop.N_REC))
         rec_filled = np.zeros(1, dtype=np.int64)
-        code = self._run_leg(leg, what, buf, filled, rec, rec_filled)
+        code = self._run_leg(params, leg, what, buf, filled, rec, rec_filled)
         if every:
             self._tlm.append(buf[: filled[0]])
+        if hooks.after_leg is not None:
+            hooks.after_leg(self, self._mode, what, buf[: filled[0]])
         if code == legs.EXIT_DONE:
             return rec[: rec_filled[0]]
         if code == legs.EXIT_TIMEOUT:
@@ -357,6 +443,22 @@ class Mission:
                                f" within the mode timeout of {self._allowed_s:g} s", "timeout")
         raise ms.ModeAbort(f"Mode {self._mode}: {EXIT_TEXT[code]} while waiting for: {what}",
                            EXIT_TEXT[code])
+
+    def extra_leg(self, mode, allowed_s, what, program, watch, **kwargs):
+        """A leg outside the plan, flown as part of ``mode`` within ``allowed_s`` [s].
+
+        For a study that flies one more leg after the plan (the dither held
+        on target, :func:`allsky.sequencer.dither_mode.target_hold_dither`);
+        the mode and its deadline are the mission's again afterwards.
+        """
+        saved = self._mode, self._mode_deadline, self._allowed_s
+        self._mode = mode
+        self._mode_deadline = float(self.state.time_s[0]) + float(allowed_s)
+        self._allowed_s = float(allowed_s)
+        try:
+            return self.leg(what, program, watch, **kwargs)
+        finally:
+            self._mode, self._mode_deadline, self._allowed_s = saved
 
     def extend_mode(self, seconds):
         """Move the mode's deadline on by ``seconds`` [s] (from now, if it has passed).
@@ -367,7 +469,7 @@ class Mission:
         self._mode_deadline = max(self._mode_deadline, now) + float(seconds)
         self._allowed_s = self._mode_deadline - self.mode_start_s
 
-    def _run_leg(self, leg, what, buf, filled, rec, rec_filled):
+    def _run_leg(self, params, leg, what, buf, filled, rec, rec_filled):
         """The frame loop over one leg, in slices, pausing for ``on_pause`` if stepping asks.
 
         The compiled loop returns to Python at least every :data:`SLICE_FRAMES`
@@ -377,8 +479,9 @@ class Mission:
         interrupted (KeyboardInterrupt), the telemetry of the part of the leg
         flown is kept (:meth:`telemetry`) before the interruption goes on.
         """
-        every = self.pause_every_s
-        dt = float(self.params.frame_s)
+        hooks = self._hooks
+        every = hooks.pause_every_s if hooks.on_pause is not None else None
+        dt = float(params.frame_s)
         try:
             while True:
                 t = float(self.state.time_s[0])
@@ -388,19 +491,26 @@ class Mission:
                     step_at = (math.floor(t / every + 1e-9) + 1) * every
                 slice_at = t + SLICE_FRAMES * dt
                 leg = leg._replace(pause_at_s=min(step_at, slice_at))
-                code, _ = frame_loop.run_leg(self.params, self.state, leg, buf, filled, rec,
+                code, _ = frame_loop.run_leg(params, self.state, leg, buf, filled, rec,
                                              rec_filled)
+                self._drain_journal()
                 if code != legs.EXIT_PAUSE:
                     return code
                 leg = leg._replace(resume=1)
-                if self.on_slice is not None:
-                    self.on_slice(self, what)
+                if hooks.on_slice is not None:
+                    hooks.on_slice(self, what)
                 if every and float(self.state.time_s[0]) >= step_at - 0.5 * dt:
-                    self.on_pause(self, what)
+                    hooks.on_pause(self, what)
         except KeyboardInterrupt:
-            if self.params.telemetry_every and filled[0]:
+            if params.telemetry_every and filled[0]:
                 self._tlm.append(buf[: filled[0]].copy())
             raise
+
+    def _drain_journal(self):
+        """Move what the frame loop journaled into the journal."""
+        s = self.state
+        if s.journal_n[0] or s.journal_n[1]:
+            self.journal.drain(s.journal, s.journal_n, self._mode, self._decoder)
 
     # -- running ---------------------------------------------------------------
     @property
@@ -413,8 +523,12 @@ class Mission:
         """The mode being flown (or last flown), by name; None before the first."""
         return self._mode
 
-    def run_mode(self) -> ModeRecord:
-        """Run the next mode; returns its timeline record."""
+    def run_mode(self, hooks=None) -> ModeRecord:
+        """Run the next mode; returns its timeline record.
+
+        ``hooks`` (:class:`Hooks`) are called while the mode flies; they do
+        not change the flight.
+        """
         if self.finished:
             raise RuntimeError(f"mission already {self.status}")
         name = self.plan[self.next_mode]
@@ -424,6 +538,10 @@ class Mission:
         #: [s] the time the mode is allowed (a recovery extends it), for abort reasons
         self._allowed_s = self.mode_timeout_s(name)
         self.mode_start_s = start
+        self._hooks = hooks or NO_HOOKS
+        self.note("mode_start", title=modes.MODE_TITLE[name],
+                  target=self.target_log[-1]["name"],
+                  waits_for=ms.next_wait(modes.BY_NAME[name].steps))
         sim_faults.on_mode_start(self.state.fault_state, self.cfg.faults, name, start)
         try:
             exit_text = ms.run_mode(self, name)
@@ -433,10 +551,16 @@ class Mission:
             exit_text = f"aborted: {reason}"
             self.status = "aborted"
             self.abort_reason = reason
+        finally:
+            self._hooks = NO_HOOKS
+        self.note("mode_end", exit=exit_text,
+                  status="aborted" if self.status == "aborted" else "done")
+        if self.status == "aborted":
+            self.note("abort", reason=self.abort_reason)
         rec = ModeRecord(name, start, float(self.state.time_s[0]), exit_text)
         self.timeline.append(rec)
         if self.status == "running" and name == modes.TARGET_MODES[-1]:
-            self.target_log[-1]["pointing_error_arcsec"] = self.pointing_error_arcsec()
+            self.target_log[-1].update(self.on_target())
         self.next_mode += 1
         if self.status == "running" and self.next_mode == len(self.plan):
             self.status = "complete"
@@ -446,11 +570,22 @@ class Mission:
         """Time allowed to a mode [s] (:func:`allsky.sequencer.modes.timeout_s`)."""
         return modes.timeout_s(self.cfg, name)
 
-    def run(self):
+    def run(self, hooks=None):
         """Run the remaining modes; returns the summary dictionary."""
         while not self.finished:
-            self.run_mode()
+            self.run_mode(hooks)
         return self.summary()
+
+    def on_target(self) -> dict:
+        """The truth where Mode 6-2 declares the vehicle on target, and CPU 22's errors.
+
+        Keys: ``pointing_error_arcsec`` (true), ``body_rate_deg_s`` (true,
+        per axis), ``computed_error_arcsec`` (CPU 22's roll, pitch and yaw
+        errors, what the sequencer judged by).
+        """
+        return {"pointing_error_arcsec": self.pointing_error_arcsec(),
+                "body_rate_deg_s": journal.rate_deg_s(self.state.x[4:7]),
+                "computed_error_arcsec": dict(zip(AXES, map(float, self.state.cpu[3:6])))}
 
     def program_target(self):
         """Ground computation of the programmed angles that register 24 will hold.
@@ -491,6 +626,7 @@ class Mission:
         self.target_log.append(new_target_record(self.cfg, len(self.target_log), now))
         self.programmed_roll_deg = self.programmed_yaw_deg = None
         self.hold = None
+        self.state.target_inertial[:] = self.target_direction()
 
     def targets(self) -> list:
         """The record of every target begun (:func:`new_target_record`), in flight order.
@@ -528,12 +664,44 @@ class Mission:
         return tracker_star_names(self.cfg)[k] if k >= 0 else None
 
     def calibration(self) -> dict:
-        """What the mission stored: drift DAC values and register 23."""
+        """What the mission stored: the drift counted and applied, and register 23.
+
+        ``drift_deg_h`` is what drift counters 13/15/17 counted,
+        ``drift_applied_deg_h`` what drift DACs 7/9/11 apply from it: the
+        same unless the count is beyond a DAC's full scale
+        (:meth:`drift_dac_clipped`).
+        """
         el = self.params.electronics
-        drift = [float(d * el.drift_lsb_arcsec_s) for d in self.state.drift_counters]
-        out = {"drift_deg_h": dict(zip(("roll", "pitch", "yaw"), drift))}
+        lsb = el.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S
+        counted = [float(d * el.drift_lsb_arcsec_s) for d in self.state.drift_counters]
+        applied = [float(_python(dac)(int(d), el.drift_dac_bits, lsb))
+                   for d in self.state.drift_counters]
+        out = {"drift_deg_h": dict(zip(AXES, counted)),
+               "drift_applied_deg_h": dict(zip(AXES, applied))}
         out.update(wr.computed_as_dict(self.state.word23))
         return out
+
+    def drift_dac_clipped(self) -> dict:
+        """Per axis: is the drift count beyond its drift DAC's full scale (7, 9, 11)?"""
+        bits = self.params.electronics.drift_dac_bits
+        return {axis: int(_python(dac)(int(d), bits, 1)) != int(d)
+                for axis, d in zip(AXES, self.state.drift_counters)}
+
+    def end(self) -> dict:
+        """The truth at the end of the flight (so far): time, target, error, rates, gas.
+
+        Keys: ``t_s`` [s], ``target`` (the last target begun), ``mode`` (the
+        last mode flown), ``true_pointing_error_arcsec``, ``body_rate_deg_s``
+        (roll, pitch, yaw), ``propellant_kg`` (used since ejection) and
+        ``propellant_remaining_kg``.
+        """
+        return {"t_s": self.now_s(), "target": self.target_log[-1]["name"],
+                "mode": self._mode,
+                "true_pointing_error_arcsec": float(self.pointing_error_arcsec()),
+                "body_rate_deg_s": journal.rate_deg_s(self.state.x[4:7]),
+                "propellant_kg": float(self.cfg.jets.propellant_kg
+                                       - self.state.propellant_kg[0]),
+                "propellant_remaining_kg": float(self.state.propellant_kg[0])}
 
     def summary(self) -> dict:
         """The ``--json`` summary (a stable contract).
@@ -541,8 +709,13 @@ class Mission:
         ``target`` is the first target: its programmed angles and its true
         pointing error at the end of its flight (after its hold, if any).
         ``targets`` lists every target begun (:meth:`targets`; one entry for
-        a single target), each with its pointing error at the end of its
-        Mode 6-2.
+        a single target), each with the truth where its Mode 6-2 declared it
+        on target. Beside the machine's judgement (``status``, the mode
+        timeline) stands what happened: ``end`` (:meth:`end`, the truth at
+        the end of the flight, the last target flown), ``drift_dac_clipped``
+        and ``counter_overflow``, ``warnings`` (one sentence for each thing a
+        reader must not miss, :func:`allsky.sim.results.warnings`) and
+        ``events``, the journal (:mod:`allsky.sim.journal`).
         """
         done = [r.mode for r in self.timeline]
         records = self.targets()
@@ -556,12 +729,13 @@ class Mission:
                   "programmed_yaw_deg": first["programmed_yaw_deg"],
                   "pointing_error_arcsec": pointing}
         target.update(target_specs(self.cfg)[0])
+        calibration = self.calibration() if ("5" in done or "dither" in done) else None
         out = {
             "status": self.status,
             "abort_reason": self.abort_reason,
             "modes": [{"mode": r.mode, "start_s": r.start_s, "end_s": r.end_s, "exit": r.exit}
                       for r in self.timeline],
-            "calibration": self.calibration() if ("5" in done or "dither" in done) else None,
+            "calibration": calibration,
             "truth": gyro.perfect_calibration(self.params.gyro,
                                               self.params.vfc.integrator_drift_arcsec_s),
             "calibration_applied": self.apply_calibration,
@@ -575,6 +749,8 @@ class Mission:
                 name: bool(f) for name, f in zip(
                     ("counter14", "counter16", "counter18", "drift13", "drift15", "drift17"),
                     self.state.overflow)},
+            "drift_dac_clipped": self.drift_dac_clipped(),
+            "end": self.end(),
         }
         if first["hold"] is not None:
             out["hold"] = first["hold"]
@@ -585,6 +761,9 @@ class Mission:
         out["targets"] = records
         if self.cfg.actuators.kind == "wheels":
             out["wheels"] = self.wheel_summary()
+        out["warnings"] = results.warnings(out, self.journal, fault_config.describe,
+                                           self.params.sequencer.settle_threshold_arcsec)
+        out["events"] = [dict(e) for e in self.journal.events]
         return out
 
     def wheel_summary(self) -> dict:
@@ -621,7 +800,8 @@ class Mission:
                    "abort_reason": self.abort_reason,
                    "programmed_roll_deg": self.programmed_roll_deg,
                    "programmed_yaw_deg": self.programmed_yaw_deg,
-                   "scenario": self.cfg.as_dict()}
+                   "scenario": self.cfg.as_dict(),
+                   "events": [dict(e) for e in self.journal.events]}
         if self.hold is not None:
             history["hold"] = self.hold
         if len(self.target_log) > 1 or self.cfg.target.sequence is not None:

@@ -1,16 +1,16 @@
-"""What a mission stored against what the scenario set: the calibration errors.
+"""What a mission stored against the truth, and what a reader must not miss.
 
 One place for the "stored minus truth" arithmetic that the report, the
-comparison, the Monte Carlo rows and the figures all show.
+comparison, the Monte Carlo rows and the figures all show
+(:func:`calibration_errors`), for the warnings the summary carries beside
+the machine's own judgement (:func:`warnings`), and for flying a mission
+while measuring its calibration modes (:func:`fly_calibrating`).
 """
 
-from allsky.units import FRACTION2PPM, RAD2ARCSEC
+import math
 
-AXES = ("roll", "pitch", "yaw")
-#: Axes whose scale factor the patent's computer calibrates (register 23).
-SCALE_FACTOR_AXES = ("roll", "yaw")
-#: Cross-coupling factors of register 23.
-CROSS_COUPLING_KEYS = ("roll_into_pitch", "roll_into_yaw", "yaw_into_pitch", "yaw_into_roll")
+from allsky.units import FRACTION2PPM, RAD2ARCSEC
+from allsky.vocabulary import AXES, CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES
 
 
 def calibration_errors(calibration: dict, truth: dict) -> dict:
@@ -25,12 +25,14 @@ def calibration_errors(calibration: dict, truth: dict) -> dict:
     Returns
     -------
     dict
-        ``drift_deg_h`` per axis [deg/h], ``scale_factor_ppm`` for roll and
+        ``drift_deg_h`` per axis [deg/h] (of what drift DACs 7/9/11 apply),
+        ``scale_factor_ppm`` for roll and
         yaw [ppm], ``cross_coupling_arcsec`` per factor [arcsec].
     """
+    # The error of what the drift DACs apply (the count, unless beyond a DAC's full scale).
+    drift = calibration.get("drift_applied_deg_h", calibration["drift_deg_h"])
     return {
-        "drift_deg_h": {a: calibration["drift_deg_h"][a] - truth["drift_deg_h"][a]
-                        for a in AXES},
+        "drift_deg_h": {a: drift[a] - truth["drift_deg_h"][a] for a in AXES},
         "scale_factor_ppm": {
             a: FRACTION2PPM * (calibration["scale_factor"][a] - truth["scale_factor"][a])
             for a in SCALE_FACTOR_AXES},
@@ -72,3 +74,101 @@ def fly_calibrating(m, cal_modes, on_start=None, on_end=None):
             if on_end is not None and on_end(m) is False:
                 break
     return t_cal, prop, durations
+
+
+#: [deg/s] A vehicle that Mode 6-2 declares on target while turning faster than this about
+#: any axis is not on target: it will not stay there.
+ON_TARGET_RATE_DEG_S = 0.01
+#: A true pointing error more than this many times the computer's own is worth a warning.
+TRUTH_FACTOR = 10.0
+#: Fault kinds that blind the computer to a turn (its counters follow the gyros).
+GYRO_FAULTS = ("gyro_stuck", "gyro_dead", "gyro_bias_step", "gyro_scale_factor_step",
+               "counter_upset")
+
+
+def _acting_faults(summary, t_s) -> list:
+    """The scenario's faults acting at mission time ``t_s`` [s], as in the summary."""
+    out = []
+    for f in summary.get("faults") or []:
+        onset = f.get("onset_s")
+        if onset is not None and onset <= t_s < onset + f.get("duration_s", float("inf")):
+            out.append(f)
+    return out
+
+
+def _likely_cause(summary, t_s, describe) -> str:
+    hit = [f for f in _acting_faults(summary, t_s) if f["kind"] in GYRO_FAULTS]
+    if hit:
+        return "; ".join(f"{describe(f)} since {f['onset_s']:.1f} s" for f in hit)
+    return ("a gyro or counter that does not see the turn (the computer's errors come from "
+            "the counters)")
+
+
+def warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
+    """What a reader of the summary must not miss, one sentence each.
+
+    From the journal and the summary: a drift DAC that applies its full scale
+    instead of the count; a counter that overflowed; a wheel held at its
+    momentum limit; a vehicle that Mode 6-2 declares on target while it
+    still turns faster than :data:`ON_TARGET_RATE_DEG_S`, with the likely
+    cause; a true pointing error more than :data:`TRUTH_FACTOR` times the
+    computer's own (taken as at least the sequencer's settle threshold, the
+    bound its judgement "settled" claims); journal entries lost.
+
+    Parameters
+    ----------
+    summary : dict
+        The summary being built (:meth:`allsky.sim.mission.Mission.summary`):
+        its ``modes``, ``targets`` and ``faults``.
+    journal : allsky.sim.journal.Journal
+        The mission's journal.
+    describe : callable
+        A fault in words (:func:`allsky.config.faults.describe`).
+    settle_threshold_arcsec : float
+        [arcsec] ``sequencer.settle_threshold_arcsec``.
+    """
+    out = []
+    dacs = {}
+    for e in journal.of_kind("register"):
+        if "counted_pulses" in e:
+            dacs[e["register"]] = e
+    for numeral, e in dacs.items():
+        if e["pulses"] != e["counted_pulses"]:
+            lsb = e["value"] / e["pulses"] if e["pulses"] else 0.0
+            out.append(f"drift DAC {numeral} ({e['word']}) is clipped since {e['t_s']:.1f} s: "
+                       f"the drift counted is {e['counted_pulses'] * lsb:+.4f} deg/h, the DAC "
+                       f"applies its full scale {e['value']:+.4f} deg/h, so "
+                       f"{(e['counted_pulses'] - e['pulses']) * lsb:+.4f} deg/h of drift is "
+                       "left uncompensated")
+    for e in journal.of_kind("saturation"):
+        if e["what"] == "counter_overflow" and e["active"]:
+            out.append(f"counter {e['block']} ({e['axis']}) overflowed at {e['t_s']:.1f} s "
+                       f"in Mode {e['mode']}: the angle it holds is wrong from then on")
+        elif e["what"] == "wheel_momentum_limit" and e["active"]:
+            out.append(f"reaction wheel {e['wheel'] + 1} reached its momentum limit "
+                       f"({e['limit_n_m_s']:g} N m s) at {e['t_s']:.1f} s in Mode "
+                       f"{e['mode']}: it could not take up more momentum")
+    declared = [r for r in summary["modes"] if r["mode"] == "6-2"
+                and not r["exit"].startswith("aborted")]
+    reached = [t for t in summary["targets"] if t.get("body_rate_deg_s") is not None]
+    for rec, tgt in zip(declared, reached, strict=False):
+        t_s = rec["end_s"]
+        rates = tgt["body_rate_deg_s"]
+        axis = max(rates, key=lambda a: abs(rates[a]))
+        if abs(rates[axis]) > ON_TARGET_RATE_DEG_S:
+            out.append(f"Mode 6-2 declared the vehicle on {tgt['name']} at {t_s:.1f} s while "
+                       f"it turned at {rates[axis]:+.3f} deg/s about {axis}: the computer's "
+                       f"errors settled, the vehicle did not; likely cause: "
+                       f"{_likely_cause(summary, t_s, describe)}")
+        computed = tgt.get("computed_error_arcsec") or {}
+        own = math.hypot(computed.get("pitch", 0.0), computed.get("yaw", 0.0))
+        bound = max(own, settle_threshold_arcsec)
+        true = tgt.get("pointing_error_arcsec")
+        if true is not None and true > TRUTH_FACTOR * bound:
+            out.append(f"on {tgt['name']} at {t_s:.1f} s the true pointing error is "
+                       f"{true:.1f} arcsec, {true / bound:.0f} times what the computer "
+                       f"judged ({own:.1f} arcsec, settle threshold "
+                       f"{settle_threshold_arcsec:g} arcsec)")
+    if journal.lost:
+        out.append(f"the journal lost {journal.lost} entries the frame loop could not hold")
+    return out

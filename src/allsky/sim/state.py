@@ -12,6 +12,7 @@ import numpy as np
 
 from allsky.computer.cpu import N_WORK
 from allsky.computer.word_registers import N_PROGRAMMED, neutral_computed
+from allsky.config.faults import MAX_FAULTS
 from allsky.config.schema import WHEELS_MAX
 from allsky.hardware.control_amp import ControlParams
 from allsky.hardware.gyro import GyroParams
@@ -25,6 +26,7 @@ from allsky.hardware.vfc import VfcParams
 from allsky.hardware.wiring import Routing
 from allsky.sequencer.dither import DitherParams
 from allsky.sequencer.legs import N_CLOCK
+from allsky.sim import journal
 from allsky.sim.faults import FaultParams, new_fault_state
 from allsky.vehicle.plant import RigidBodyParams
 from allsky.vehicle.wheels import WheelParams
@@ -121,6 +123,17 @@ class State(NamedTuple):
     #: (4,) int64 momentum unloader: [unloading 0/1, frames fired per body axis]
     wheel_unload: np.ndarray
     wheel_peak_fraction: np.ndarray  #: (1,) largest |h_i| / limit_i of any wheel so far
+    #: (3,) [-] unit vector to the target being flown (the true error's reference)
+    target_inertial: np.ndarray
+    #: (3,) [s] time each axis's modulator 34-36 has held a valve open since ejection
+    jet_on_s: np.ndarray
+    #: (journal.ROWS, journal.WIDTH) what the frame loop saw happen, not yet drained
+    #: into the mission's journal (allsky.sim.journal)
+    journal: np.ndarray
+    #: (2,) int64 rows of ``journal`` filled, and rows lost to a full buffer
+    journal_n: np.ndarray
+    #: what the frame loop last saw, to note changes (allsky.sim.journal.SEEN_*)
+    journal_seen: np.ndarray
 
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
@@ -142,5 +155,11 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         rng=np.ones(1, dtype=np.uint64), locked_star=np.full(1, -1, dtype=np.int64),
         fault_state=new_fault_state(),
         wheel_h=np.zeros(WHEELS_MAX), wheel_unload=np.zeros(4, dtype=np.int64),
-        wheel_peak_fraction=np.zeros(1),
+        wheel_peak_fraction=np.zeros(1), target_inertial=np.array([1.0, 0.0, 0.0]),
+        jet_on_s=np.zeros(3), **_journal_arrays(),
     )
+
+
+def _journal_arrays() -> dict:
+    buf, n, seen = journal.new_buffer(WHEELS_MAX, MAX_FAULTS)
+    return {"journal": buf, "journal_n": n, "journal_seen": seen}

@@ -23,7 +23,7 @@ def entry_points(params=None) -> tuple:
     from allsky.sim import frame_loop
     from allsky.vehicle import quaternion
 
-    loop = frame_loop._run_leg_plain if params is None else frame_loop.leg_entry(params)
+    loop = frame_loop.entries()["plain"] if params is None else frame_loop.leg_entry(params)
     return loop, quaternion.dcm_body_from_inertial
 
 
@@ -116,7 +116,7 @@ def loop_entries(loops=LOOPS) -> tuple:
     """The compiled entries of ``loops`` (names of :data:`LOOPS`)."""
     from allsky.sim import frame_loop
 
-    entries = {"plain": frame_loop._run_leg_plain, "any": frame_loop._run_leg_any}
+    entries = frame_loop.entries()
     return tuple(entries[loop] for loop in loops)
 
 

@@ -93,8 +93,8 @@ from allsky.hardware.pwpf import pwpf_step
 from allsky.jit import njit_alloc
 from allsky.units import RAD2ARCSEC
 from allsky.vehicle.plant_control import ANGLE_NAMES, INPUT_NAMES, RATE_NAMES, linearize
+from allsky.vocabulary import AXES
 
-AXES = ("roll", "pitch", "yaw")
 #: Axes with a rate-command loop and the switches that make it (SPEC.md / patent Fig. 1).
 RATE_LOOP_AXES = {"roll": "S16/S18", "yaw": "S17/S19"}
 #: Patent numerals of each axis's control amplifier, PWPF modulator and jets.

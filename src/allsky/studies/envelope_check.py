@@ -18,13 +18,14 @@ from types import MappingProxyType
 
 import numpy as np
 
+from allsky.vocabulary import AXES
+
 #: The dither example the wheels are checked against: inertia [kg m^2] (about each body
 #: axis), amplitude [rad] and period [s] (docs/envelopes.md).
 DITHER_EXAMPLE = MappingProxyType({"inertia_kg_m2": 16000.0, "amplitude_rad": 100e-6,
                                    "period_s": 51.2})
 #: Samples per dither period in the profile check; a multiple of 4 puts samples on the peaks.
 DITHER_SAMPLES = 64
-AXIS_NAMES = ("roll", "pitch", "yaw")
 #: ``wheel_array["source"]`` values: a part taken from the scenario's ``[wheels]`` table,
 #: or given by the caller (the command's ``--wheel-*`` options).
 FROM_SCENARIO = "scenario"
@@ -72,7 +73,7 @@ def _dither_margins(envelope, profiles) -> dict:
     per_axis = [check_profile(envelope, p).margin for p in profiles]
     worst = int(np.argmin(per_axis))
     return {"inside": bool(per_axis[worst] >= 1.0), "margin": float(per_axis[worst]),
-            "worst_axis": AXIS_NAMES[worst], "margin_per_axis": [float(m) for m in per_axis]}
+            "worst_axis": AXES[worst], "margin_per_axis": [float(m) for m in per_axis]}
 
 
 def _per_wheel(key, value, n, replaced_axes) -> list:

@@ -53,6 +53,7 @@ from allsky.sim.recorder import INDEX
 from allsky.sim.results import fly_calibrating
 from allsky.vehicle import quaternion
 from allsky.vehicle.quaternion import rotate_to_body
+from allsky.vocabulary import AXES
 
 #: Number of error states.
 N_STATE = 15
@@ -62,7 +63,6 @@ MISALIGNMENT_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
 #: State index of each element ``E[a, j]`` of the inverse sensitivity's deviation.
 E_INDEX = np.array([[SF + a if a == j else MIS + MISALIGNMENT_PAIRS.index((a, j))
                      for j in range(3)] for a in range(3)], dtype=np.int64)
-AXES = ("roll", "pitch", "yaw")
 #: Register 23's cross-coupling factors as elements ``S[i, j]`` of the sensitivity.
 CROSS_COUPLING_ELEMENTS = {"roll_into_pitch": (1, 0), "roll_into_yaw": (2, 0),
                            "yaw_into_pitch": (1, 2), "yaw_into_roll": (0, 2)}

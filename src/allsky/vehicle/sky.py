@@ -47,6 +47,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import ephem
 import ephem.stars
 
+from allsky.units import HOUR_S
+
 if TYPE_CHECKING:  # NumPy is imported where it computes: checking a scenario needs none
     import numpy as np
 
@@ -199,6 +201,25 @@ def sun_direction_inertial(date_utc: datetime) -> np.ndarray:
     sun = ephem.Sun()
     sun.compute(_ephem_date(date_utc), epoch="2000")
     return radec_to_unit(math.degrees(sun.a_ra), math.degrees(sun.a_dec))
+
+
+def sun_motion(date_utc: datetime):
+    """The Sun's direction at ``date_utc`` and its rate [1/s], over the next hour.
+
+    The frame loop moves the Sun linearly from the first at the second
+    (renormalised each frame): the mission's Sun. The rate is the finite
+    difference over one hour, about 1 deg/day.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Shape (3,) each: the unit vector, and its derivative [1/s].
+    """
+    from datetime import timedelta
+
+    s0 = sun_direction_inertial(date_utc)
+    s1 = sun_direction_inertial(date_utc + timedelta(hours=1))
+    return s0, (s1 - s0) / HOUR_S
 
 
 def star_names() -> tuple[str, ...]:

@@ -1,0 +1,204 @@
+"""The journal in words: a line an entry, for the report, the stops, the replay.
+
+The journal (:mod:`allsky.sim.journal`, the summary's ``events``) records
+what happened as numbers and names; :func:`event_text` says each entry in a
+line, :func:`page_log` turns the journal into the replay page's event log
+(what happened, why, what the sequencer waits for next), and
+:func:`register_history` into the words registers 23 and 24 held over time.
+Nothing here reconstructs the flight: every line is an entry of the journal.
+
+:func:`mode_sentence` explains a mode from the mode table; :data:`LOOK_FOR`
+says where on the replay page a mode shows best.
+"""
+
+from allsky.computer import word_registers as wr
+from allsky.hardware.wiring import BY_NUMBER
+from allsky.sequencer import modes
+
+#: Where to look on the page while a mode flies (presentation text, by mode name).
+LOOK_FOR = {
+    "1": "3-D view and sensor traces: the vehicle swings its +x axis (the sun sensor) onto "
+         "the Sun and the sun sensor's pitch and yaw errors fall to zero.",
+    "2": "Sky map: rolling about the Sun line, the tracker's slit sweeps a ring of sky until "
+         "a star of the magnitude window (Canopus) falls into it; S16+S18 open and S12 "
+         "hands the roll to the tracker.",
+    "3": "Drift counters 13/15/17: the optics hold the vehicle still while the gyros' drift "
+         "is counted; then S1-S3 feed it back through drift DACs 7/9/11.",
+    "4": "Counter 14 and the sky map: a full 360 deg roll about the Sun line; the star "
+         "coming back into the slit marks the whole turn.",
+    "5": "Counter 18 and the 3-D view: the star is pitched onto the tracker boresight (S13), "
+         "then the vehicle yaws 360 deg about the star line until the Sun comes back.",
+    "6-1": "Counter 14, CPU 22 and register 24: the vehicle rolls about the Sun line by the "
+           "programmed roll, counted by the gyros and corrected with register 23.",
+    "6-2": "3-D view and sky map: the vehicle yaws by the programmed yaw onto the target; "
+           "the Sun and star leave the sensors and the gyros alone hold the attitude.",
+    "hold": "CPU 22 errors: the gyros alone hold the target; any drift left shows here.",
+    "dither": "Sensor traces: small sinusoidal turns in roll and yaw; the gyro counts are "
+              "compared with the optics to measure the scale factors.",
+}
+
+
+#: What each numeral the journal's register entries name is.
+REGISTER_NAMES = {"23": "register 23", "24": "register 24",
+                  **{n: f"drift DAC {n}" for n in ("7", "9", "11")},
+                  **{n: f"drift counter {n}" for n in ("13", "15", "17")},
+                  **{n: f"counter {n}" for n in ("14", "16", "18")}}
+
+
+def mode_sentence(name, exit_text=None) -> str:
+    """One sentence explaining mode ``name``: what it waits for, and how it ends."""
+    mode = modes.BY_NAME[name]
+    waits = [s.what for s in mode.steps if isinstance(s, modes.Wait)]
+    text = f"The sequencer waits for {', then '.join(waits)}" if waits else "No waits"
+    end = exit_text if exit_text and not exit_text.startswith("aborted") else mode.exit
+    if "{" in end:  # an exit text not filled from a scenario: keep its words only
+        end = end.split("{")[0].rstrip(" (")
+    return f"{text}; it ends with: {end}."
+
+
+def switch_words(close, open_) -> str:
+    """``close S12; open S16, S18``."""
+    parts = []
+    for verb, group in (("close", close), ("open", open_)):
+        if group:
+            parts.append(f"{verb} " + ", ".join(f"S{k}" for k in sorted(group)))
+    return "; ".join(parts)
+
+
+def _value(e) -> str:
+    if e["unit"] == "-":
+        return f"{e['value']:.7g}"
+    pulses = f" ({e['pulses']:+d} pulses)" if "pulses" in e else ""
+    return f"{e['value']:+.4f} {e['unit']}{pulses}"
+
+
+def event_text(e) -> str:
+    """One journal entry in one line of words."""
+    kind = e["kind"]
+    if kind == "mode_start":
+        return f"Mode {e['mode']} begins: {e['title']}"
+    if kind == "mode_end":
+        return f"Mode {e['mode']} ends: {e['exit']}"
+    if kind == "switch":
+        return f"switches: {switch_words(e['close'], e['open'])} ({e['step']})"
+    if kind == "action":
+        return f"action: {e['text']}"
+    if kind == "register":
+        name = REGISTER_NAMES[e["register"]]
+        text = f"{name} {e['word']} = {_value(e)}"
+        if "counted_pulses" in e and e["counted_pulses"] != e["pulses"]:
+            text += f", not the {e['counted_pulses']:+d} pulses counted (full scale)"
+        return text
+    if kind == "star_lock":
+        if e["star"] is None:
+            return f"tracker: {e['previous']} leaves the slit"
+        where = f" at cone angle {e['cone_angle_deg']:+.2f} deg"
+        use = " (in use)" if e.get("in_use") else ""
+        return f"tracker: {e['star']} in the slit{where}{use}"
+    if kind == "saturation":
+        state = "" if e["active"] else " ends"
+        if e["what"] == "drift_dac_clip":
+            return (f"drift DAC {e['block']} ({e['axis']}) at full scale{state}: applies "
+                    f"{e['applied_deg_h']:+.4f} deg/h of the {e['counted_deg_h']:+.4f} counted")
+        if e["what"] == "counter_overflow":
+            return f"counter {e['block']} ({e['axis']}) overflowed"
+        if e["what"] == "wheel_momentum_limit":
+            return (f"wheel {e['wheel'] + 1} at its momentum limit{state} "
+                    f"({e['momentum_n_m_s']:+.3f} of {e['limit_n_m_s']:g} N m s)")
+        return "jets unload the wheels" if e["active"] else "unloading ends"
+    if kind == "fault":
+        return f"fault: {e['text']} {'begins' if e['active'] else 'ends'}"
+    if kind == "abort":
+        return f"ABORTED: {e['reason']}"
+    return kind
+
+
+def worth_a_line(e) -> bool:
+    """Whether a journal entry is worth a line of a log.
+
+    All are but a counter cleared to zero (its action has a line) and a
+    mode's successful end (the next mode's start says it).
+    """
+    if e["kind"] == "register":
+        return not (e.get("pulses") == 0 and e["value"] == 0.0 and "counted_pulses" not in e
+                    and e["register"] not in ("23", "24"))
+    return not (e["kind"] == "mode_end" and e["status"] != "aborted")
+
+
+def page_log(events) -> list:
+    """The replay page's event log, one row per journal entry worth a line.
+
+    Each row: ``t_s``, ``kind``, ``mode``, ``text``, ``reason`` and, for
+    switch operations and mode starts, ``waiting`` (what the sequencer waits
+    for next); switch rows also ``close``, ``open`` and ``detail`` (what the
+    switches connect). Register writes of counters cleared to zero are left
+    out (the action that clears them has its row).
+    """
+    out = []
+    previous_end = None
+    for e in events:
+        kind, mode = e["kind"], e["mode"]
+        row = {"t_s": e["t_s"], "kind": kind, "mode": mode, "text": event_text(e)}
+        if kind == "mode_start":
+            row.update(kind="mode", text=f"Mode {mode} begins: {e['title']}",
+                       reason=(f"Mode {previous_end['mode']} ended: {previous_end['exit']}"
+                               if previous_end else "ejection: the mission starts"),
+                       waiting=e.get("waits_for", ""))
+        elif kind == "mode_end":
+            previous_end = e
+            if e["status"] != "aborted":
+                continue
+            row.update(kind="abort", text=f"Mode {mode} aborted", reason=e["exit"])
+        elif kind == "switch":
+            row.update(text=switch_words(e["close"], e["open"]), reason=e["step"],
+                       close=e["close"], open=e["open"], waiting=e.get("waits_for", ""),
+                       detail="; ".join(f"S{k}: {BY_NUMBER[k].text}"
+                                        for k in sorted(e["close"] + e["open"])))
+        elif kind == "action":
+            row.update(text=e["text"], reason=f"a step of Mode {mode}")
+        elif kind == "register":
+            if not worth_a_line(e):
+                continue
+            row["reason"] = f"written in Mode {mode}"
+        elif kind == "abort":
+            continue  # the aborted mode's row says it
+        else:
+            row["reason"] = {"star_lock": "the star tracker", "saturation": "a saturation",
+                             "fault": "an injected fault"}[kind]
+        out.append(row)
+    return out
+
+
+def register_history(events) -> dict:
+    """Registers 23 and 24 over time, from the journal's register writes.
+
+    Returns ``{"23": [...], "24": [...]}``: for register 23, each write's
+    time, the action that wrote it (``by``; None for the neutral words at
+    ejection) and every word then in force (``sf_roll`` ... ``yaw_into_roll``);
+    for register 24, each load's time, the programmed roll and yaw [deg] and
+    the target they were loaded for.
+    """
+    neutral = wr.neutral_computed()
+    words = {name: float(neutral[slot]) for name, slot in wr.WORD23.items()}
+    r23 = [{"t_s": 0.0, "by": None, **words}]
+    r24, target, pending, action = [], None, {}, None
+    for e in events:
+        if e["kind"] == "mode_start":
+            target = e.get("target")
+        if e["kind"] == "action":
+            action = e["action"]
+        if e["kind"] != "register":
+            continue
+        if e["register"] == "23":
+            words = {**words, e["word"]: e["value"]}
+            if r23[-1]["t_s"] == e["t_s"] and r23[-1]["by"] == action:
+                r23[-1] = {"t_s": e["t_s"], "by": action, **words}
+            else:
+                r23.append({"t_s": e["t_s"], "by": action, **words})
+        elif e["register"] == "24":
+            pending[e["word"]] = e["value"]
+            if {"roll", "yaw"} <= set(pending):
+                r24.append({"t_s": e["t_s"], "roll_deg": pending["roll"],
+                            "yaw_deg": pending["yaw"], "target": target})
+                pending = {}
+    return {"23": r23, "24": r24}

@@ -1,0 +1,77 @@
+"""The seam between master sequencer 20 and the mission it drives, written down.
+
+:class:`Host` is everything the sequencer's steps -- the interpreter
+(:func:`allsky.sequencer.master_sequencer.run_mode`), its actions and the
+dither analysis (:mod:`allsky.sequencer.dither_mode`) -- may read or change
+on the mission: the state arrays of the hardware, the scenario and the
+frame loop's parameters, a few named results, and a handful of methods.
+Nothing else of the mission is touched, and the sequencer writes no private
+field of it; :class:`allsky.sim.mission.Mission` is the host
+(``tests/sequencer/test_host.py`` holds both sides to this list).
+
+As SciPy's ``OdeSolver`` writes down what a solver offers to
+``solve_ivp``, this page writes down what a mission offers to the
+sequencer; a study or a front end that needs to hear of the flight passes
+hooks to the mission (:class:`allsky.sim.mission.Hooks`) rather than
+reaching into it.
+"""
+
+from typing import Any, Protocol
+
+from allsky.computer import word_registers as wr
+
+
+class Host(Protocol):
+    """What master sequencer 20 may use of the mission it runs."""
+
+    #: the mission state (:class:`allsky.sim.state.State`): the hardware's arrays, which
+    #: actions may change (counters, registers, rate-command directions)
+    state: Any
+    cfg: Any  #: the scenario (read only)
+    params: Any  #: the frame loop's parameters (read only)
+    pulse_weight_arcsec: float  #: [arcsec] per converter pulse
+    apply_calibration: bool  #: ``calibration.apply``
+    programmed_roll_deg: float | None  #: [deg] register 24's roll, once computed
+    programmed_yaw_deg: float | None  #: [deg] register 24's yaw, once computed
+    counted_arcsec: dict  #: [arcsec] counters 14/16/18 at each calibration turn's end
+    dither_estimates: dict | None  #: the dither analysis's estimates
+    dither_record: Any  #: the dither record analysed
+    hold: dict | None  #: the hold on target's measurements
+
+    def now_s(self) -> float:
+        """Mission time [s]."""
+
+    def note(self, kind: str, **fields) -> dict:
+        """Journal an entry of ``kind`` (:data:`allsky.vocabulary.EVENT_KINDS`) now."""
+
+    def write_register(self, register: str, word: str, value: float, unit: str,
+                       pulses: int | None = None) -> None:
+        """Journal a write of a register's (or counter's) word."""
+
+    def switch(self, close=(), open_=(), step: str = "", waits_for: str = "") -> None:
+        """Operate the switch bank; ``step``: what the sequencer had waited for, and next."""
+
+    def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
+            on_timeout=None, record_rows=0, carry_settle=False):
+        """Fly the frame loop until ``what`` happens (:class:`allsky.sequencer.legs.Leg`)."""
+
+    def extra_leg(self, mode: str, allowed_s: float, what, program, watch, **kwargs):
+        """A leg outside the plan, flown as part of ``mode`` within ``allowed_s`` [s]."""
+
+    def extend_mode(self, seconds: float) -> None:
+        """Move the mode's deadline on by ``seconds`` [s] (a recovery)."""
+
+    def program_target(self) -> None:
+        """The ground computation of register 24's angles for the target being flown."""
+
+    def pointing_error_arcsec(self) -> float:
+        """True angle between the roll axis and the target being flown [arcsec]."""
+
+    def next_target(self) -> None:
+        """Close the target flown and begin the next of ``target.sequence``."""
+
+
+def note_register23(m: Host, words) -> None:
+    """Journal register 23's ``words`` (:data:`allsky.computer.word_registers.WORD23`)."""
+    for w in words:
+        m.write_register("23", w, float(m.state.word23[wr.WORD23[w]]), "-")

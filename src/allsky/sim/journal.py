@@ -1,0 +1,279 @@
+"""The mission's journal: what happened, recorded once, when it happened.
+
+Master sequencer 20 and the mission driver write the entries they cause
+(a mode's start and end, each switch operation, each named action, each
+register or DAC write, the abort) through :meth:`Journal.note`. The frame
+loop writes, frame by frame, what only it sees happen (:func:`note_frame`,
+:func:`note_clip`, :func:`note_wheels`, :func:`note_faults`): the star in the tracker's slit
+changing, a counter overflowing, a drift DAC applying its full scale rather
+than the count, a wheel reaching its momentum limit, the jets unloading, a
+fault's onset and end. Those go into a small buffer of the mission state
+(``State.journal``, :data:`ROWS` rows of :data:`WIDTH` numbers), which the
+mission drains into the journal after every slice of frames
+(:meth:`Journal.drain`), so the buffer never fills within a slice of
+ordinary flight; what would not fit is counted, never silently lost.
+
+Each entry is a dict ``{"t_s", "mode", "kind", ...}``; the kinds and
+their fields are :data:`allsky.vocabulary.EVENT_KINDS` (``docs/journal.md``).
+The summary carries the journal (``events``), a snapshot carries it so that
+a resumed mission's journal equals an uninterrupted one's, and every reader
+-- the report, ``allsky step``, the figures, the replay -- reads it instead
+of reconstructing the flight from telemetry.
+"""
+
+import math
+
+import numpy as np
+
+from allsky.hardware.star_tracker import FALSE_TARGET
+from allsky.jit import njit_stage
+from allsky.units import ARCSEC2DEG, RAD2DEG
+from allsky.vocabulary import AXES, EVENT_KIND, SATURATIONS
+
+#: Rows of the frame loop's buffer. The mission drains it every slice of at most
+#: 1e5 frames; an ordinary flight writes a few entries per slice.
+ROWS = 512
+#: Numbers per row: time, kind, what, index, and three values (:data:`T` ...).
+WIDTH = 7
+T, KIND, WHAT, INDEX, A, B, C = range(WIDTH)
+
+STAR_LOCK = EVENT_KIND["star_lock"].code
+SATURATION = EVENT_KIND["saturation"].code
+FAULT = EVENT_KIND["fault"].code
+
+# Saturation codes (row WHAT), in the order of the vocabulary's SATURATIONS.
+DAC_CLIP, COUNTER_OVERFLOW, WHEEL_LIMIT, WHEEL_UNLOADING = 1, 2, 3, 4
+_SATURATION_NAMES = dict(zip((DAC_CLIP, COUNTER_OVERFLOW, WHEEL_LIMIT, WHEEL_UNLOADING),
+                             SATURATIONS))
+
+
+# What the loop last saw (State.journal_seen), to write an entry when it changes.
+SEEN_STAR = 0  #: the star in the slit (index; -1 none, FALSE_TARGET)
+SEEN_OVERFLOW = 1  #: the overflow latches of counters 14, 16, 18, 13, 15, 17, bits 0-5
+SEEN_CLIP = 2  #: 3 drift DACs 7, 9, 11 applying their full scale
+SEEN_UNLOADING = 5  #: the wheels' unloader running
+SEEN_WHEEL = 6  #: one per wheel (allsky.config.schema.WHEELS_MAX): at its momentum limit
+#: Fault slots follow the wheels (SEEN_WHEEL + WHEELS_MAX), one per fault slot.
+#: A wheel is at its momentum limit from this fraction of it, and leaves it below
+#: :data:`WHEEL_LIMIT_RELEASE` (a band, so that a wheel held at its limit is one entry).
+WHEEL_LIMIT_FRACTION = 1.0 - 1e-9
+WHEEL_LIMIT_RELEASE = 0.99
+#: Counter numerals in the order of ``State.overflow``.
+OVERFLOW_NUMERALS = ("14", "16", "18", "13", "15", "17")
+#: Drift DAC numeral per axis.
+DRIFT_DAC = ("7", "9", "11")
+#: Drift counter numeral per axis.
+DRIFT_COUNTER = ("13", "15", "17")
+#: Up/down counter numeral per axis.
+COUNTER = ("14", "16", "18")
+
+
+def new_buffer(wheels_max: int, faults_max: int):
+    """``(journal, journal_n, journal_seen)`` for a new mission state.
+
+    The buffer is empty; nothing has been seen: no star, no overflow, no
+    clip, no unloading, no wheel at its limit, no fault acting.
+    """
+    seen = np.zeros(SEEN_WHEEL + wheels_max + faults_max)
+    seen[SEEN_STAR] = -1.0
+    return np.zeros((ROWS, WIDTH)), np.zeros(2, dtype=np.int64), seen
+
+
+@njit_stage
+def _write(journal, journal_n, t_s, kind, what, index, a, b, c):
+    """Append one row; count it as lost when the buffer is full (``journal_n[1]``)."""
+    k = journal_n[0]
+    if k >= journal.shape[0]:
+        journal_n[1] += 1
+        return
+    row = journal[k]
+    row[T] = t_s
+    row[KIND] = kind
+    row[WHAT] = what
+    row[INDEX] = index
+    row[A] = a
+    row[B] = b
+    row[C] = c
+    journal_n[0] = k + 1
+
+
+@njit_stage
+def note_frame(journal, journal_n, seen, t_s, star, star_in_use, cone_arcsec, overflow):
+    """What changed this frame: the star in the slit, a counter's overflow latch.
+
+    ``star`` is the index of the target in star tracker 105's slit (-1
+    none, :data:`FALSE_TARGET`) and ``cone_arcsec`` its pitch output;
+    ``overflow`` the latches of counters 14, 16, 18, 13, 15, 17. The
+    latches are compared as one bitmask, so that an ordinary frame costs two
+    comparisons.
+    """
+    if star != seen[SEEN_STAR]:
+        _write(journal, journal_n, t_s, STAR_LOCK, 0, star, seen[SEEN_STAR],
+               cone_arcsec if star != -1 else 0.0, star_in_use)
+        seen[SEEN_STAR] = star
+    mask = (overflow[0] | (overflow[1] << 1) | (overflow[2] << 2) | (overflow[3] << 3)
+            | (overflow[4] << 4) | (overflow[5] << 5))
+    if mask != seen[SEEN_OVERFLOW]:
+        was = int(seen[SEEN_OVERFLOW])
+        for i in range(6):
+            if (mask >> i) & 1 and not (was >> i) & 1:
+                _write(journal, journal_n, t_s, SATURATION, COUNTER_OVERFLOW, i, 1.0, 0.0, 0.0)
+        seen[SEEN_OVERFLOW] = mask
+
+
+@njit_stage
+def note_clip(journal, journal_n, seen, t_s, drift_counters, drift_gate, dac_hi, dac_lo):
+    """A drift DAC 7/9/11 starting or ceasing to apply its full scale, not the count.
+
+    ``drift_gate`` (3,) is 1.0 where S1-S3 feed the DACs, whose codes span
+    ``dac_lo .. dac_hi``. The frame loop calls it when a leg starts (S1-S3
+    move only between legs), every frame of a leg that counts drift into a
+    fed DAC, and after a fault's upset.
+    """
+    for a in range(3):
+        code = drift_counters[a]
+        clip = 1.0 if drift_gate[a] != 0.0 and (code > dac_hi or code < dac_lo) else 0.0
+        if clip != seen[SEEN_CLIP + a]:
+            applied = dac_hi if code > dac_hi else (max(code, dac_lo))
+            _write(journal, journal_n, t_s, SATURATION, DAC_CLIP, a, clip, code, applied)
+            seen[SEEN_CLIP + a] = clip
+
+
+@njit_stage
+def note_wheels(journal, journal_n, seen, t_s, unloading, wheel_h, max_momentum):
+    """The unloader starting or stopping, a wheel reaching or leaving its limit."""
+    if unloading != seen[SEEN_UNLOADING]:
+        _write(journal, journal_n, t_s, SATURATION, WHEEL_UNLOADING, -1, unloading, 0.0, 0.0)
+        seen[SEEN_UNLOADING] = unloading
+    for i in range(max_momentum.shape[0]):
+        frac = abs(wheel_h[i]) / max_momentum[i]
+        was = seen[SEEN_WHEEL + i]
+        now = 1.0 if frac >= WHEEL_LIMIT_FRACTION or (was != 0.0 and frac >= WHEEL_LIMIT_RELEASE) \
+            else 0.0
+        if now != was:
+            _write(journal, journal_n, t_s, SATURATION, WHEEL_LIMIT, i, now, wheel_h[i],
+                   max_momentum[i])
+            seen[SEEN_WHEEL + i] = now
+
+
+@njit_stage
+def note_faults(journal, journal_n, seen, first, t_s, n, fault_state, onset_row, duration_s):
+    """A fault's onset or end: it acts while ``onset <= t < onset + duration``.
+
+    ``first`` is the index in ``seen`` of fault slot 0; the onsets are row
+    ``onset_row`` of ``fault_state`` (:data:`allsky.sim.faults.ONSET`).
+    """
+    for i in range(n):
+        o = fault_state[onset_row, i]
+        act = 1.0 if 0.0 <= o <= t_s < o + duration_s[i] else 0.0
+        if act != seen[first + i]:
+            _write(journal, journal_n, t_s, FAULT, 0, i, act, 0.0, 0.0)
+            seen[first + i] = act
+
+
+class Decoder:
+    """What the journal's numbers name: star names, faults, wheels, scalings.
+
+    Parameters
+    ----------
+    star_names : list of str
+        The tracker's stars, by index (:func:`allsky.sim.mission.tracker_star_names`).
+    faults : list of dict
+        The scenario's ``[[faults]]``.
+    describe : callable
+        A fault in words (:func:`allsky.config.faults.describe`).
+    drift_lsb_deg_h : float
+        [deg/h] per drift-counter pulse as the drift DACs apply it.
+    """
+
+    def __init__(self, star_names, faults, describe, drift_lsb_deg_h):
+        self.star_names = list(star_names)
+        self.faults = list(faults)
+        self.describe = describe
+        self.drift_lsb_deg_h = float(drift_lsb_deg_h)
+
+    def star(self, index):
+        """A star's name; None for no star; "stray light" for a false target."""
+        k = int(index)
+        if k == FALSE_TARGET:
+            return "stray light"
+        return self.star_names[k] if 0 <= k < len(self.star_names) else None
+
+    def entry(self, row) -> dict:
+        """One row of the loop's buffer as journal fields (all but ``t_s`` and ``mode``)."""
+        kind, what, i = int(row[KIND]), int(row[WHAT]), int(row[INDEX])
+        a, b, c = float(row[A]), float(row[B]), float(row[C])
+        if kind == STAR_LOCK:
+            return {"kind": "star_lock", "star": self.star(i), "previous": self.star(a),
+                    "cone_angle_deg": (b * ARCSEC2DEG if i != -1 else None),
+                    "in_use": bool(c)}
+        if kind == FAULT:
+            f = self.faults[i]
+            return {"kind": "fault", "fault": i, "fault_kind": f["kind"],
+                    "text": self.describe(f), "active": bool(a)}
+        name = _SATURATION_NAMES[what]
+        out = {"kind": "saturation", "what": name, "active": bool(a)}
+        if what == DAC_CLIP:
+            out.update(block=DRIFT_DAC[i], axis=AXES[i], counted_pulses=int(b),
+                       applied_pulses=int(c), counted_deg_h=b * self.drift_lsb_deg_h,
+                       applied_deg_h=c * self.drift_lsb_deg_h)
+        elif what == COUNTER_OVERFLOW:
+            out.update(block=OVERFLOW_NUMERALS[i], axis=AXES[i % 3])
+        elif what == WHEEL_LIMIT:
+            out.update(block="wheels", wheel=i, momentum_n_m_s=b, limit_n_m_s=c)
+        else:
+            out.update(block="wheels")
+        return out
+
+
+class Journal:
+    """The mission's journal: a list of entries in the order they happened.
+
+    Parameters
+    ----------
+    events : list of dict, optional
+        Entries already written (a resumed mission's).
+    """
+
+    def __init__(self, events=None):
+        self.events = [dict(e) for e in (events or [])]
+        #: entries the frame loop could not write (its buffer was full); 0 in any
+        #: flight the buffer was sized for
+        self.lost = 0
+
+    def note(self, t_s, mode, kind, **fields) -> dict:
+        """Append an entry of ``kind`` (:data:`allsky.vocabulary.EVENT_KINDS`); return it."""
+        if kind not in EVENT_KIND:
+            raise ValueError(f"unknown journal kind {kind!r}")
+        e = {"t_s": float(t_s), "mode": mode, "kind": kind, **fields}
+        self.events.append(e)
+        return e
+
+    def drain(self, journal, journal_n, mode, decoder: Decoder) -> None:
+        """Move the frame loop's rows into the journal and empty its buffer."""
+        n = int(journal_n[0])
+        for row in journal[:n]:
+            e = decoder.entry(row)
+            kind = e.pop("kind")
+            self.note(float(row[T]), mode, kind, **e)
+        journal[:n] = 0.0  # drained: the buffer holds nothing between slices
+        journal_n[0] = 0
+        self.lost += int(journal_n[1])
+        journal_n[1] = 0
+
+    def of_kind(self, *kinds) -> list:
+        """The entries of the given kinds, in order."""
+        return [e for e in self.events if e["kind"] in kinds]
+
+    def __len__(self):
+        return len(self.events)
+
+
+def rate_deg_s(rate_rad_s) -> dict:
+    """Body rates [rad/s] as ``{roll, pitch, yaw}`` [deg/s]."""
+    return {a: float(w) * RAD2DEG for a, w in zip(AXES, rate_rad_s)}
+
+
+def magnitude(values) -> float:
+    """The Euclidean norm of a few numbers."""
+    return math.sqrt(sum(float(v) ** 2 for v in values))

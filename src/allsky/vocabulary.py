@@ -1,0 +1,179 @@
+"""The machine's words, written once: axes, modes, faults, actions, journal kinds.
+
+Configuration (``config``), master sequencer 20 (``sequencer``), the frame
+loop and mission (``sim``) and the front ends (``apps``) all name the same
+things; each name, its code and its meaning live here, and nowhere else.
+The module imports nothing but the standard library, so that validating a
+scenario (``allsky config show|check``) starts without NumPy.
+
+* :data:`AXES`: the body axes, x roll, y pitch, z yaw.
+* :data:`MODES`: every mode of master sequencer 20, its telemetry code and
+  title (the steps of each are the mode table, :mod:`allsky.sequencer.modes`).
+* :data:`FAULT_KINDS`: every fault kind of a scenario's ``[[faults]]``: its
+  code in the frame loop, the fields it needs and the block it acts on.
+* :data:`ACTIONS`: the named actions of the mode table, in words (their
+  functions are :data:`allsky.sequencer.master_sequencer.ACTIONS`).
+* :data:`EVENT_KINDS` and :data:`SATURATIONS`: what the mission's journal
+  records (:mod:`allsky.sim.journal`).
+"""
+
+from typing import NamedTuple
+
+#: Body axes: x roll (the sun sensor's null axis), y pitch, z yaw (the star tracker's).
+AXES = ("roll", "pitch", "yaw")
+#: Axes whose scale factor the patent's computer calibrates (register 23).
+SCALE_FACTOR_AXES = ("roll", "yaw")
+#: Cross-coupling factors of register 23, "<turned axis>_into_<axis that counts>".
+CROSS_COUPLING_KEYS = ("roll_into_pitch", "roll_into_yaw", "yaw_into_pitch", "yaw_into_roll")
+
+
+class ModeWord(NamedTuple):
+    """A mode's name, telemetry code and title."""
+
+    name: str  #: as plans, the timeline and the journal name it ("6-1")
+    code: float  #: written in the telemetry's mode column
+    title: str  #: what the mode does, for displays
+
+
+#: Every mode, in the order the mode table lists them.
+MODES = (
+    ModeWord("1", 1.0, "Sun orientation"),
+    ModeWord("2", 2.0, "Canopus acquisition"),
+    ModeWord("3", 3.0, "drift calibration"),
+    ModeWord("4", 4.0, "roll calibration, 360 deg roll"),
+    ModeWord("5", 5.0, "yaw calibration, 360 deg yaw"),
+    ModeWord("6-1", 6.1, "target acquisition, roll"),
+    ModeWord("6-2", 6.2, "target acquisition, yaw"),
+    ModeWord("hold", 6.3, "hold on target"),
+    ModeWord("reacquire", 6.4, "next target: back to the Sun and the star, calibration kept"),
+    ModeWord("recycle", 6.5, "next target: every mode again, calibration included"),
+    ModeWord("dither", 7.0, "dither calibration (comparison method)"),
+)
+#: Mode name -> telemetry code.
+MODE_CODE = {m.name: m.code for m in MODES}
+#: Mode name -> title.
+MODE_TITLE = {m.name: m.title for m in MODES}
+#: The patent's six modes (Mode 6 in its two parts), in flight order.
+PATENT_MODES = ("1", "2", "3", "4", "5", "6-1", "6-2")
+
+
+class FaultKind(NamedTuple):
+    """A kind of ``[[faults]]`` entry."""
+
+    name: str  #: as the scenario writes it
+    code: int  #: in the frame loop's fault arrays (0 is an empty slot)
+    fields: tuple  #: the fields it needs beyond the timing, in this order
+    blocks: tuple  #: patent numerals of the blocks it acts on ("" for the tank)
+    meaning: str  #: what happens, in words
+
+
+#: Every fault kind (:mod:`allsky.config.faults` validates them, :mod:`allsky.sim.faults`
+#: applies them in the frame loop).
+FAULT_KINDS = (
+    FaultKind("jet_stuck_open", 1, ("axis", "sign"), ("39", "40", "41"),
+              "a jet of the axis's couple fires whatever its modulator commands"),
+    FaultKind("jet_failed_off", 2, ("axis", "sign"), ("39", "40", "41"),
+              "a jet of the axis's couple gives no thrust when commanded"),
+    FaultKind("gyro_stuck", 3, ("axis",), ("1", "2", "3"),
+              "the gyro's output freezes at its value at the onset"),
+    FaultKind("gyro_dead", 4, ("axis",), ("1", "2", "3"), "the gyro's output is zero"),
+    FaultKind("gyro_bias_step", 5, ("axis", "size_deg_h"), ("1", "2", "3"),
+              "the gyro's drift steps by the size"),
+    FaultKind("gyro_scale_factor_step", 6, ("axis", "size_ppm"), ("1", "2", "3"),
+              "the gyro's scale factor steps by the size"),
+    FaultKind("sun_sensor_blind", 7, (), ("104",), "sun sensor 104 sees no Sun"),
+    FaultKind("tracker_dropout", 8, (), ("105",), "star tracker 105 sees no star"),
+    FaultKind("tracker_stray_light", 9, ("offset_deg",), ("105",),
+              "star tracker 105 tracks a body-fixed false target (a glint) at the offset"),
+    FaultKind("wrong_star", 10, ("star",), ("105",),
+              "another catalog star passes the tracker's magnitude window"),
+    FaultKind("counter_upset", 11, ("register", "bit"), ("13", "14", "15", "16", "17", "18",
+                                                        "25", "26", "27"),
+              "one bit of a counter or storage register flips, once"),
+    FaultKind("propellant_leak", 12, ("rate_kg_s",), ("",), "the tank leaks at the rate"),
+)
+#: Fault kind name -> :class:`FaultKind`.
+FAULT_KIND = {k.name: k for k in FAULT_KINDS}
+#: Fault kind name -> the frame loop's code.
+FAULT_CODE = {k.name: k.code for k in FAULT_KINDS}
+
+#: The named actions of the mode table (:class:`allsky.sequencer.modes.Do`), in words
+#: ("{0}" is the first argument).
+ACTIONS = {
+    "clear_drift_counters": "clear drift counters 13, 15, 17",
+    "clear_counters": "clear up/down counters 14, 16, 18",
+    "roll_rate_positive": "set roll rate-command module 120 to the positive direction",
+    "yaw_rate_positive": "set yaw rate-command module 128 to the positive direction",
+    "calibration_sequencer": ("calibration sequencer 19: CPU 22 reads counters 14, 16, 18 "
+                              "through S7 and stores the {0} scale factor and the {0} "
+                              "cross-coupling factors in register 23"),
+    "withhold_calibration": ("if the scenario withholds the calibration "
+                             "(`calibration.apply = false`): register 23 neutral, S1-S3 "
+                             "opened"),
+    "load_register_24": ("load register 24 with the programmed roll and yaw angles (computed "
+                         "on the ground for the target, if not given)"),
+    "start_roll_computation": "clear CPU 22 and compute the first roll error",
+    "roll_rate_toward_target": ("set roll rate-command module 120 to the direction of the "
+                                "programmed roll"),
+    "preset_counters": ("preset counters 16 and 18 so that the corrected pitch and yaw start "
+                        "Mode 6-2 at zero"),
+    "start_yaw_computation": ("CPU 22 computes the yaw and pitch errors from the preset "
+                              "counters"),
+    "yaw_rate_toward_target": ("set yaw rate-command module 128 to the direction of the yaw "
+                               "error"),
+    "record_hold_start": ("note the true attitude and pointing error at the start of the "
+                          "hold (for the drift measured at its end)"),
+    "measure_hold": ("measure the hold: pointing error at its end and the attitude's drift "
+                     "per body axis since its start"),
+    "next_target": ("take the next target of `target.sequence`: its programmed angles are "
+                    "computed when Mode 6-1 loads register 24"),
+    "dither_analysis": ("analyse the dither record at each dither frequency; scale factors "
+                        "(with `dither.store_cross_coupling`, cross-coupling too) into "
+                        "register 23"),
+}
+
+
+class EventKind(NamedTuple):
+    """A kind of journal entry, and the fields it carries beside time, mode and kind."""
+
+    name: str  #: the entry's ``kind``
+    code: int  #: the frame loop's code for it (entries it writes itself)
+    fields: str  #: the fields, in words (docs/journal.md)
+
+
+#: What the journal records (:mod:`allsky.sim.journal`).
+EVENT_KINDS = (
+    EventKind("mode_start", 1, "`title`; `target` (the target being flown); `waits_for` "
+                               "(what the mode waits for first)"),
+    EventKind("mode_end", 2, "`exit` (the exit text, or `aborted: <reason>`), `status` "
+                             "(`done` or `aborted`)"),
+    EventKind("switch", 3, "`close`, `open` (the switches that moved, coupled ones "
+                           "included), `step` (what the sequencer had waited for, or the "
+                           "recovery that did it), `waits_for` (what it waits for next)"),
+    EventKind("action", 4, "`action` (its name), `text` (in words)"),
+    EventKind("register", 5, "`register` (the numeral: 7/9/11, 13-18, 23, 24), `word`, "
+                             "`value` (engineering units), `unit`; for counters and DACs "
+                             "`pulses`, and for a drift DAC `counted_pulses`"),
+    EventKind("star_lock", 6, "`star` (the star in the tracker's slit, null when the slit "
+                              "is empty), `previous`, `cone_angle_deg` (its position along "
+                              "the slit), `in_use` (S12 or S13 closed)"),
+    EventKind("saturation", 7, "`what` (one of the saturations), `block` (the numeral), "
+                               "`axis` or `wheel`, `active`, and the values: a drift DAC's "
+                               "`counted_pulses` and `applied_pulses`, a counter's `pulses`, "
+                               "a wheel's `momentum_n_m_s` and `limit_n_m_s`"),
+    EventKind("fault", 8, "`fault` (its index in `[[faults]]`), `fault_kind`, `text`, "
+                          "`active` (true at the onset, false at the end)"),
+    EventKind("abort", 9, "`reason`"),
+)
+#: Journal kind name -> :class:`EventKind`.
+EVENT_KIND = {k.name: k for k in EVENT_KINDS}
+
+#: Saturations the journal records: name -> (block numerals, meaning).
+SATURATIONS = {
+    "drift_dac_clip": (("7", "9", "11"), "a drift DAC applies its full scale, not the count"),
+    "counter_overflow": (("14", "16", "18", "13", "15", "17"),
+                         "an up/down or drift counter overflowed (latched)"),
+    "wheel_momentum_limit": (("wheels",), "a reaction wheel holds its momentum limit"),
+    "wheel_unloading": (("wheels", "39", "40", "41"),
+                        "the jets unload the wheels' momentum"),
+}

@@ -14,7 +14,7 @@ import pytest
 from allsky.config.scenario import load_scenario
 from allsky.jit import njit, njit_alloc, njit_stage
 from allsky.sequencer import legs, watch
-from allsky.sim import frame_loop, recorder
+from allsky.sim import frame_loop, journal, recorder
 from allsky.sim.mission import Mission
 
 needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT, reason="about compiled code")
@@ -62,8 +62,10 @@ def _py(f):
 
 #: The stages the loop calls every frame, in signal order.
 STAGES = (frame_loop.sense, frame_loop.sum_and_count, frame_loop.compute, frame_loop.route,
-          frame_loop.acquire_sun, frame_loop.control, frame_loop.actuate, frame_loop.advance,
-          recorder.record_telemetry, recorder.record_dither, watch.watch)
+          frame_loop.acquire_sun, frame_loop.control, frame_loop.actuate,
+          frame_loop.count_jet_time, frame_loop.advance, recorder.record_telemetry,
+          recorder.record_dither, journal.note_frame, journal.note_clip, journal.note_wheels,
+          journal.note_faults, watch.watch)
 
 
 @needs_jit

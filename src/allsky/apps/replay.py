@@ -248,6 +248,14 @@ def _registers(events) -> dict:
     words23 = [{**w, "source": "start" if w["by"] is None else
                 ("withheld" if w["by"] == "withhold_calibration" else "journal")}
                for w in history["23"]]
+    # The words a calibration has written by each entry (since the last withholding).
+    writes = [e for e in events if e["kind"] == "register" and e["register"] == "23"]
+    cleared = -math.inf
+    for w in words23:
+        if w["source"] == "withheld":
+            cleared = w["t_s"]
+        w["written"] = [] if w["source"] != "journal" else sorted(
+            {e["word"] for e in writes if cleared < e["t_s"] <= w["t_s"]})
     return {"23": words23, "24": history["24"], "known": True}
 
 

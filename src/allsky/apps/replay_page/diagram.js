@@ -72,9 +72,9 @@ const DIAGRAM = (function () {
     title.textContent = wheelBox ? D.diagram.plain_wheels : b.plain;
     const rect = svgEl("rect", { x: X(x), y: Y(y + h), width: w * S, height: h * S, rx: 6,
       fill: b.shaded ? "#fff7e6" : "#ffffff", stroke: "#2b3040", "stroke-width": 2 }, g);
-    const mark = svgEl("text", { x: X(x + w) - 6, y: Y(y + h) + F, "text-anchor": "end",
-      "font-size": F, "font-weight": 700, fill: FAULT_COLOUR, visibility: "hidden" }, g);
-    mark.textContent = "\u26a0 fault";
+    const mark = svgEl("text", { x: X(x) + 4, y: Y(y + h) + F, "font-size": F,
+      "font-weight": 700, fill: FAULT_COLOUR, visibility: "hidden" }, g);
+    mark.textContent = "\u26a0";
     boxEls[n] = { g: g, rect: rect, mark: mark, fill: rect.getAttribute("fill"), fault: "" };
     const cx = X(x + w / 2), top = Y(y + h);
     if (n === "100") {
@@ -221,10 +221,9 @@ const DIAGRAM = (function () {
     } else {
       v["39"] = per("39", (a) => `${s.valves[a] ? (s.valves[a] > 0 ? "+fire" : "\u2212fire") : "off"}`, 5);
     }
-    const extra = WHEELS ? (s.unloading ? " \u00b7 jets unloading the wheels" : " \u00b7 wheels")
-      : "";
+    const extra = WHEELS && s.unloading ? " \u00b7 unloading" : "";
     v["100"] = [`body rates ${s.rateDeg.map((r) => fmtRate(r)).join(" ")} \u00b0/s (roll pitch yaw)`
-      + ` \u00b7 propellant ${s.propellant.toFixed(3)} of ${cfg.propellant_kg.toFixed(1)} kg${extra}`];
+      + ` \u00b7 propellant ${s.propellant.toFixed(3)}/${cfg.propellant_kg.toFixed(1)} kg${extra}`];
     return v;
   }
 

@@ -78,6 +78,7 @@ const APP = (function () {
       ? `Mission aborted: ${D.ending.reason}` : "Mission complete");
     lastStatus = status;
     el.hidden = status === "flying";
+    $("mode-look").hidden = status !== "flying";
     el.className = status || "unknown";
     el.dataset.status = status || "";
     if (status === "flying") return;
@@ -98,9 +99,10 @@ const APP = (function () {
       + (status === "aborted" && e.target ? ` from ${e.target}` : "") + used;
     el.replaceChildren(head, body);
     if (D.warnings.length) {
-      const ul = document.createElement("ul");
-      for (const w of D.warnings) { const li = document.createElement("li"); li.textContent = `\u26a0 ${w.text}`; ul.appendChild(li); }
-      el.appendChild(ul);
+      const wn = document.createElement("div");
+      wn.textContent = `\u26a0 ${D.warnings.length} warning${D.warnings.length > 1 ? "s" : ""} of the summary: `
+        + "in the event log at the time each happened, \u26a0 above the time slider";
+      el.appendChild(wn);
     }
   }
 
@@ -141,13 +143,14 @@ const APP = (function () {
     for (const [k, label, long, cc] of WORDS) {
       const val = w[k], c1 = cell(r1, `${label} ${cc ? as(val) : val.toFixed(6)}`, "word", long);
       if (truth && k in truth.words) {
-        const tv = truth.words[k], off = written && Math.abs(val - tv) > truth.flag_above;
+        const tv = truth.words[k];
+        const off = written && (w.written || []).indexOf(k) >= 0 && Math.abs(val - tv) > truth.flag_above;
         const c2 = cell(r2, `${" ".repeat(label.length)} ${cc ? as(tv) : tv.toFixed(6)}`, "word",
           `${long}: the true value of the scenario's gyros`);
         if (off) {
           flagged += 1;
           for (const c of [c1, c2]) c.classList.add("far-off");
-          c1.textContent = "\u26a0" + c1.textContent.slice(1);
+          c1.textContent = "\u26a0" + c1.textContent;
           c1.title = `${long}: far from the truth (over a half turn this error moves the pointing by more than the settle threshold)`;
         }
       } else cell(r2, "");

@@ -60,7 +60,8 @@ const TRACES = (function () {
       series: [0, 1, 2].map((a) => [`wheel momentum ${"xyz"[a]}`, v(`wheel_h_${"xyz"[a]}`),
         null, AXIS_COLOURS[a], null, AXIS_NAMES[a]]), fixed: null, limit: lim });
   }
-  if (DUTY[0]) {
+  const fired = DUTY[0] && DUTY.some((d) => d.some((x) => x > 0));
+  if (DUTY[0] && (fired || !WHEELS)) {
     strips.push({ name: "valve duty", unit: "%", kind: "lin", fixed: [0, 100],
       series: [0, 1, 2].map((a) => [`jets ${39 + a} ${AXIS_NAMES[a]}: on-time per second`,
         (i) => DUTY[a][i], null, AXIS_COLOURS[a], null, AXIS_NAMES[a]]) });

@@ -21,7 +21,7 @@ const VEHICLE = (function () {
     const x1 = a * Math.cos(az) - b * Math.sin(az), y1 = a * Math.sin(az) + b * Math.cos(az);
     const depth = y1 * Math.cos(el) - c * Math.sin(el);
     const up = y1 * Math.sin(el) + c * Math.cos(el);
-    const sc = Math.min(w, h - 40) * 0.34;
+    const sc = Math.min(w * 0.6, h - 40) * 0.42;
     return [w / 2 + sc * x1, (h - 34) / 2 + 4 - sc * up, depth];
   }
 
@@ -91,7 +91,7 @@ const VEHICLE = (function () {
       fillTextInside(ctx, `${"rpy"[a]}${v > 0 ? "+" : "\u2212"}`, p[0] + 8, p[1] + 4, w, h - 34);
     });
     // Body axes.
-    const names = ["+x roll, sun sensor 104", "+y pitch", "+z yaw, tracker 105"];
+    const names = ["+x roll (sun 104)", "+y", "+z yaw (tracker 105)"];
     for (let a = 0; a < 3; a++) {
       const b = [0, 0, 0]; b[a] = 1;
       arrow(ctx, o, P(toInertial(c, b), a === 0 ? 1.2 : 0.9), AXIS_COLOURS[a], 2.5, names[a], w, h);

@@ -18,6 +18,7 @@ const APP = (function () {
     let lo = 0, hi = N - 1;
     const ms = Math.round(m.start_s * 1000);
     if (T_MS[hi] <= ms) continue;
+    if (ms <= T_MS[0]) { if (!landings.length) landings.push(T0); continue; }
     while (lo < hi) { const mid = (lo + hi) >> 1; if (T_MS[mid] > ms) hi = mid; else lo = mid + 1; }
     const ts = T_MS[lo] / 1000;
     if (!landings.length || landings[landings.length - 1] < ts) landings.push(ts);
@@ -244,7 +245,9 @@ const APP = (function () {
   // Controls: the scrubber over the mode strip, with the faults, warnings and the ending.
   scrub.min = T0; scrub.max = T1; scrub.step = D.config.interval_s;
   const strip = $("mode-strip"), marks = $("strip-marks");
-  const pos = (x) => `${100 * (x - T0) / Math.max(T1 - T0, 1e-9)}%`;
+  const frac = (x) => (x - T0) / Math.max(T1 - T0, 1e-9);
+  const pos = (x) => `${100 * frac(x)}%`;
+  const edge = (d, x) => { if (frac(x) > 0.98) d.classList.add("at-end"); else if (frac(x) < 0.02) d.classList.add("at-start"); };
   for (const m of D.timeline) {
     const d = document.createElement("div");
     d.style.width = `${100 * (m.end_s - m.start_s) / Math.max(T1 - T0, 1e-9)}%`;
@@ -264,6 +267,7 @@ const APP = (function () {
   for (const w of D.warnings) {
     const d = document.createElement("div");
     d.className = "warning-mark"; d.style.left = pos(w.t_s); d.title = w.text; d.textContent = "\u26a0";
+    edge(d, w.t_s);
     marks.appendChild(d);
   }
   if (D.ending && (D.ending.status === "aborted" || D.ending.status === "complete")) {
@@ -271,6 +275,7 @@ const APP = (function () {
     d.className = `end-mark ${D.ending.status}`; d.style.left = pos(D.ending.t_s);
     d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}` : "mission complete";
     d.textContent = D.ending.status === "aborted" ? "\u2716" : "\u2714";
+    edge(d, D.ending.t_s);
     marks.appendChild(d);
   }
   scrub.addEventListener("input", () => seek(+scrub.value));

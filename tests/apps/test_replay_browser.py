@@ -507,7 +507,7 @@ def test_the_tracker_names_the_star_in_the_slit(other):
 
 def test_the_wheel_vehicle_draws_its_wheels(other):
     """The wheels' box shows the momentum per axis and the unloading, as recorded."""
-    driver, table, summary, cfg = other("wheels")
+    driver, table, _, _ = other("wheels")
     assert js(driver, "return document.querySelector('[data-box=\"39\"]').textContent"
               ).startswith("Reaction wheels")
     unloading = table[:, INDEX["unloading"]]
@@ -653,7 +653,7 @@ def test_register_23_is_flagged_where_far_from_the_truth(page, other):
 
 def test_who_when_what(page, flown):
     driver, _ = page
-    _, summary, cfg = flown
+    _, _, cfg = flown
     title = js(driver, "return document.title")
     line = js(driver, "return document.getElementById('mission-line').textContent")
     assert title == "allsky replay: default \u2014 complete \u2014 2026-11-22, seed 1"

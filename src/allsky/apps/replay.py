@@ -10,14 +10,18 @@ sentences, the mission's journal (the summary's ``events``) and the event
 log made from it (:mod:`allsky.apps.events`), the sky (Sun, catalog, every
 target with the times it was flown, tracker slit) and the word registers 23
 and 24 as the journal recorded each write, so a mission that recycles shows
-each calibration and each target's programmed angles in turn.
+each calibration and each target's programmed angles in turn; from the
+journal and the summary also the star in the tracker's slit, each injected
+fault (with the diagram boxes it acts on), the ending, the warnings and
+register 23's true words, and who flew what (:func:`describe_scenario`).
 :func:`render_html` inlines the page's style and scripts
 (``replay_page/``) and the data into one file; :func:`write_replay` writes
 it. The page makes no network request: a Content-Security-Policy allows
 only its own inline script and style.
 
 Exactness. The switch bank, selectors S7/S8, counters, drift counters,
-registers, valves and mode are kept at every telemetry row, as integers;
+registers, valves and mode are kept at every telemetry row, as integers
+(delta-coded, a run of equal deltas written once as ``[delta, count]``);
 the continuous signals (attitude, rates, sensor outputs, amplifier
 voltages) are rounded to well below what the page can draw (quaternion
 1e-5, angles 0.1 arcsec) and, for missions longer than

@@ -84,7 +84,10 @@ def _delta(ints) -> list:
 
 
 def undelta(encoded) -> np.ndarray:
-    """The integer series :func:`_delta` encoded (as the page's ``undelta`` decodes it)."""
+    """The integer series :func:`_delta` encoded, as the page decodes it.
+
+    ``encoded`` is the list of deltas, a run of equal deltas as ``[delta, count]``.
+    """
     parts = [np.full(e[1], e[0], dtype=np.int64) if isinstance(e, list)
              else np.array([e], dtype=np.int64) for e in encoded]
     return np.cumsum(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.int64)

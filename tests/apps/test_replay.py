@@ -36,7 +36,7 @@ def data(flown):
 
 
 def _undelta(d):
-    return np.cumsum(np.asarray(d, dtype=np.int64))
+    return replay.undelta(d)
 
 
 def _run_values(runs, n):
@@ -77,7 +77,7 @@ def test_long_missions_thin_only_the_continuous_columns(flown, monkeypatch):
     monkeypatch.setattr(replay, "MAX_CONTINUOUS_ROWS", 1000)
     cols = replay.replay_data(table, summary, cfg)["columns"]
     assert cols["stride"] == int(np.ceil(len(table) / 1000))
-    assert len(cols["cont"]["q_w"]["d"]) == len(range(0, len(table), cols["stride"]))
+    assert len(_undelta(cols["cont"]["q_w"]["d"])) == len(range(0, len(table), cols["stride"]))
     assert np.array_equal(_undelta(cols["exact"]["counter14"]), table[:, INDEX["counter14"]])
     assert len(cols["selector"]) == len(table)
 
@@ -131,7 +131,8 @@ def test_the_log_is_the_journal_in_words(flown, data):
     _, summary, _ = flown
     journal = [(e["t_s"], e["mode"]) for e in summary["events"]]
     for row in data["events"]:
-        assert (row["t_s"], row["mode"]) in journal, row
+        if row["kind"] != "warning":  # the summary's warnings, at the time each names
+            assert (row["t_s"], row["mode"]) in journal, row
     assert data["journal"] == summary["events"]
 
 
@@ -192,6 +193,102 @@ def test_the_page_is_one_file_that_asks_for_nothing(data):
 
 def test_the_default_mission_page_is_small(data):
     assert len(_page(data).encode()) <= 6e6
+
+
+def test_every_frame_telemetry_fits_in_6_mb():
+    """The default mission recorded at every frame (10x the rows) still makes a page <= 6 MB."""
+    from allsky.config import load_scenario
+    from allsky.sim.mission import Mission
+
+    cfg = load_scenario(overrides=["mission.telemetry_every_frames=1"])
+    m = Mission(cfg)
+    m.run()
+    table = m.telemetry()
+    assert len(table) > 130_000
+    page = replay.render_html(replay.replay_data(table, m.summary(), cfg))
+    assert len(page.encode()) <= 6e6
+
+
+@pytest.mark.parametrize("ints", [[], [5], [1, 1, 1, 1], [0, 0, 3, 3, 3, 3, 2, -7, -7, -7],
+                                  list(range(0, 50, 10)) + [40] * 9 + [41, 43]])
+def test_the_delta_encoding_round_trips(ints):
+    """Deltas with runs of equal deltas as [delta, count] decode to the integers exactly."""
+    encoded = replay._delta(ints)
+    assert replay.undelta(encoded).tolist() == list(ints)
+    assert all(e[1] >= 3 for e in encoded if isinstance(e, list))
+
+
+def test_every_fault_kind_marks_a_box_holding_its_block():
+    """The vocabulary's numerals for each fault kind are drawn in the box that holds them."""
+    from allsky.apps import diagram_layout
+    from allsky.vocabulary import AXES, FAULT_KINDS
+
+    for kind in FAULT_KINDS:
+        specs = ([{"kind": kind.name, "axis": a} for a in AXES] if "axis" in kind.fields
+                 else [{"kind": kind.name, "register": r} for r in ("13", "16", "27")]
+                 if "register" in kind.fields else [{"kind": kind.name}])
+        for spec in specs:
+            boxes = replay.fault_boxes(spec)
+            assert boxes and set(boxes) <= set(diagram_layout.BOXES), spec
+            numerals = [n for b in boxes for n in replay._first_numeral_block(b).numerals]
+            if "axis" in spec and len(kind.blocks) == 3:
+                assert kind.blocks[AXES.index(spec["axis"])] in numerals
+            elif "register" in spec:
+                assert spec["register"] in numerals
+            elif kind.blocks != ("",):
+                assert set(kind.blocks) <= set(numerals)
+            else:
+                assert boxes == [diagram_layout.VEHICLE_BOX]  # the tank
+    assert replay.fault_boxes({"kind": "gyro_dead", "axis": "pitch"}) == ["1"]  # gyro 2
+
+
+def test_the_page_carries_the_ending_faults_star_and_warnings_from_the_journal():
+    """Mariner 4: each fault's onset and end, the star in the slit, the abort and its reason."""
+    from allsky.config import load_scenario
+    from allsky.sim.mission import Mission
+
+    cfg = load_scenario("mariner4-star-hopping")
+    m = Mission(cfg)
+    m.run()
+    summary, table = m.summary(), m.telemetry()
+    d = replay.replay_data(table, summary, cfg, replay.describe_scenario("mariner4-star-hopping"))
+    journal = summary["events"]
+    onsets = [e for e in journal if e["kind"] == "fault" and e["active"]]
+    assert [(f["start_s"], f["kind"]) for f in d["faults"]] == [
+        (e["t_s"], e["fault_kind"]) for e in onsets]
+    for f in d["faults"]:
+        ends = [e["t_s"] for e in journal if e["kind"] == "fault" and not e["active"]
+                and e["fault"] == f["index"]]
+        assert f["end_s"] == (ends[0] if ends else None)
+        assert f["boxes"] == ["105"]
+    assert d["faults"][-1]["end_s"] is None  # the last dropout lasts past the abort
+    assert [(e["t_s"], e["star"]) for e in d["tracker"]] == [
+        (e["t_s"], e["star"]) for e in journal if e["kind"] == "star_lock"]
+    abort = next(e for e in journal if e["kind"] == "abort")
+    end = d["ending"]
+    assert end["status"] == "aborted" and end["reason"] == summary["abort_reason"]
+    assert end["t_s"] == pytest.approx(min(abort["t_s"], table[-1, INDEX["time"]]))
+    assert end["propellant_kg"] == summary["end"]["propellant_kg"]
+    assert d["mission"]["name"] == "mariner4-star-hopping"
+    assert d["mission"]["title"].startswith("Mariner 4-like")
+    assert "ABORTED" in replay.page_title(d)
+
+
+def test_warnings_are_placed_at_the_time_they_name():
+    summary = {"warnings": ["counter 14 (roll) overflowed at 512.3 s in Mode 4: ...",
+                            "drift DAC 7 (roll) is clipped since 339.7 s: ...",
+                            "the journal lost 3 entries the frame loop could not hold"]}
+    got = replay._warnings(summary, 1300.0)
+    assert [w["t_s"] for w in got] == [512.3, 339.7, 1300.0]
+    assert [w["text"] for w in got] == summary["warnings"]
+
+
+def test_describe_scenario_reads_the_files_comment():
+    d = replay.describe_scenario("voyager1-wrong-star", ["target.hold_s=60"])
+    assert d["name"] == "voyager1-wrong-star" and d["title"].startswith("Voyager 1-like")
+    assert "Rigil Kentaurus" in d["description"] and d["overrides"] == ["target.hold_s=60"]
+    default = replay.describe_scenario()
+    assert default["name"] == "default" and default["title"].startswith("Default allsky")
 
 
 def test_replay_without_a_summary(flown):
@@ -365,6 +462,8 @@ def test_a_withheld_calibration_shows_as_written_then_cleared():
     summary, written = m.summary(), {}
     words = replay.replay_data(m.telemetry(), summary, m.cfg)["registers"]["23"]
     assert [w["source"] for w in words] == ["start", "journal", "journal", "withheld"]
+    assert words[1]["written"] == ["roll_into_pitch", "roll_into_yaw", "sf_roll"]
+    assert words[2]["written"] == sorted(WORD23) and words[3]["written"] == []
     for e in summary["events"]:
         if e["kind"] == "register" and e["register"] == "23" and e["mode"] in ("4", "5"):
             written[e["word"]] = e["value"]

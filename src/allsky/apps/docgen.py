@@ -436,12 +436,18 @@ def block_diagram(path=None):
         face = "#fff7e6" if numeral in layout.SHADED else "white"
         ax.add_patch(FancyBboxPatch((x, y), w, h, boxstyle="round,pad=0.03", fc=face,
                                     ec="black", lw=1.0))
+        module = b.modules[0].removeprefix("allsky.")
+        if h < 0.8:  # a bar (the vehicle): one line, the module beside the name
+            ax.text(x + 0.15, y + h / 2, f"{b.label} {', '.join(b.numerals)}", ha="left",
+                    va="center", fontsize=8.5, fontweight="bold")
+            ax.text(x + w - 0.15, y + h / 2, module, ha="right", va="center", fontsize=7.0,
+                    family="monospace", color="#444444")
+            continue
         title = textwrap.fill(b.label, width=max(8, int(w * 8.5)))
         lines = [title, ", ".join(b.numerals)]
         ax.text(x + w / 2, y + h * 0.62, "\n".join(lines), ha="center", va="center",
                 fontsize=8.5 if "\n" not in title else 7.8, fontweight="bold",
                 linespacing=1.15)
-        module = b.modules[0].removeprefix("allsky.")
         # Monospace at 7 pt fits about 12 characters per diagram unit with a margin; shrink to fit.
         ax.text(x + w / 2, y + 0.13, module, ha="center", va="bottom",
                 fontsize=min(7.0, 7.0 * 11.5 * w / len(module)), family="monospace",
@@ -477,9 +483,10 @@ def block_diagram(path=None):
                     color="#aa2222", ha="left", va="bottom")
     for a, b, points, text in layout.VEHICLE_LINES:
         arrow(points[0], points[1], text, color="black" if text else "#8a6d00")
-    ax.text(0.05, 0.5, "Orange: sensors and the vehicle. Red labels: switches of the bank "
-            "(allsky.hardware.wiring). The per-frame loop that runs the blocks in this order: "
-            "allsky.sim.frame_loop.run_leg.", fontsize=8, color="#333333")
+    ax.text(x0 + 0.05, y1 - 0.02, textwrap.fill(
+        "Orange: sensors and the vehicle. Red labels: switches of the bank "
+        "(allsky.hardware.wiring). The per-frame loop that runs the blocks in this order: "
+        "allsky.sim.frame_loop.run_leg.", width=105), fontsize=7, color="#333333", va="top")
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=110)

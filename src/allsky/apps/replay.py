@@ -10,14 +10,18 @@ sentences, the mission's journal (the summary's ``events``) and the event
 log made from it (:mod:`allsky.apps.events`), the sky (Sun, catalog, every
 target with the times it was flown, tracker slit) and the word registers 23
 and 24 as the journal recorded each write, so a mission that recycles shows
-each calibration and each target's programmed angles in turn.
+each calibration and each target's programmed angles in turn; from the
+journal and the summary also the star in the tracker's slit, each injected
+fault (with the diagram boxes it acts on), the ending, the warnings and
+register 23's true words, and who flew what (:func:`describe_scenario`).
 :func:`render_html` inlines the page's style and scripts
 (``replay_page/``) and the data into one file; :func:`write_replay` writes
 it. The page makes no network request: a Content-Security-Policy allows
 only its own inline script and style.
 
 Exactness. The switch bank, selectors S7/S8, counters, drift counters,
-registers, valves and mode are kept at every telemetry row, as integers;
+registers, valves and mode are kept at every telemetry row, as integers
+(delta-coded, a run of equal deltas written once as ``[delta, count]``);
 the continuous signals (attitude, rates, sensor outputs, amplifier
 voltages) are rounded to well below what the page can draw (quaternion
 1e-5, angles 0.1 arcsec) and, for missions longer than
@@ -29,8 +33,10 @@ reports the row at or before the time shown.
 """
 
 import hashlib
+import html
 import json
 import math
+import re
 from importlib import resources
 from pathlib import Path
 
@@ -42,9 +48,10 @@ from allsky.hardware import blocks, wiring
 from allsky.sequencer import modes
 from allsky.sim import recorder
 from allsky.sim.telemetry import COLUMNS, INDEX
+from allsky.vocabulary import AXES, FAULT_KIND
 
 #: Version of the page's data block.
-DATA_FORMAT = 2
+DATA_FORMAT = 3
 #: Rows above which the continuous columns are thinned (the exact ones never are).
 MAX_CONTINUOUS_ROWS = 60_000
 #: Continuous columns: name -> scale (stored as round(value * scale), delta-encoded), as
@@ -60,8 +67,30 @@ SCRIPT_FILES = ("util.js", "diagram.js", "vehicle3d.js", "skymap.js", "traces.js
 
 
 def _delta(ints) -> list:
-    ints = np.asarray(ints, dtype=np.int64)
-    return np.diff(ints, prepend=np.int64(0)).tolist()
+    """Deltas of an integer series, runs of three or more equal deltas as ``[delta, count]``."""
+    d = np.diff(np.asarray(ints, dtype=np.int64), prepend=np.int64(0))
+    if len(d) == 0:
+        return []
+    starts = np.r_[0, np.flatnonzero(d[1:] != d[:-1]) + 1]
+    counts = np.diff(np.r_[starts, len(d)])
+    out = []
+    for start, count in zip(starts.tolist(), counts.tolist()):
+        value = int(d[start])
+        if count >= 3:
+            out.append([value, count])
+        else:
+            out.extend([value] * count)
+    return out
+
+
+def undelta(encoded) -> np.ndarray:
+    """The integer series :func:`_delta` encoded, as the page decodes it.
+
+    ``encoded`` is the list of deltas, a run of equal deltas as ``[delta, count]``.
+    """
+    parts = [np.full(e[1], e[0], dtype=np.int64) if isinstance(e, list)
+             else np.array([e], dtype=np.int64) for e in encoded]
+    return np.cumsum(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.int64)
 
 
 def _runs(values) -> list:
@@ -115,8 +144,8 @@ def diagram() -> dict:
     for numeral, box in layout.BOXES.items():
         b = _first_numeral_block(numeral)
         boxes[numeral] = {"box": box, "label": b.label, "name": b.name,
-                          "numerals": list(b.numerals), "module": b.modules[0]
-                          if b.modules else "", "shaded": numeral in layout.SHADED}
+                          "numerals": list(b.numerals), "plain": layout.PLAIN[numeral],
+                          "shaded": numeral in layout.SHADED}
     frames = {n: {"box": f, "label": _first_numeral_block(n).label}
               for n, f in layout.FRAMES.items()}
     lines = []
@@ -139,7 +168,8 @@ def diagram() -> dict:
                  "axis": s.axis, "selector": s.selector, "coupled": s.coupled_with}
                 for s in wiring.SWITCHES]
     return {"boxes": boxes, "frames": frames, "lines": lines, "switches": switches,
-            "extent": layout.EXTENT}
+            "extent": layout.EXTENT, "two_line_titles": layout.TWO_LINE_TITLES,
+            "plain_wheels": layout.PLAIN_WHEELS}
 
 
 def _targets(cfg, summary, timeline, t_end_s) -> list:
@@ -225,7 +255,169 @@ def _registers(events) -> dict:
     words23 = [{**w, "source": "start" if w["by"] is None else
                 ("withheld" if w["by"] == "withhold_calibration" else "journal")}
                for w in history["23"]]
+    # The words a calibration has written by each entry (since the last withholding).
+    writes = [e for e in events if e["kind"] == "register" and e["register"] == "23"]
+    cleared = -math.inf
+    for w in words23:
+        if w["source"] == "withheld":
+            cleared = w["t_s"]
+        w["written"] = [] if w["source"] != "journal" else sorted(
+            {e["word"] for e in writes if cleared < e["t_s"] <= w["t_s"]})
     return {"23": words23, "24": history["24"], "known": True}
+
+
+def describe_scenario(path=None, overrides=()) -> dict:
+    """Who flew what: a scenario's name, its description and the overrides given.
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        The scenario file, or a packaged scenario's name; None for the
+        packaged default. The description is the file's leading comment
+        lines, as the packaged scenarios write it.
+    overrides : iterable of str
+        The ``--set KEY=VALUE`` overrides flown over it.
+    """
+    from allsky.config.faults import packaged_or_path
+    from allsky.config.schema import DEFAULT_SCENARIO_PATH
+
+    file = Path(packaged_or_path(path) if path is not None else DEFAULT_SCENARIO_PATH)
+    name = "default" if path is None else file.stem
+    lines = []
+    try:
+        with open(file, encoding="utf-8") as f:
+            for line in f:
+                if not line.startswith("#"):
+                    break
+                lines.append(line.lstrip("#").strip())
+    except OSError:
+        pass
+    title = lines[0] if lines else ""
+    return {"name": name, "title": title, "description": " ".join(x for x in lines[1:] if x),
+            "overrides": [str(o) for o in overrides]}
+
+
+def _mission(cfg, summary, scenario) -> dict:
+    """The mission's identity for the page: scenario, date, seed, vehicle."""
+    scenario = dict(scenario or {"name": None, "title": "", "description": "",
+                                 "overrides": []})
+    seed = (summary or {}).get("seed", cfg.mission.seed)
+    return {**scenario, "date_utc": cfg.mission.date_utc.isoformat(), "seed": int(seed)}
+
+
+def _ending(summary, journal, t_end_s) -> dict:
+    """How the mission ended, from the summary and the journal (None without a summary).
+
+    ``status`` is the sequencer's ("complete", "aborted", or what an
+    interrupted flight reports), ``t_s`` when it took effect (the abort's
+    journal time, or the end of the flight), ``reason`` the abort's, and the
+    truth at the end (the summary's ``end``): target, true pointing error,
+    body rates, propellant used and left.
+    """
+    if not summary:
+        return None
+    end = summary.get("end") or {}
+    abort = next((e for e in journal if e["kind"] == "abort"), None)
+    t_s = abort["t_s"] if abort else end.get("t_s", summary.get("mission_time_s", t_end_s))
+    return {"status": summary.get("status"), "t_s": float(min(t_s, t_end_s)),
+            "reason": summary.get("abort_reason") or (abort or {}).get("reason"),
+            "mode": end.get("mode") or (abort or {}).get("mode"),
+            "target": end.get("target"),
+            "true_error_arcsec": end.get("true_pointing_error_arcsec"),
+            "body_rate_deg_s": end.get("body_rate_deg_s"),
+            "propellant_kg": end.get("propellant_kg", summary.get("propellant_kg")),
+            "propellant_remaining_kg": end.get("propellant_remaining_kg")}
+
+
+#: A time in a warning's sentence: "at 1346.9 s", "since 339.7 s".
+_WARNING_TIME = re.compile(r"\b(?:at|since) (\d+(?:\.\d+)?) s\b")
+
+
+def _warnings(summary, t_end_s) -> list:
+    """The summary's warnings, each at the time its sentence names (else the end)."""
+    out = []
+    for text in (summary or {}).get("warnings") or []:
+        m = _WARNING_TIME.search(text)
+        out.append({"t_s": min(float(m.group(1)), t_end_s) if m else t_end_s, "text": text})
+    return out
+
+
+def fault_boxes(fault) -> list:
+    """The diagram boxes a fault acts on: ``fault`` is a ``[[faults]]`` entry (dict).
+
+    The vocabulary's :data:`~allsky.vocabulary.FAULT_KIND` names the block
+    numerals a kind acts on; a fault with an axis acts on that axis's block
+    (the pitch gyro is gyro 2), a counter upset on its register. Each numeral
+    is drawn in the box whose block holds it; the tank (no numeral) in the
+    vehicle's box.
+    """
+    kind = FAULT_KIND[fault["kind"]]
+    numerals = list(kind.blocks)
+    if fault.get("axis") in AXES and len(numerals) == 3:
+        numerals = [numerals[AXES.index(fault["axis"])]]
+    if fault.get("register") is not None:
+        numerals = [str(fault["register"])]
+    out = []
+    for numeral in numerals:
+        box = next((n for n in layout.BOXES if numeral and numeral in
+                    _first_numeral_block(n).numerals), layout.VEHICLE_BOX)
+        if box not in out:
+            out.append(box)
+    return out
+
+
+def _faults(cfg, summary, journal, t_end_s) -> list:
+    """Each injected fault as the journal recorded it: onset, end, the boxes it acts on."""
+    specs = (summary or {}).get("faults") or cfg.as_dict().get("faults") or []
+    out = {}
+    for e in journal:
+        if e["kind"] != "fault":
+            continue
+        k = e["fault"]
+        if e["active"]:
+            spec = specs[k] if k < len(specs) else {"kind": e["fault_kind"]}
+            out[k] = {"index": k, "kind": e["fault_kind"], "text": e["text"],
+                      "start_s": float(e["t_s"]), "end_s": None, "mode": e["mode"],
+                      "boxes": fault_boxes({**spec, "kind": e["fault_kind"]}),
+                      "axis": spec.get("axis")}
+        elif k in out:
+            out[k]["end_s"] = float(e["t_s"])
+    return sorted(out.values(), key=lambda f: (f["start_s"], f["index"]))
+
+
+def _tracker(journal) -> list:
+    """The star in the tracker's slit over time, from the journal's ``star_lock`` entries."""
+    return [{"t_s": float(e["t_s"]), "star": e["star"], "in_use": bool(e.get("in_use")),
+             "cone_angle_deg": e.get("cone_angle_deg")}
+            for e in journal if e["kind"] == "star_lock"]
+
+
+def _truth23(summary, cfg) -> dict:
+    """Register 23's true words (the scenario's gyros) and how far off a word is flagged.
+
+    A word is flagged when its error, over a half turn (180 deg), would move
+    the pointing by more than the sequencer's settle threshold: an error of
+    ``settle_threshold_arcsec / 648000`` in a scale or cross-coupling factor.
+    """
+    truth = (summary or {}).get("truth")
+    if not truth:
+        return None
+    words = {f"sf_{a}": truth["scale_factor"][a] for a in truth["scale_factor"]}
+    words.update(truth["cross_coupling"])
+    return {"words": {k: float(v) for k, v in words.items()},
+            "flag_above": float(cfg.sequencer.settle_threshold_arcsec) / (180.0 * 3600.0)}
+
+
+def _vehicle(cfg, table) -> dict:
+    """The vehicle's actuators: jets, or reaction wheels (from the scenario or the record)."""
+    wheel_cols = [INDEX[f"wheel_h_{a}"] for a in "xyz"]
+    h = table[:, wheel_cols]
+    flown_wheels = bool(np.nan_to_num(np.abs(h)).max(initial=0.0) > 0.0)
+    if cfg.actuators.kind != "wheels" and not flown_wheels:
+        return {"kind": "jets"}
+    return {"kind": "wheels", "axes": [list(map(float, a)) for a in cfg.wheels.axes],
+            "max_momentum_n_m_s": float(np.max(cfg.wheels.max_momentum_n_m_s)),
+            "unload_fraction": float(cfg.wheels.unload_fraction)}
 
 
 def _timeline(table, summary, cfg) -> list:
@@ -268,7 +460,7 @@ def _config(cfg, table) -> dict:
             "propellant_kg": float(cfg.jets.propellant_kg)}
 
 
-def replay_data(table, summary=None, cfg=None) -> dict:
+def replay_data(table, summary=None, cfg=None, scenario=None) -> dict:
     """Everything the replay page shows, as JSON-serialisable data.
 
     Parameters
@@ -277,11 +469,15 @@ def replay_data(table, summary=None, cfg=None) -> dict:
         Telemetry, :data:`allsky.sim.telemetry.COLUMNS` order, at least one row.
     summary : dict, optional
         The mission summary (:meth:`allsky.sim.mission.Mission.summary`): the
-        timeline's exit texts, registers 23 and 24, the targets and when each
-        was flown, the star locked.
+        timeline's exit texts, the journal (event log, registers 23 and 24,
+        the star in the slit, faults), the targets and when each was flown,
+        the ending, the warnings, register 23's true words.
     cfg : allsky.config.Scenario, optional
         The scenario flown (default: the packaged default): the date (Sun and
-        stars), the tracker's slit and magnitude window, pulse and LSB weights.
+        stars), the tracker's slit and magnitude window, pulse and LSB weights,
+        the actuators.
+    scenario : dict, optional
+        Who flew what (:func:`describe_scenario`): name, description, overrides.
     """
     if cfg is None:
         from allsky.config import load_scenario
@@ -305,14 +501,33 @@ def replay_data(table, summary=None, cfg=None) -> dict:
     if summary:
         info["pointing_error_arcsec"] = (summary.get("target") or {}).get(
             "pointing_error_arcsec")
-    targets = _targets(cfg, summary, timeline, float(table[-1, INDEX["time"]]))
+    t_end_s = float(table[-1, INDEX["time"]])
+    targets = _targets(cfg, summary, timeline, t_end_s)
     journal = (summary or {}).get("events")
     registers = _registers(journal)
+    warnings = _warnings(summary, t_end_s)
+    log = event_words.page_log(journal or [])
+    log += [{"t_s": w["t_s"], "kind": "warning", "mode": _mode_at(timeline, w["t_s"]),
+             "text": w["text"], "reason": "a warning of the summary"} for w in warnings]
+    log.sort(key=lambda e: e["t_s"])  # stable: a warning after the entries of its time
     return {"format": DATA_FORMAT, "columns": _encode_columns(table), "timeline": timeline,
-            "modes": mode_info, "events": event_words.page_log(journal or []),
-            "journal": journal or [], "diagram": diagram(), "sky": _sky(cfg, summary, targets),
-            "registers": registers, "config": config,
-            "summary": info, "notes": notes(config, journal is not None)}
+            "modes": mode_info, "events": log, "journal": journal or [],
+            "diagram": diagram(), "sky": _sky(cfg, summary, targets),
+            "registers": registers, "truth23": _truth23(summary, cfg), "config": config,
+            "summary": info, "mission": _mission(cfg, summary, scenario),
+            "ending": _ending(summary, journal or [], t_end_s), "warnings": warnings,
+            "faults": _faults(cfg, summary, journal or [], t_end_s),
+            "tracker": _tracker(journal or []) if journal is not None else None,
+            "vehicle": _vehicle(cfg, table), "notes": notes(config, journal is not None)}
+
+
+def _mode_at(timeline, t_s):
+    """The mode of the timeline at ``t_s`` [s] (the last begun by then)."""
+    current = timeline[0]["mode"] if timeline else None
+    for r in timeline:
+        if r["start_s"] <= t_s + 1e-9:
+            current = r["mode"]
+    return current
 
 
 def notes(config, journal=True) -> list:
@@ -346,6 +561,19 @@ def _csp_hash(text) -> str:
     return "'sha256-" + base64.b64encode(hashlib.sha256(text.encode()).digest()).decode() + "'"
 
 
+def page_title(data) -> str:
+    """The page's ``<title>``: the scenario, how the mission ended, date and seed."""
+    m = data.get("mission") or {}
+    ending = data.get("ending") or {}
+    status = {"complete": "complete", "aborted": "ABORTED"}.get(ending.get("status"), "")
+    date = (m.get("date_utc") or "")[:10]
+    parts = [f"allsky replay: {m.get('name') or 'mission'}"]
+    if status:
+        parts.append(status)
+    parts.append(", ".join(x for x in (date, f"seed {m['seed']}" if "seed" in m else "") if x))
+    return " \u2014 ".join(p for p in parts if p)
+
+
 def render_html(data) -> str:
     """The page: template, style and scripts inlined, ``data`` as a JSON block."""
     style = "\n".join(_asset(n) for n in STYLE_FILES)
@@ -359,21 +587,23 @@ def render_html(data) -> str:
            f"{_csp_hash(style)}; img-src data:; connect-src 'none'; base-uri 'none'; "
            "form-action 'none'")
     page = _asset("replay.html")
-    for key, value in (("CSP", csp), ("STYLE", style), ("DATA", payload),
-                       ("SCRIPT", script)):
+    for key, value in (("CSP", csp), ("TITLE", html.escape(page_title(data))),
+                       ("STYLE", style), ("DATA", payload), ("SCRIPT", script)):
         page = page.replace("{{" + key + "}}", value, 1)
     return page
 
 
-def write_replay(path, table, summary=None, cfg=None, option=None) -> Path:
+def write_replay(path, table, summary=None, cfg=None, option=None, scenario=None) -> Path:
     """Write the replay page of a flown mission to ``path`` (whole or not at all).
 
+    ``table``, ``summary``, ``cfg`` and ``scenario`` are :func:`replay_data`'s;
     ``option`` names the command-line option in an
     :class:`~allsky.apps.output.OutputError`. Returns the path.
     """
     from allsky.apps.output import write_atomic
 
-    return write_atomic(path, render_html(replay_data(table, summary, cfg)), option=option)
+    return write_atomic(path, render_html(replay_data(table, summary, cfg, scenario)),
+                        option=option)
 
 
 def read_summary(path) -> dict:
@@ -404,7 +634,9 @@ def run_from_cli(cfg, args) -> int:
         raise TelemetryError(f"telemetry file {args.telemetry!r} has no rows: nothing to "
                              "replay")
     summary = read_summary(args.summary) if args.summary else None
-    path = write_replay(args.html, table, summary, cfg, option="--html")
+    path = write_replay(args.html, table, summary, cfg, option="--html",
+                        scenario=describe_scenario(getattr(args, "scenario", None),
+                                                   getattr(args, "overrides", ())))
     if not getattr(args, "quiet", False):
         size_mb = path.stat().st_size / 1e6
         print(f"wrote replay {path} ({size_mb:.1f} MB, {len(table)} telemetry rows)")

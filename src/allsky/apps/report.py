@@ -231,10 +231,12 @@ def run_from_cli(cfg, args) -> int:
         outputs.append((f"telemetry {tlm_path}", lambda: telemetry_files.write(
             tlm_path, m.telemetry(), option="--telemetry")))
     if html_path and len(m.telemetry()):
-        from allsky.apps.replay import write_replay
+        from allsky.apps.replay import describe_scenario, write_replay
 
         outputs.append((f"replay {html_path}", lambda: write_replay(
-            html_path, m.telemetry(), summary, cfg, option="--html")))
+            html_path, m.telemetry(), summary, cfg, option="--html",
+            scenario=describe_scenario(getattr(args, "scenario", None),
+                                       getattr(args, "overrides", ())))))
     written, failed = write_outputs(outputs)
     for what in written:
         say(f"wrote {what}" + (" (the part flown)" if interrupted else ""))

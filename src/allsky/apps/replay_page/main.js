@@ -1,12 +1,28 @@
-// main.js: the mission clock, header, event log, controls, keys and window.allsky.
+// main.js: the mission clock, header, ending, truth beside belief, event log, controls,
+// keys, help, announcements and window.allsky.
 const APP = (function () {
   let t = T0, playing = false, speed = 50, lastFrame = null, currentEvent = -1, lastMode = "";
+  let lastStatus = "", lastAnnounced = "";
   const $ = (id) => document.getElementById(id);
   const scrub = $("scrub"), playBtn = $("btn-play"), speedSel = $("speed");
-  const boundaries = D.timeline.map((m) => m.start_s).concat([T1]);
   const modeStarts = [];  // [row, name] of each run of the mode column
   for (const [row, code] of C.runs.mode) modeStarts.push([row, modeName(code)]);
   const timing = { lastDrawMs: 0, draws: 0, parts: {} };
+  const WAITING = D.events.filter((e) => e.waiting !== undefined && e.waiting !== null);
+
+  // Mode boundaries to step to: the first telemetry row after each mode starts (the row at
+  // the start time itself is written by the last frame of the mode before). A mode of no
+  // duration has no row of its own: its step lands in the mode after it.
+  const landings = [];
+  for (const m of D.timeline) {
+    let lo = 0, hi = N - 1;
+    const ms = Math.round(m.start_s * 1000);
+    if (T_MS[hi] <= ms) continue;
+    if (ms <= T_MS[0]) { if (!landings.length) landings.push(T0); continue; }
+    while (lo < hi) { const mid = (lo + hi) >> 1; if (T_MS[mid] > ms) hi = mid; else lo = mid + 1; }
+    const ts = T_MS[lo] / 1000;
+    if (!landings.length || landings[landings.length - 1] < ts) landings.push(ts);
+  }
 
   function modeStartRow(i) {
     let r = 0;
@@ -14,52 +30,176 @@ const APP = (function () {
     return r;
   }
 
+  // Who, when, what: the scenario, its date, seed and description.
+  (function missionLine() {
+    const m = D.mission;
+    $("scenario-name").textContent = m.name ? `${m.name}` : "mission replay";
+    $("scenario-title").textContent = m.title || "";
+    const when = `${m.date_utc.replace("T", " ").replace("+00:00", " UTC")} \u00b7 seed ${m.seed}`
+      + (m.overrides.length ? ` \u00b7 --set ${m.overrides.join(" ")}` : "");
+    $("mission-when").textContent = when;
+    if (m.description) $("mission-line").title = m.description;
+    $("about-scenario").textContent = [m.title, m.description].filter((x) => x).join(" ")
+      || "No scenario was named when the page was written.";
+  })();
+
   // Header: the mode, its title and sentence from the mode table, what the sequencer awaits.
-  function header(s) {
+  function header(s, status) {
     const m = D.modes[s.mode] || { title: "unknown mode", sentence: "", look: "" };
-    if (s.mode !== lastMode) {
-      lastMode = s.mode;
-      $("mode-name").textContent = s.mode === "hold" ? "Hold" : `Mode ${s.mode}`;
-      $("mode-badge").style.background = modeColour(s.mode);
+    const badge = $("mode-badge");
+    if (s.mode !== lastMode || status !== lastStatus) {
+      $("mode-name").textContent = modeLabel(s.mode);
+      const bgc = status === "aborted" ? "#b71c1c" : status === "complete" ? "#1b5e20"
+        : modeColour(s.mode);
+      badge.style.background = bgc; badge.style.color = textOn(bgc);
+      $("status-badge").textContent = status === "aborted" ? "ABORTED"
+        : status === "complete" ? "COMPLETE" : "";
+      badge.dataset.status = status || "";
       $("mode-title").textContent = m.title.charAt(0).toUpperCase() + m.title.slice(1);
       $("mode-sentence").textContent = m.sentence;
       $("mode-look").textContent = m.look ? `Look: ${m.look}` : "";
+      if (s.mode !== lastMode && lastMode) announce(`${modeLabel(s.mode)}: ${m.title}`);
+      lastMode = s.mode;
     }
     $("clock").textContent = `t = ${t.toFixed(1)} s`;
-    const ev = inForce(D.events.filter((e) => e.waiting !== undefined && e.waiting !== null), t);
-    const rec = D.timeline.find((r) => r.start_s <= t + 1e-9 && t <= r.end_s + 1e-9);
+    const ev = inForce(WAITING, t);
     let now = ev && ev.waiting ? `Now: waiting for ${ev.waiting}` : "";
-    if (rec && rec.exit.startsWith("aborted") && t >= rec.end_s - 1.0) now = `Mission ${rec.exit}`;
     if (s.mode === "1") now += " (the Mode 1 sun-acquisition controller, not drawn in the patent's "
       + "diagram, drives the control amplifiers)";
-    $("mode-now").textContent = now;
+    if (status === "aborted") now = `Aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}`;
+    if (status === "complete") now = "The sequencer has ended the mission: complete.";
+    if ($("mode-now").textContent !== now) $("mode-now").textContent = now;
   }
 
-  function registersLine(s) {
+  // The ending: a banner once the mission has ended (complete or aborted).
+  function ending(status) {
+    const el = $("ending");
+    if (status === lastStatus) return;
+    if (lastStatus && status !== "flying") announce(status === "aborted"
+      ? `Mission aborted: ${D.ending.reason}` : "Mission complete");
+    lastStatus = status;
+    el.hidden = status === "flying";
+    $("mode-look").hidden = status !== "flying";
+    el.className = status || "unknown";
+    el.dataset.status = status || "";
+    if (status === "flying") return;
+    const e = D.ending;
+    if (!e) { el.textContent = "The record ends here (no summary given: how the mission ended is not known)."; return; }
+    const used = e.propellant_kg === null || e.propellant_kg === undefined ? "" :
+      ` \u00b7 propellant used ${e.propellant_kg.toFixed(3)} kg`
+      + (e.propellant_remaining_kg === null || e.propellant_remaining_kg === undefined ? ""
+        : ` (${e.propellant_remaining_kg.toFixed(3)} kg left)`);
+    const err = e.true_error_arcsec === null || e.true_error_arcsec === undefined ? ""
+      : ` \u00b7 true error ${fmtSep(e.true_error_arcsec)}`;
+    const head = document.createElement("b");
+    if (status === "complete") head.textContent = `Mission complete on ${e.target}`;
+    else if (status === "aborted") head.textContent = `Mission ABORTED in ${modeLabel(e.mode)} at ${e.t_s.toFixed(1)} s`;
+    else head.textContent = `Mission ended: ${e.status}`;
+    const body = document.createElement("span");
+    body.textContent = (status === "aborted" ? `: ${e.reason}` : "") + err
+      + (status === "aborted" && e.target ? ` from ${e.target}` : "") + used;
+    el.replaceChildren(head, body);
+    if (D.warnings.length) {
+      const wn = document.createElement("div");
+      wn.textContent = `\u26a0 ${D.warnings.length} warning${D.warnings.length > 1 ? "s" : ""} of the summary: `
+        + "in the event log at the time each happened, \u26a0 above the time slider";
+      el.appendChild(wn);
+    }
+  }
+
+  function announce(text) {
+    if (text === lastAnnounced) return;
+    lastAnnounced = text;
+    $("announce").textContent = text;
+  }
+
+  // Registers 23 and 24 as written, register 23's words above the truth (a two-row table).
+  const WORDS = [["sf_roll", "SFr", "scale factor, roll", false],
+    ["sf_yaw", "SFy", "scale factor, yaw", false],
+    ["roll_into_pitch", "r\u2192p", "cross-coupling, roll into pitch", true],
+    ["roll_into_yaw", "r\u2192y", "cross-coupling, roll into yaw", true],
+    ["yaw_into_pitch", "y\u2192p", "cross-coupling, yaw into pitch", true],
+    ["yaw_into_roll", "y\u2192r", "cross-coupling, yaw into roll", true]];
+  function registersLine() {
     const w = inForce(D.registers["23"], t), p = inForce(D.registers["24"], t);
-    const as = (v) => `${fmt(v * 206264.806, 1)}\u2033`;
-    let text = D.registers.known
-      ? `reg. 23${WORD_MARK[w.source] || ""}: SF roll ${w.sf_roll.toFixed(6)}, SF yaw ${w.sf_yaw.toFixed(6)}, roll\u2192pitch ${as(w.roll_into_pitch)}, `
-        + `roll\u2192yaw ${as(w.roll_into_yaw)}, yaw\u2192pitch ${as(w.yaw_into_pitch)}, yaw\u2192roll ${as(w.yaw_into_roll)}`
-      : "reg. 23/24: not in the telemetry (replay with --summary)";
-    if (D.registers.known) text += p ? ` \u00b7 reg. 24 (${p.target}): roll ${fmt(p.roll_deg, 4)}\u00b0, yaw ${fmt(p.yaw_deg, 4)}\u00b0` : " \u00b7 reg. 24: empty";
-    if ($("registers-line").textContent !== text) $("registers-line").textContent = text;
+    const el = $("registers-line");
+    const key = `${w ? w.t_s : ""}|${p ? p.t_s : ""}`;
+    if (el.dataset.key === key) return;
+    el.dataset.key = key;
+    el.replaceChildren();
+    const row = () => el.insertRow(), cell = (r, text, cls, title) => {
+      const c = r.insertCell(); c.textContent = text; if (cls) c.className = cls;
+      if (title) c.title = title; return c;
+    };
+    const r1 = row(), r2 = row();
+    if (!D.registers.known) {
+      cell(r1, "reg. 23/24: not in the telemetry (replay with --summary)");
+      return;
+    }
+    cell(r1, `reg. 23${WORD_MARK[w.source] || ""}${w.source === "withheld" ? " (withheld)" : ""}`, "head");
+    const truth = D.truth23, written = w.source !== "start" && w.source !== "withheld";
+    cell(r2, truth ? "true" : "", "head");
+    let flagged = 0;
+    const as = (x) => `${fmt(x * ARCSEC_PER_RAD, 1)}\u2033`;
+    for (const [k, label, long, cc] of WORDS) {
+      const val = w[k], c1 = cell(r1, `${label} ${cc ? as(val) : val.toFixed(6)}`, "word", long);
+      if (truth && k in truth.words) {
+        const tv = truth.words[k];
+        const off = written && (w.written || []).indexOf(k) >= 0 && Math.abs(val - tv) > truth.flag_above;
+        const c2 = cell(r2, `${" ".repeat(label.length)} ${cc ? as(tv) : tv.toFixed(6)}`, "word",
+          `${long}: the true value of the scenario's gyros`);
+        if (off) {
+          flagged += 1;
+          for (const c of [c1, c2]) c.classList.add("far-off");
+          c1.textContent = "\u26a0" + c1.textContent;
+          c1.title = `${long}: far from the truth (over a half turn this error moves the pointing by more than the settle threshold)`;
+        }
+      } else cell(r2, "");
+    }
+    el.dataset.flagged = flagged;
+    cell(r1, p ? `reg. 24 (${p.target}): roll ${fmt(p.roll_deg, 4)}\u00b0` : "reg. 24: empty", "r24");
+    cell(r2, p ? `yaw ${fmt(p.yaw_deg, 4)}\u00b0` : "", "r24");
   }
 
-  // Event log.
+  // Truth beside belief: the true error, CPU 22's, the body rates, the star in the slit.
+  function truthLine(s) {
+    const star = starInSlit(t);
+    const parts = [`true error to ${TARGETS[s.target].name}: ${fmtSep(s.trueErr)}`,
+      s.cpuPointing === null ? "CPU 22: no pointing error computed in this mode"
+        : `CPU 22 judges ${fmtSep(s.cpuPointing)}`,
+      `body rates ${s.rateDeg.map((r) => fmtRate(r)).join(" ")} \u00b0/s`,
+      `slit: ${star || (s.starPresent ? "a star" : "empty")}`];
+    const text = parts.join(" \u00b7 ");
+    const el = $("truth-line");
+    if (el.dataset.text !== text) {
+      el.dataset.text = text;
+      $("truth-error").textContent = parts[0];
+      $("truth-cpu").textContent = parts[1];
+      $("truth-rates").textContent = parts[2];
+      $("truth-star").textContent = parts[3];
+      const far = s.cpuPointing !== null && s.trueErr > 10 * Math.max(s.cpuPointing, D.config.settle_threshold_arcsec);
+      el.classList.toggle("far-off", far);
+    }
+  }
+
+  // Event log: each row a button (keyboard: Tab, Enter), click to jump.
   const list = $("events"), items = [];
+  const KIND_WORD = { switch: "Switches: ", action: "Action: ", warning: "\u26a0 Warning: ", fault: "", abort: "" };
   D.events.forEach((e, k) => {
     const li = document.createElement("li");
+    const b = document.createElement("button");
+    b.type = "button"; b.className = `ev kind-${e.kind}`;
     const tt = document.createElement("span"); tt.className = "t"; tt.textContent = e.t_s.toFixed(1);
-    const tx = document.createElement("span"); tx.className = `kind-${e.kind}`;
-    tx.textContent = e.kind === "switch" ? `Switches: ${e.text}` : e.kind === "action" ? `Action: ${e.text}` : e.text;
+    const tx = document.createElement("span"); tx.className = "what";
+    tx.textContent = (KIND_WORD[e.kind] || "") + e.text;
     const why = document.createElement("span"); why.className = "why";
     why.textContent = e.kind === "switch" ? `why: ${e.reason}${e.waiting ? `; then waits for ${e.waiting}` : ""}`
       : `why: ${e.reason}`;
-    if (e.detail) li.title = e.detail;
-    li.append(tt, tx, why);
-    li.dataset.k = k;
-    li.addEventListener("click", () => seek(e.t_s));
+    if (e.detail) b.title = e.detail;
+    b.append(tt, tx, why);
+    b.addEventListener("click", () => seek(e.t_s));
+    li.dataset.k = k; li.dataset.kind = e.kind;
+    li.appendChild(b);
     list.appendChild(li); items.push(li);
   });
 
@@ -68,22 +208,75 @@ const APP = (function () {
     for (let k = 0; k < D.events.length; k++) if (D.events[k].t_s <= t + 1e-9) cur = k;
     if (cur === currentEvent) return;
     currentEvent = cur;
-    items.forEach((li, k) => { li.className = k < cur ? "past" : k === cur ? "current" : "future"; });
+    items.forEach((li, k) => {
+      li.className = k < cur ? "past" : k === cur ? "current" : "future";
+      if (k === cur) li.setAttribute("aria-current", "true"); else li.removeAttribute("aria-current");
+    });
     if (cur >= 0) {
       const li = items[cur], box = list.getBoundingClientRect(), r = li.getBoundingClientRect();
       if (r.top < box.top || r.bottom > box.bottom) list.scrollTop += r.top - box.top - box.height / 3;
     }
   }
 
-  // Controls.
+  // The traces' legend, in the page (not drawn in the canvas): one key per colour.
+  (function legend() {
+    const el = $("traces-legend"), seen = {};
+    for (const st of TRACES.legend) for (const [name, colour, dashed, key] of st.series) {
+      const k = key || name;
+      if (seen[k]) continue;
+      seen[k] = true;
+      const s = document.createElement("span");
+      s.className = "key";
+      const sw = document.createElement("i"); sw.className = dashed ? "swatch dashed" : "swatch";
+      sw.style.borderColor = colour;
+      s.append(sw, document.createTextNode(k));
+      el.appendChild(s);
+    }
+    for (const [text, colour] of [[`settle ${D.config.settle_threshold_arcsec}\u2033`, "#2e7d32"],
+      [`hand-over ${D.config.handover_arcsec}\u2033`, "#8d6e00"]]) {
+      const s = document.createElement("span"); s.className = "key";
+      const sw = document.createElement("i"); sw.className = "swatch dashed"; sw.style.borderColor = colour;
+      s.append(sw, document.createTextNode(text)); el.appendChild(s);
+    }
+    const f = document.createElement("span"); f.className = "key fault-key"; f.textContent = "\u2591 fault acting";
+    el.appendChild(f);
+  })();
+
+  // Controls: the scrubber over the mode strip, with the faults, warnings and the ending.
   scrub.min = T0; scrub.max = T1; scrub.step = D.config.interval_s;
-  const strip = $("mode-strip");
+  const strip = $("mode-strip"), marks = $("strip-marks");
+  const frac = (x) => (x - T0) / Math.max(T1 - T0, 1e-9);
+  const pos = (x) => `${100 * frac(x)}%`;
+  const edge = (d, x) => { if (frac(x) > 0.98) d.classList.add("at-end"); else if (frac(x) < 0.02) d.classList.add("at-start"); };
   for (const m of D.timeline) {
     const d = document.createElement("div");
     d.style.width = `${100 * (m.end_s - m.start_s) / Math.max(T1 - T0, 1e-9)}%`;
     d.style.background = modeColour(m.mode);
-    d.title = `Mode ${m.mode}: ${(D.modes[m.mode] || {}).title || ""}`;
+    d.title = `${modeLabel(m.mode)}: ${(D.modes[m.mode] || {}).title || ""} (${m.start_s.toFixed(1)}\u2013${m.end_s.toFixed(1)} s)`;
     strip.appendChild(d);
+  }
+  for (const f of D.faults) {
+    const d = document.createElement("div");
+    d.className = "fault-band";
+    d.style.left = pos(f.start_s);
+    d.style.width = `max(3px, ${100 * ((f.end_s === null ? T1 : f.end_s) - f.start_s) / Math.max(T1 - T0, 1e-9)}%)`;
+    d.title = `fault: ${f.text} (${f.start_s.toFixed(1)} s${f.end_s === null ? " to the end" : `\u2013${f.end_s.toFixed(1)} s`})`;
+    d.dataset.fault = f.kind;
+    marks.appendChild(d);
+  }
+  for (const w of D.warnings) {
+    const d = document.createElement("div");
+    d.className = "warning-mark"; d.style.left = pos(w.t_s); d.title = w.text; d.textContent = "\u26a0";
+    edge(d, w.t_s);
+    marks.appendChild(d);
+  }
+  if (D.ending && (D.ending.status === "aborted" || D.ending.status === "complete")) {
+    const d = document.createElement("div");
+    d.className = `end-mark ${D.ending.status}`; d.style.left = pos(D.ending.t_s);
+    d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}` : "mission complete";
+    d.textContent = D.ending.status === "aborted" ? "\u2716" : "\u2714";
+    edge(d, D.ending.t_s);
+    marks.appendChild(d);
   }
   scrub.addEventListener("input", () => seek(+scrub.value));
   playBtn.addEventListener("click", () => (playing ? pause() : play()));
@@ -92,16 +285,20 @@ const APP = (function () {
   $("btn-next").addEventListener("click", () => nextMode());
   $("btn-back").addEventListener("click", () => seek(t - 10));
   $("btn-fwd").addEventListener("click", () => seek(t + 10));
-  $("btn-help").addEventListener("click", () => { $("help").hidden = !$("help").hidden; });
-  $("btn-help-close").addEventListener("click", () => { $("help").hidden = true; });
+  $("zoom-mode").addEventListener("change", (e) => { TRACES.setZoom(e.target.checked, t); redraw(); });
+  const help = $("help");
+  const openHelp = () => { if (!help.open) help.showModal(); $("btn-help-close").focus(); };
+  const closeHelp = () => { if (help.open) help.close(); };
+  $("btn-help").addEventListener("click", openHelp);
+  $("btn-help-close").addEventListener("click", closeHelp);
   for (const n of D.notes) { const li = document.createElement("li"); li.textContent = n; $("notes").appendChild(li); }
 
   function prevMode() {
-    const b = boundaries.filter((x) => x < t - 0.05);
+    const b = landings.filter((x) => x < t - 1e-6);
     seek(b.length ? b[b.length - 1] : T0);
   }
   function nextMode() {
-    const b = boundaries.find((x) => x > t + 0.05);
+    const b = landings.find((x) => x > t + 1e-6);
     seek(b === undefined ? T1 : b);
   }
   function stepSpeed(dir) {
@@ -111,9 +308,11 @@ const APP = (function () {
   }
 
   window.addEventListener("keydown", (e) => {
-    if (e.target && (e.target.tagName === "SELECT" || e.target.tagName === "INPUT") && e.key !== " ") {
-      if (e.target.tagName === "SELECT") return;
-    }
+    if (help.open) return;  // the dialog has the keys (Escape closes it)
+    const tag = e.target && e.target.tagName;
+    if (tag === "SELECT" || (tag === "INPUT" && e.target.type !== "range")) return;
+    if ((tag === "BUTTON" || tag === "INPUT") && (e.key === " " || e.key === "Enter")) return;
+    if (tag === "INPUT" && e.key.startsWith("Arrow")) return;  // the scrubber moves itself
     const i = rowAt(t);
     const handled = {
       " ": () => (playing ? pause() : play()),
@@ -124,23 +323,24 @@ const APP = (function () {
       "[": prevMode, "PageUp": prevMode, "]": nextMode, "PageDown": nextMode,
       "Home": () => seek(T0), "End": () => seek(T1),
       "+": () => stepSpeed(1), "=": () => stepSpeed(1), "-": () => stepSpeed(-1),
-      "?": () => { $("help").hidden = !$("help").hidden; },
-      "Escape": () => { $("help").hidden = true; },
+      "?": openHelp,
     }[e.key];
     if (handled) { e.preventDefault(); handled(); }
   });
 
   function redraw() {
     const t0 = performance.now(), parts = timing.parts;
-    const i = rowAt(t), s = rowState(i);
+    const i = rowAt(t), s = rowState(i), status = statusAt(t);
     let a = performance.now();
     const lap = (name) => { const b = performance.now(); parts[name] = b - a; a = b; };
-    header(s); registersLine(s); eventLog(); lap("text");
+    header(s, status); ending(status); registersLine(); truthLine(s); eventLog(); lap("text");
     DIAGRAM.update(s, t); lap("diagram");
     VEHICLE.draw(s, t); lap("vehicle");
     SKY.draw(s, t, modeStartRow(i)); lap("sky");
     TRACES.draw(s, t); lap("traces");
     if (+scrub.value !== t) scrub.value = t;
+    const vt = `${t.toFixed(1)} s, ${modeLabel(s.mode)}${status === "flying" || !status ? "" : `, ${status}`}`;
+    if (scrub.getAttribute("aria-valuetext") !== vt) scrub.setAttribute("aria-valuetext", vt);
     timing.lastDrawMs = performance.now() - t0;
     timing.draws += 1;
   }
@@ -166,37 +366,44 @@ const APP = (function () {
     requestAnimationFrame(frame);
   }
 
-  function play(s) {
-    if (s) { speed = +s; speedSel.value = String(speed); }
+  function play(sp) {
+    if (sp) { speed = +sp; speedSel.value = String(speed); }
     if (playing) return;
     if (t >= T1) t = T0;
-    playing = true; lastFrame = null; playBtn.textContent = "pause";
+    playing = true; lastFrame = null; playBtn.textContent = "pause \u23f8";
+    playBtn.setAttribute("aria-pressed", "true");
     requestAnimationFrame(frame);
   }
 
-  function pause() { playing = false; playBtn.textContent = "play \u25B6"; }
+  function pause() { playing = false; playBtn.textContent = "play \u25B6"; playBtn.setAttribute("aria-pressed", "false"); }
 
   /** What the page shows, in the documented form (the telemetry row at or before t). */
   function state() {
     const i = rowAt(t), mask = runValue(C.runs.switches, i), sw = {};
     for (let k = 1; k <= 19; k++) sw[`S${k}`] = switchClosed(mask, k);
-    return { t_s: t, mode: modeName(runValue(C.runs.mode, i)), switches: sw,
+    const s = rowState(i);
+    return { t_s: t, mode: s.mode, switches: sw,
       selector: AXIS_NAMES[+C.selector[i]],
       counters_pulses: { "14": EXACT.counter14[i], "16": EXACT.counter16[i], "18": EXACT.counter18[i] },
-      row_t_s: T_MS[i] / 1000, target: TARGETS[targetAt(T_MS[i] / 1000)].name };
+      row_t_s: T_MS[i] / 1000, target: TARGETS[targetAt(T_MS[i] / 1000)].name,
+      status: statusAt(t), true_error_arcsec: s.trueErr,
+      body_rate_deg_s: { roll: s.rateDeg[0], pitch: s.rateDeg[1], yaw: s.rateDeg[2] },
+      tracker_star: starInSlit(t), faults_active: faultsAt(t).map((f) => f.kind) };
   }
 
   window.addEventListener("resize", () => redraw());
   return { seek: seek, redraw: redraw, play: play, pause: pause, state: state, timing: timing,
-    isPlaying: () => playing, speed: () => speed };
+    isPlaying: () => playing, speed: () => speed, landings: () => landings.slice() };
 })();
 
 window.allsky = {
   /** Show mission time t_s [s] (a number or numeric string, clamped to the record; anything
    *  else leaves the time as it is); returns state(). */
   seek: APP.seek,
-  /** {t_s, mode, switches {S1..S19}, selector, counters_pulses {14, 16, 18}, row_t_s, target}
-   *  at the time shown; S7/S8 are selectors, always true (their contact is ``selector``). */
+  /** {t_s, mode, switches {S1..S19}, selector, counters_pulses {14, 16, 18}, row_t_s, target,
+   *  status, true_error_arcsec, body_rate_deg_s {roll, pitch, yaw}, tracker_star,
+   *  faults_active} at the time shown; S7/S8 are selectors, always true (their contact is
+   *  ``selector``). */
   state: APP.state,
   /** Play at ``speed`` times real time (default: the speed selected). */
   play: APP.play,

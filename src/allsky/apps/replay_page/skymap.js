@@ -10,10 +10,10 @@ const SKY = (function () {
     XRD[2 * i] = x[0]; XRD[2 * i + 1] = x[1]; ZRD[2 * i] = z[0]; ZRD[2 * i + 1] = z[1];
   }
   const SLIT = slitOutlineBody(3);
-  const PAD = 16;
+  const PAD = 30, BOTTOM = 16;
 
   function xy(ra, dec, w, h) {
-    return [PAD + (1 - ra / 360) * (w - PAD), (90 - dec) / 180 * (h - 12)];
+    return [PAD + (1 - ra / 360) * (w - PAD), (90 - dec) / 180 * (h - BOTTOM)];
   }
 
   function background(w, h) {
@@ -22,17 +22,18 @@ const SKY = (function () {
     const off = offscreenCanvas(w, h), ctx = off.ctx;
     bg = off.canvas;
     ctx.fillStyle = "#0d1630"; ctx.fillRect(0, 0, w, h);
-    ctx.strokeStyle = "#26345a"; ctx.lineWidth = 1; ctx.fillStyle = "#7c8bb0";
-    ctx.font = "9px sans-serif";
+    ctx.strokeStyle = "#26345a"; ctx.lineWidth = 1; ctx.fillStyle = "#aab6d6";
+    ctx.font = font(11);
+    const raStep = w - PAD > 360 ? 30 : 60;
     for (let ra = 0; ra <= 360; ra += 30) {
       const [x] = xy(ra, 0, w, h);
-      ctx.beginPath(); ctx.moveTo(x, 0); ctx.lineTo(x, h - 12); ctx.stroke();
-      if (ra < 360) ctx.fillText(`${ra / 15}h`, x + 2, h - 2);
+      ctx.beginPath(); ctx.moveTo(x, 0); ctx.lineTo(x, h - BOTTOM); ctx.stroke();
+      if (ra < 360 && ra % raStep === 0) fillTextInside(ctx, `${ra / 15}h`, x - 22, h - 3, w, h);
     }
     for (let dec = -60; dec <= 60; dec += 30) {
       const [, y] = xy(0, dec, w, h);
       ctx.beginPath(); ctx.moveTo(PAD, y); ctx.lineTo(w, y); ctx.stroke();
-      ctx.fillText(`${dec > 0 ? "+" : ""}${dec}\u00b0`, 0, y + 3);
+      fillTextInside(ctx, `${dec > 0 ? "+" : ""}${dec}\u00b0`, 1, y + 4, w, h);
     }
     for (const st of D.sky.stars) {
       const [x, y] = xy(st.ra, st.dec, w, h);
@@ -41,11 +42,11 @@ const SKY = (function () {
       if (st.win) {
         ctx.strokeStyle = "#b48cff"; ctx.lineWidth = 1.5;
         ctx.beginPath(); ctx.arc(x, y, r + 3.5, 0, 7); ctx.stroke();
-        ctx.fillStyle = "#d5c2ff"; ctx.font = "10px sans-serif";
-        ctx.fillText(st.name, x + r + 5, y + 3);
-      } else if (st.mag < 0.5) {
-        ctx.fillStyle = "#97a3c6"; ctx.font = "9px sans-serif";
-        ctx.fillText(st.name, x + r + 2, y + 3);
+        ctx.fillStyle = "#d5c2ff"; ctx.font = font(11);
+        fillTextInside(ctx, st.name, x + r + 5, y + 4, w, h - BOTTOM);
+      } else if (st.mag < 0.1 && w > 380) {
+        ctx.fillStyle = "#aab6d6"; ctx.font = font(11);
+        fillTextInside(ctx, st.name, x + r + 2, y + 4, w, h - BOTTOM);
       }
     }
     bgKey = key;
@@ -82,7 +83,7 @@ const SKY = (function () {
     ctx.stroke();
   }
 
-  function marker(ctx, v, w, h, colour, label, r, font) {
+  function marker(ctx, v, w, h, colour, label, r, fontSpec) {
     const [ra, dec] = radec(v);
     const [x, y] = xy(ra, dec, w, h);
     ctx.fillStyle = colour; ctx.strokeStyle = colour; ctx.lineWidth = 2;
@@ -92,10 +93,10 @@ const SKY = (function () {
       ctx.beginPath(); ctx.moveTo(x - r - 4, y); ctx.lineTo(x + r + 4, y);
       ctx.moveTo(x, y - r - 4); ctx.lineTo(x, y + r + 4); ctx.stroke();
     }
-    ctx.font = font || "bold 10px sans-serif";
+    ctx.font = fontSpec || font(12, "bold");
     // Near the right edge the label goes to the left of the marker.
     const room = ctx.measureText(label).width;
-    ctx.fillText(label, x + r + 4 + room > w ? x - r - 4 - room : x + r + 4, y - r);
+    fillTextInside(ctx, label, x + r + 4 + room > w ? x - r - 4 - room : x + r + 4, y - r, w, h - BOTTOM);
   }
 
   function draw(s, t, modeStartRow) {
@@ -118,7 +119,7 @@ const SKY = (function () {
     TARGETS.forEach((tgt, k) => {
       if (k === s.target) return;
       ctx.globalAlpha = 0.45;
-      marker(ctx, tgt.vec, w, h, "#ff9d92", `${k + 1} ${tgt.name}`, 3.5, "9px sans-serif");
+      marker(ctx, tgt.vec, w, h, "#ff9d92", `${k + 1} ${tgt.name}`, 3.5, font(11));
       ctx.globalAlpha = 1;
     });
     const cur = TARGETS[s.target];
@@ -126,10 +127,16 @@ const SKY = (function () {
       ? `target ${s.target + 1}/${TARGETS.length} ${cur.name}` : `target ${cur.name}`, 5);
     const x = radec(c[0]), [px, py] = xy(x[0], x[1], w, h);
     ctx.fillStyle = "#7fd0ff"; ctx.beginPath(); ctx.arc(px, py, 3.5, 0, 7); ctx.fill();
-    ctx.font = "10px sans-serif"; ctx.fillText("+x", px + 5, py + 11);
-    ctx.fillStyle = "#c9d3ee"; ctx.font = "10px sans-serif";
-    ctx.fillText(`ringed: tracker window (mag ${D.sky.window[0]} to ${D.sky.window[1]}); violet: slit, `
-      + "swath this mode, +z path; blue: +x path", PAD + 2, 10);
+    ctx.font = font(12, "bold"); fillTextInside(ctx, "+x", px + 5, py + 13, w, h - BOTTOM);
+    // The star in the slit (the journal's), ringed in white.
+    const inSlit = starInSlit(t), sv = inSlit ? starVec(inSlit) : null;
+    if (sv) {
+      const [ra, dec] = radec(sv), [sx, sy] = xy(ra, dec, w, h);
+      ctx.strokeStyle = "#ffffff"; ctx.lineWidth = 2;
+      ctx.beginPath(); ctx.arc(sx, sy, 8, 0, 7); ctx.stroke();
+    }
+    canvas.setAttribute("aria-label", `Sky map at ${t.toFixed(1)} s: +x at RA ${x[0].toFixed(1)}\u00b0, `
+      + `Dec ${x[1].toFixed(1)}\u00b0; target ${cur.name}; slit ${inSlit ? "on " + inSlit : "empty"}.`);
   }
 
   return { draw: draw };

@@ -1,19 +1,32 @@
-// util.js: the data block decoded into typed arrays, row lookup, formatting, colours.
+// util.js: the data block decoded into typed arrays, row lookup, the journal at a time,
+// formatting, colours.
 const D = JSON.parse(document.getElementById("allsky-data").textContent);
 const C = D.columns;
 const N = C.n;
 const MODE_NAMES = Object.keys(D.modes);
+// Mode colours (strip, shading, badge); the badge's text colour is chosen for contrast.
 const MODE_COLOURS = ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#76b7b2",
-  "#edc948", "#9c755f"];
-const AXIS_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c"];
+  "#edc948", "#9c755f", "#bab0ac", "#ff9da7", "#86bcb6"];
+const AXIS_COLOURS = ["#1f5fa0", "#b34700", "#1e7b1e"];
 const AXIS_NAMES = ["roll", "pitch", "yaw"];
 const CPU_MODES = ["6-1", "6-2", "hold"];
 const RAD = Math.PI / 180;
+const ARCSEC_PER_RAD = 180 * 3600 / Math.PI;
+/** Smallest text the page draws [CSS px]. */
+const MIN_FONT_PX = 11;
+const FAULT_COLOUR = "#c0392b";
+const TRUTH_COLOUR = "#d35400";
 
+/** Integers from deltas; a ``[delta, count]`` element stands for ``count`` equal deltas. */
 function undelta(d) {
-  const out = new Float64Array(d.length);
-  let s = 0;
-  for (let i = 0; i < d.length; i++) { s += d[i]; out[i] = s; }
+  let n = 0;
+  for (const e of d) n += Array.isArray(e) ? e[1] : 1;
+  const out = new Float64Array(n);
+  let s = 0, i = 0;
+  for (const e of d) {
+    if (Array.isArray(e)) { for (let k = 0; k < e[1]; k++) { s += e[0]; out[i++] = s; } }
+    else { s += e; out[i++] = s; }
+  }
   return out;
 }
 
@@ -29,10 +42,13 @@ for (const k in C.cont) {
   CONT[k] = a;
 }
 const STRIDE = C.stride;
+/** Is a column in the record (a file of an earlier format lacks the newer ones)? */
+const HAS = (name) => name in CONT || name in EXACT || name in C.runs;
 
 /** Value at row ``i`` of a continuous column (thinned columns: the nearest kept row). */
 function cont(name, i) {
-  return CONT[name][Math.min(Math.floor(i / STRIDE), CONT[name].length - 1)];
+  const a = CONT[name];
+  return a ? a[Math.min(Math.floor(i / STRIDE), a.length - 1)] : NaN;
 }
 
 /** The last row at or before mission time ``t_s`` (the first row before the record). */
@@ -50,6 +66,7 @@ function rowAt(t_s) {
 
 /** Value of a run-coded column at row ``i``: ``runs`` is [[first row, value], ...]. */
 function runValue(runs, i) {
+  if (!runs) return 0;
   let lo = 0, hi = runs.length - 1;
   if (hi < 0) return 0;
   while (lo < hi) {
@@ -67,8 +84,24 @@ function modeName(code) {
 
 function modeColour(name) {
   const k = MODE_NAMES.indexOf(name);
-  return k < 0 ? "#888" : MODE_COLOURS[k % MODE_COLOURS.length];
+  return k < 0 ? "#888888" : MODE_COLOURS[k % MODE_COLOURS.length];
 }
+
+/** Relative luminance of "#rrggbb" (WCAG 2). */
+function luminance(hex) {
+  const c = [1, 3, 5].map((k) => parseInt(hex.slice(k, k + 2), 16) / 255)
+    .map((v) => (v <= 0.03928 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4)));
+  return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
+/** Black or white, whichever reads better on background ``hex``. */
+function textOn(hex) {
+  const l = luminance(hex);
+  return (l + 0.05) / 0.05 >= 1.05 / (l + 0.05) ? "#000000" : "#ffffff";
+}
+
+function modeLabel(name) { return name === "hold" ? "Hold" : MODE_NAMES.indexOf(name) >= 0
+  && /^[0-9]/.test(name) ? `Mode ${name}` : name.charAt(0).toUpperCase() + name.slice(1); }
 
 /** Switch numbers of the selectors (S7/S8), from the wiring table. */
 const SELECTORS = D.diagram.switches.filter((sw) => sw.selector).map((sw) => sw.n);
@@ -96,13 +129,46 @@ function targetAt(t_s) {
   return k;
 }
 
+/** The entry of a time-stamped list (``t_s`` ascending) in force at time t. */
+function inForce(list, t) {
+  let out = null;
+  if (!list) return out;
+  for (const e of list) { if (e.t_s <= t + 1e-9) out = e; else break; }
+  return out;
+}
+
+/** The star in the tracker's slit at time t (the journal's star_lock entries), or null. */
+function starInSlit(t) {
+  const e = inForce(D.tracker, t);
+  return e ? e.star : null;
+}
+
+/** The faults acting at time t: onset at or before t, not yet ended. */
+function faultsAt(t) {
+  return D.faults.filter((f) => f.start_s <= t + 1e-9 && (f.end_s === null || t < f.end_s - 1e-9));
+}
+
+/** The mission's status at time t: "flying", "complete", "aborted" (null: not known). */
+function statusAt(t) {
+  const e = D.ending;
+  if (!e) return t >= T1 - 1e-9 ? null : "flying";
+  if ((e.status === "complete" || e.status === "aborted") && t >= e.t_s - 1e-9) return e.status;
+  return "flying";
+}
+
+/** Angle [rad] between unit-ish vectors a and b, exact near 0 and pi (atan2). */
+function angleBetween(a, b) {
+  const c = cross(a, b);
+  return Math.atan2(Math.hypot(c[0], c[1], c[2]), dot(a, b));
+}
+
 /** Everything the page shows at row ``i``, read once per redraw. */
 function rowState(i) {
   const mask = runValue(C.runs.switches, i);
+  const qn = norm4([cont("q_w", i), cont("q_x", i), cont("q_y", i), cont("q_z", i)]);
   const s = {
     i: i, t_s: T_MS[i] / 1000, mode: modeName(runValue(C.runs.mode, i)), mask: mask,
-    selector: +C.selector[i],
-    q: [cont("q_w", i), cont("q_x", i), cont("q_y", i), cont("q_z", i)],
+    selector: +C.selector[i], q: qn,
     rate: [cont("rate_x", i), cont("rate_y", i), cont("rate_z", i)],
     sun: [cont("sun_pitch", i), cont("sun_yaw", i)],
     sunPresent: runValue(C.runs.sun_present, i) > 0.5,
@@ -117,6 +183,8 @@ function rowState(i) {
     errors: [cont("error_roll", i), cont("error_pitch", i), cont("error_yaw", i)],
     corrected: [cont("corrected_roll", i), cont("intermediate_pitch", i), cont("corrected_yaw", i)],
     propellant: cont("propellant", i), overflow: runValue(C.runs.overflow, i),
+    wheelH: [cont("wheel_h_x", i), cont("wheel_h_y", i), cont("wheel_h_z", i)],
+    unloading: runValue(C.runs.unloading, i) > 0.5,
   };
   s.closed = {};
   for (let k = 1; k <= 19; k++) s.closed[k] = switchClosed(mask, k);
@@ -126,14 +194,14 @@ function rowState(i) {
   const j = i > 0 ? i - 1 : 0, dt = (T_MS[i] - T_MS[j]) / 1000;
   s.pps = [0, 1, 2].map((a) => (dt > 0 ? (s.counters[a] - [EXACT.counter14, EXACT.counter16,
     EXACT.counter18][a][j]) / dt : 0));
+  s.rateDeg = s.rate.map((r) => r / RAD);
+  // The truth: +x to the target being flown (the recorded column; the attitude otherwise).
+  const c = dcm(s.q), x = toInertial(c, [1, 0, 0]);
+  s.xToTargetArcsec = angleBetween(x, TARGETS[s.target].vec) * ARCSEC_PER_RAD;
+  s.trueErr = HAS("true_error") ? cont("true_error", i) : s.xToTargetArcsec;
+  // CPU 22's pointing error: pitch and yaw move +x off the target (Mode 6-2 and the hold).
+  s.cpuPointing = s.mode === "6-2" || s.mode === "hold" ? Math.hypot(s.errors[1], s.errors[2]) : null;
   return s;
-}
-
-/** The entry of a time-stamped list (``t_s`` ascending) in force at time t. */
-function inForce(list, t) {
-  let out = null;
-  for (const e of list) { if (e.t_s <= t + 1e-9) out = e; else break; }
-  return out;
 }
 
 function fmt(v, digits, width) {
@@ -144,14 +212,31 @@ function fmt(v, digits, width) {
 
 function fmtInt(v) { return (v < 0 ? "\u2212" : "") + Math.abs(Math.round(v)).toString(); }
 
+/** A rate [deg/s] in at most 7 characters: 3 decimals below 10 deg/s, 2 beyond. */
+function fmtRate(v) { return fmt(v, Math.abs(v) < 9.9995 ? 3 : 2); }
+
+/** An angle [arcsec] in arcsec below 1 deg, in degrees beyond (unsigned: a separation). */
+function fmtSep(arcsec) {
+  if (!Number.isFinite(arcsec)) return "\u2014";
+  return arcsec < 3600 ? `${arcsec.toFixed(1)}\u2033` : `${(arcsec / 3600).toFixed(3)}\u00b0`;
+}
+
+/** A signed error [arcsec], one decimal below 10000 arcsec. */
+function fmtErr(v) { return Math.abs(v) < 9999.95 ? `${fmt(v, 1)}\u2033` : `${fmt(v, 0)}\u2033`; }
+
 function fmtTime(t) {
   const m = Math.floor(t / 60), s = t - 60 * m;
   return `${t.toFixed(1)} s (${m}:${s.toFixed(1).padStart(4, "0")})`;
 }
 
-/** Body-from-inertial rotation matrix rows of quaternion q = [w, x, y, z]. */
-function dcm(q) {
-  const [w, x, y, z] = q;
+function norm4(q) {
+  const n = Math.hypot(q[0], q[1], q[2], q[3]) || 1;
+  return [q[0] / n, q[1] / n, q[2] / n, q[3] / n];
+}
+
+/** Body-from-inertial rotation matrix rows of quaternion q = [w, x, y, z] (normalised). */
+function dcm(q0) {
+  const [w, x, y, z] = norm4(q0);
   return [
     [w * w + x * x - y * y - z * z, 2 * (x * y + w * z), 2 * (x * z - w * y)],
     [2 * (x * y - w * z), w * w - x * x + y * y - z * z, 2 * (y * z + w * x)],
@@ -190,6 +275,12 @@ function unitFromRadec(ra, dec) {
     Math.sin(dec * RAD)];
 }
 
+/** Inertial direction of a catalog star by name, or null. */
+function starVec(name) {
+  const st = D.sky.stars.find((x) => x.name === name);
+  return st ? unitFromRadec(st.ra, st.dec) : null;
+}
+
 /** The tracker slit's outline in body axes: rays at its edges (yaw across, pitch along). */
 function slitOutlineBody(steps) {
   const n = D.sky.slit_narrow_half_deg * RAD, l = D.sky.slit_long_half_deg * RAD;
@@ -223,6 +314,20 @@ function offscreenCanvas(w, h) {
   const ctx = canvas.getContext("2d");
   ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
   return { canvas: canvas, ctx: ctx };
+}
+
+/** A canvas font of at least MIN_FONT_PX. */
+function font(px, weight, family) {
+  return `${weight || ""} ${Math.max(MIN_FONT_PX, px)}px ${family || "system-ui, sans-serif"}`.trim();
+}
+
+/** Write ``text`` at (x, y), moved inside [0, w] x [0, h] so that none of it is cut. */
+function fillTextInside(ctx, text, x, y, w, h) {
+  const m = ctx.measureText(text), tw = m.width;
+  const asc = m.actualBoundingBoxAscent || 9, desc = m.actualBoundingBoxDescent || 3;
+  const xx = Math.max(1, Math.min(x, w - tw - 1)), yy = Math.max(asc + 1, Math.min(y, h - desc - 1));
+  ctx.fillText(text, xx, yy);
+  return [xx, yy, tw];
 }
 
 const SVG_NS = "http://www.w3.org/2000/svg";

@@ -274,13 +274,26 @@ def test_the_page_carries_the_ending_faults_star_and_warnings_from_the_journal()
     assert "ABORTED" in replay.page_title(d)
 
 
-def test_warnings_are_placed_at_the_time_they_name():
-    summary = {"warnings": ["counter 14 (roll) overflowed at 512.3 s in Mode 4: ...",
-                            "drift DAC 7 (roll) is clipped since 339.7 s: ...",
-                            "the journal lost 3 entries the frame loop could not hold"]}
-    got = replay._warnings(summary, 1300.0)
-    assert [w["t_s"] for w in got] == [512.3, 339.7, 1300.0]
-    assert [w["text"] for w in got] == summary["warnings"]
+def test_warnings_are_placed_at_the_times_they_are_about():
+    """A clipped DAC at S1's closing, the tumble where Mode 6-2 declared the target reached;
+    the page's warnings are the summary's, read from its journal, not parsed from text."""
+    from allsky.config import load_scenario
+    from allsky.sim.mission import Mission
+
+    clipped = load_scenario(None, ["gyro.drift_deg_h=[4.0,0.0,0.0]",
+                                   "electronics.integrator_drift_deg_h=[2.0,0.0,0.0]"])
+    tumbling = load_scenario("gyro-failure-to-target", [])
+    for cfg, count in ((clipped, 1), (tumbling, 2)):
+        summary = Mission(cfg, telemetry=False).run()
+        got = replay._warnings(summary, cfg)
+        assert [w["text"] for w in got] == summary["warnings"] and len(got) == count
+        if cfg is clipped:
+            at = next(e["t_s"] for e in summary["events"]
+                      if e["kind"] == "switch" and 1 in e["close"])
+        else:
+            at = next(r["end_s"] for r in summary["modes"] if r["mode"] == "6-2")
+        assert [w["t_s"] for w in got] == [at] * count
+    assert replay._warnings({"warnings": ["an older summary"]}, clipped) == []
 
 
 def test_describe_scenario_reads_the_files_comment():

@@ -36,7 +36,6 @@ import hashlib
 import html
 import json
 import math
-import re
 from importlib import resources
 from pathlib import Path
 
@@ -329,17 +328,16 @@ def _ending(summary, journal, t_end_s) -> dict:
             "propellant_remaining_kg": end.get("propellant_remaining_kg")}
 
 
-#: A time in a warning's sentence: "at 1346.9 s", "since 339.7 s".
-_WARNING_TIME = re.compile(r"\b(?:at|since) (\d+(?:\.\d+)?) s\b")
+def _warnings(summary, cfg) -> list:
+    """The summary's warnings, each at the time it is about, from its journal."""
+    from allsky.config.faults import describe
+    from allsky.sim.journal import Journal
+    from allsky.sim.results import timed_warnings
 
-
-def _warnings(summary, t_end_s) -> list:
-    """The summary's warnings, each at the time its sentence names (else the end)."""
-    out = []
-    for text in (summary or {}).get("warnings") or []:
-        m = _WARNING_TIME.search(text)
-        out.append({"t_s": min(float(m.group(1)), t_end_s) if m else t_end_s, "text": text})
-    return out
+    if not summary or "events" not in summary or "targets" not in summary:
+        return []
+    return timed_warnings(summary, Journal(summary["events"]), describe,
+                          float(cfg.sequencer.settle_threshold_arcsec))
 
 
 def fault_boxes(fault) -> list:
@@ -505,7 +503,7 @@ def replay_data(table, summary=None, cfg=None, scenario=None) -> dict:
     targets = _targets(cfg, summary, timeline, t_end_s)
     journal = (summary or {}).get("events")
     registers = _registers(journal)
-    warnings = _warnings(summary, t_end_s)
+    warnings = _warnings(summary, cfg)
     log = event_words.page_log(journal or [])
     log += [{"t_s": w["t_s"], "kind": "warning", "mode": _mode_at(timeline, w["t_s"]),
              "text": w["text"], "reason": "a warning of the summary"} for w in warnings]

@@ -104,8 +104,28 @@ def _likely_cause(summary, t_s, describe) -> str:
             "the counters)")
 
 
+class _Timed:
+    """Warnings as they are found, each with its time."""
+
+    def __init__(self):
+        self.timed = []
+
+    def append(self, t_s, text):
+        self.timed.append({"t_s": float(t_s), "text": text})
+
+
 def warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
     """What a reader of the summary must not miss, one sentence each.
+
+    The sentences of :func:`timed_warnings`, in the order of the times they
+    name.
+    """
+    return [w["text"] for w in timed_warnings(summary, journal, describe,
+                                              settle_threshold_arcsec)]
+
+
+def timed_warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
+    """The warnings with the mission time each is about: ``[{"t_s", "text"}, ...]``.
 
     From the journal and the summary: a drift DAC that applies its full scale
     instead of the count; a counter that overflowed; a wheel held at its
@@ -126,8 +146,15 @@ def warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
         A fault in words (:func:`allsky.config.faults.describe`).
     settle_threshold_arcsec : float
         [arcsec] ``sequencer.settle_threshold_arcsec``.
+
+    Returns
+    -------
+    list of dict
+        ``t_s`` [s] (when the saturation began, or where Mode 6-2 declared
+        the target reached; the end of the flight for lost entries) and
+        ``text``, sorted by time.
     """
-    out = []
+    out = _Timed()
     dacs = {}
     for e in journal.of_kind("register"):
         if "counted_pulses" in e:
@@ -135,17 +162,17 @@ def warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
     for numeral, e in dacs.items():
         if e["pulses"] != e["counted_pulses"]:
             lsb = e["value"] / e["pulses"] if e["pulses"] else 0.0
-            out.append(f"drift DAC {numeral} ({e['word']}) is clipped since {e['t_s']:.1f} s: "
+            out.append(e["t_s"], f"drift DAC {numeral} ({e['word']}) is clipped since {e['t_s']:.1f} s: "
                        f"the drift counted is {e['counted_pulses'] * lsb:+.4f} deg/h, the DAC "
                        f"applies its full scale {e['value']:+.4f} deg/h, so "
                        f"{(e['counted_pulses'] - e['pulses']) * lsb:+.4f} deg/h of drift is "
                        "left uncompensated")
     for e in journal.of_kind("saturation"):
         if e["what"] == "counter_overflow" and e["active"]:
-            out.append(f"counter {e['block']} ({e['axis']}) overflowed at {e['t_s']:.1f} s "
+            out.append(e["t_s"], f"counter {e['block']} ({e['axis']}) overflowed at {e['t_s']:.1f} s "
                        f"in Mode {e['mode']}: the angle it holds is wrong from then on")
         elif e["what"] == "wheel_momentum_limit" and e["active"]:
-            out.append(f"reaction wheel {e['wheel'] + 1} reached its momentum limit "
+            out.append(e["t_s"], f"reaction wheel {e['wheel'] + 1} reached its momentum limit "
                        f"({e['limit_n_m_s']:g} N m s) at {e['t_s']:.1f} s in Mode "
                        f"{e['mode']}: it could not take up more momentum")
     declared = [r for r in summary["modes"] if r["mode"] == "6-2"
@@ -156,7 +183,7 @@ def warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
         rates = tgt["body_rate_deg_s"]
         axis = max(rates, key=lambda a: abs(rates[a]))
         if abs(rates[axis]) > ON_TARGET_RATE_DEG_S:
-            out.append(f"Mode 6-2 declared the vehicle on {tgt['name']} at {t_s:.1f} s while "
+            out.append(t_s, f"Mode 6-2 declared the vehicle on {tgt['name']} at {t_s:.1f} s while "
                        f"it turned at {rates[axis]:+.3f} deg/s about {axis}: the computer's "
                        f"errors settled, the vehicle did not; likely cause: "
                        f"{_likely_cause(summary, t_s, describe)}")
@@ -165,10 +192,11 @@ def warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
         bound = max(own, settle_threshold_arcsec)
         true = tgt.get("pointing_error_arcsec")
         if true is not None and true > TRUTH_FACTOR * bound:
-            out.append(f"on {tgt['name']} at {t_s:.1f} s the true pointing error is "
+            out.append(t_s, f"on {tgt['name']} at {t_s:.1f} s the true pointing error is "
                        f"{true:.1f} arcsec, {true / bound:.0f} times what the computer "
                        f"judged ({own:.1f} arcsec, settle threshold "
                        f"{settle_threshold_arcsec:g} arcsec)")
     if journal.lost:
-        out.append(f"the journal lost {journal.lost} entries the frame loop could not hold")
-    return out
+        out.append(summary.get("mission_time_s", 0.0),
+                   f"the journal lost {journal.lost} entries the frame loop could not hold")
+    return sorted(out.timed, key=lambda w: w["t_s"])

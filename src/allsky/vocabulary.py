@@ -65,6 +65,7 @@ class FaultKind(NamedTuple):
     fields: tuple  #: the fields it needs beyond the timing, in this order
     blocks: tuple  #: patent numerals of the blocks it acts on ("" for the tank)
     meaning: str  #: what happens, in words
+    optional: tuple = ()  #: fields it may have beyond those, in this order
 
 
 #: Every fault kind (:mod:`allsky.config.faults` validates them, :mod:`allsky.sim.faults`
@@ -84,7 +85,9 @@ FAULT_KINDS = (
     FaultKind("sun_sensor_blind", 7, (), ("104",), "sun sensor 104 sees no Sun"),
     FaultKind("tracker_dropout", 8, (), ("105",), "star tracker 105 sees no star"),
     FaultKind("tracker_stray_light", 9, ("offset_deg",), ("105",),
-              "star tracker 105 tracks a body-fixed false target (a glint) at the offset"),
+              "a body-fixed false target (a glint) at the offset in star tracker 105's slit: "
+              "tracked instead of the star or, with a magnitude, as bright as that",
+              ("magnitude",)),
     FaultKind("wrong_star", 10, ("star",), ("105",),
               "another catalog star passes the tracker's magnitude window"),
     FaultKind("counter_upset", 11, ("register", "bit"), ("13", "14", "15", "16", "17", "18",
@@ -164,6 +167,14 @@ EVENT_KINDS = (
     EventKind("fault", 8, "`fault` (its index in `[[faults]]`), `fault_kind`, `text`, "
                           "`active` (true at the onset, false at the end)"),
     EventKind("abort", 9, "`reason`"),
+    EventKind("lock_rejected", 10, "`star` (the star, or `stray light`, the tracker found "
+                                   "in its slit and refused), `cone_angle_deg` (its position "
+                                   "along the slit), `reference_cone_angle_deg` (the planned "
+                                   "reference star's), `check_deg` "
+                                   "(`star_tracker.cone_angle_check_deg`), `in_use`"),
+    EventKind("lock_dropped", 11, "`star` (the star, or `stray light`, the tracker held), "
+                                  "`magnitude` (the light in its slit), `gate_magnitude` (the "
+                                  "bright gate: the magnitude window's bright end), `in_use`"),
 )
 #: Journal kind name -> :class:`EventKind`.
 EVENT_KIND = {k.name: k for k in EVENT_KINDS}

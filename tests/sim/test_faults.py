@@ -9,9 +9,10 @@ from allsky.apps.cli import main
 from allsky.config import ConfigError, load_scenario
 from allsky.config import dispersions as disp
 from allsky.config.faults import KINDS, packaged_scenarios
-from allsky.hardware.star_tracker import FALSE_TARGET, star_tracker
+from allsky.hardware import star_tracker as trk
+from allsky.hardware.star_tracker import FALSE_TARGET, new_lock, star_tracker
 from allsky.sim import faults as sf
-from allsky.sim.mission import Mission, build_params
+from allsky.sim.mission import Mission, build_params, tracker_star_names
 from allsky.studies.faults import fault_matrix
 from allsky.units import ARCSEC2RAD, DEG2ARCSEC
 from allsky.vehicle import quaternion, sky
@@ -120,7 +121,8 @@ def _sense(p, fs, t, gyro=(10.0, 20.0, 30.0), dtheta=(1e-4, 0.0, 0.0)):
     fine = np.array([5.0, 6.0, 1.0])
     trk = np.array([7.0, 8.0, 1.0])
     g = np.array(gyro)
-    star = sf.fault_sense(p.faults, fs, t, 0.01, np.array(dtheta), fine, trk, g, 3)
+    star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.array(dtheta), fine, trk,
+                          g, new_lock(), 3)
     return fine, trk, g, star
 
 
@@ -176,6 +178,81 @@ def test_blind_sun_sensor_dropout_and_stray_light():
     assert list(trk) == [1.5 * DEG2ARCSEC, 0.0, 1.0] and star == FALSE_TARGET  # a glint
 
 
+def _tracker_frame(p, fs, t, lock, star=0):
+    """``fault_sense`` after a tracker that found ``star``: (trk, star)."""
+    trk = np.array([7.0, 8.0, 1.0]) if star >= 0 else np.zeros(3)
+    star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.zeros(3),
+                          np.array([5.0, 6.0, 1.0]), trk, np.zeros(3), lock, star)
+    return trk, star
+
+
+def test_the_bright_gate_drops_the_lock_while_the_slit_is_too_bright():
+    """Mariner 4's window, Canopus (-0.62 mag) +-2.26 mag: the gate at -2.88 mag. Canopus
+    with a -4 mag glint beside it: fluxes add, 10^(0.4*0.62) + 10^(0.4*4) = 41.6 times a
+    magnitude-0 star, -4.05 mag: brighter than the gate, the lock is lost, once journaled.
+    A -2 mag glint: -2.27 mag together, fainter than the gate: Canopus is kept."""
+    extra = ("star_tracker.magnitude_window=[-2.88, 1.64]", "star_tracker.bright_gate=true")
+    cfg, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.0, magnitude=-4.0, '
+                         'start_s=1, duration_s=2}', extra=extra)
+    k = tracker_star_names(cfg).index("Canopus")
+    mag = p.faults.tracker.magnitudes[k]
+    assert mag == pytest.approx(-0.62, abs=0.005)
+    assert p.faults.tracker.bright_gate_mag == -2.88
+    lock = new_lock()
+    lock[trk.HELD] = k
+    out, star = _tracker_frame(p, fs, 0.5, lock, k)  # before the glint
+    assert star == k and out[2] == 1.0 and lock[trk.GATE] == 0.0
+    seen = -2.5 * math.log10(10 ** (-0.4 * mag) + 10 ** (-0.4 * -4.0))
+    assert seen == pytest.approx(-4.05, abs=0.01)
+    out, star = _tracker_frame(p, fs, 1.0, lock, k)
+    assert star == -1 and list(out) == [0.0, 0.0, 0.0] and lock[trk.HELD] == trk.NONE
+    assert lock[trk.NEW_DROP] == k and lock[trk.SEEN_MAG] == pytest.approx(seen, abs=1e-9)
+    lock[trk.NEW_DROP] = trk.NONE  # the next frame's tracker clears its flags ...
+    out, star = _tracker_frame(p, fs, 1.5, lock, k)  # ... and finds Canopus again: dropped
+    assert star == -1 and lock[trk.NEW_DROP] == trk.NONE  # one drop, told once
+    out, star = _tracker_frame(p, fs, 3.0, lock, k)  # the glint is over
+    assert star == k and out[2] == 1.0 and lock[trk.GATE] == 0.0
+    _, p2, fs2 = _params('{kind="tracker_stray_light", offset_deg=1.0, magnitude=-2.0}',
+                         extra=extra)
+    assert -2.5 * math.log10(10 ** (-0.4 * mag) + 10 ** 0.8) == pytest.approx(-2.27, abs=0.01)
+    lock = new_lock()
+    lock[trk.HELD] = k
+    _, star = _tracker_frame(p2, fs2, 1.0, lock, k)
+    assert star == k and lock[trk.GATE] == 0.0  # held: the glint only adds light
+    _, p3, fs3 = _params('{kind="tracker_stray_light", offset_deg=1.0, magnitude=-4.0}',
+                         extra=extra[:1])
+    _, star = _tracker_frame(p3, fs3, 1.0, lock, k)
+    assert star == k  # no gate: the memory holds Canopus
+
+
+def test_a_glint_with_a_brightness_is_locked_only_by_an_empty_tracker_inside_the_window():
+    extra = ("star_tracker.magnitude_window=[-2.88, 1.64]",)
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5, magnitude=0.5}',
+                       extra=extra)
+    lock = new_lock()
+    out, star = _tracker_frame(p, fs, 0.0, lock, -1)  # nothing held: the glint is taken
+    assert star == FALSE_TARGET and list(out) == [1.5 * DEG2ARCSEC, 0.0, 1.0]
+    assert lock[trk.HELD] == FALSE_TARGET
+    lock = new_lock()
+    lock[trk.HELD] = 3
+    out, star = _tracker_frame(p, fs, 0.0, lock, 3)  # a star held: kept
+    assert star == 3 and list(out) == [7.0, 8.0, 1.0]
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5, magnitude=3.0}',
+                       extra=extra)
+    _, star = _tracker_frame(p, fs, 0.0, new_lock(), -1)
+    assert star == -1  # too faint for the window
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5}', extra=extra)
+    lock = new_lock()
+    _, star = _tracker_frame(p, fs, 0.0, lock, 3)
+    assert star == FALSE_TARGET and lock[trk.HELD] == FALSE_TARGET  # no brightness: taken
+    sf.fault_release(p.faults, fs, 0.0, lock)
+    assert lock[trk.HELD] == FALSE_TARGET  # the glint acts: held
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5, duration_s=1}',
+                       extra=extra)
+    sf.fault_release(p.faults, fs, 2.0, lock)
+    assert lock[trk.HELD] == trk.NONE  # over: forgotten, the tracker searches again
+
+
 def test_a_wrong_star_joins_the_window_and_is_locked_on_boresight():
     # On this date Rigil Kentaurus is inside the slit's cone about the Sun (voyager1-wrong-star).
     cfg, p, fs = _params('{kind="wrong_star", star="Rigil Kentaurus", start_s=10}',
@@ -194,8 +271,8 @@ def test_a_wrong_star_joins_the_window_and_is_locked_on_boresight():
     x /= np.linalg.norm(x)
     q = quaternion.from_dcm(np.array([x, np.cross(w, x), w]))  # rows: body axes, inertial
     out = np.zeros(3)
-    assert star_tracker(extended, q, out, np.ones(1, dtype=np.uint64)) == k
-    assert star_tracker(p.tracker, q, out, np.ones(1, dtype=np.uint64)) != k
+    assert star_tracker(extended, q, new_lock(), out, np.ones(1, dtype=np.uint64)) == k
+    assert star_tracker(p.tracker, q, new_lock(), out, np.ones(1, dtype=np.uint64)) != k
 
 
 @pytest.mark.parametrize("reg, bit, start, expect", [
@@ -286,30 +363,77 @@ def test_aborts_name_mode_symptom_and_fault(fault, words):
         assert r.end_s - r.start_s <= m.mode_timeout_s(r.mode) + 1.0
 
 
-def test_a_wrong_star_points_where_its_geometry_says():
-    """Locked on Avior instead of Canopus, the roll reference turns about the Sun line.
-
-    The programmed angles are Canopus's, so the vehicle points the target's
-    direction turned by the two stars' azimuth difference about the Sun.
-    """
-    m, s = _fly('{kind="wrong_star", star="Avior"}',
-                extra=["mission.date_utc=2026-06-04T00:00:00Z"])
-    assert s["status"] == "complete" and s["locked_star"] == "Avior"
-    assert s["reference_star"] == "Canopus"
-    cfg, d = m.cfg, m.cfg.mission.date_utc
-    sun = m.params.sun0_inertial + m.params.sun_rate_inertial * m.timeline[5].start_s
-    sun /= np.linalg.norm(sun)
-
+def _sun_azimuth_deg(sun, star, reference):
+    """Azimuth [deg] of ``star`` about the Sun line from ``reference``, right-handed."""
     def across(x):
         v = x - (x @ sun) * sun
         return v / np.linalg.norm(v)
-    a = across(sky.star_direction_inertial("Canopus", d))
-    b = across(sky.star_direction_inertial("Avior", d))
-    dphi = math.atan2(np.cross(a, b) @ sun, a @ b)
+    a, b = across(reference), across(star)
+    return math.degrees(math.atan2(np.cross(a, b) @ sun, a @ b))
+
+
+def test_a_wrong_star_met_first_points_where_its_geometry_says():
+    """On the default date Avior crosses the slit 5.83 deg of roll before Canopus: Mode 2
+    locks it, the tracker holds it, and Mode 4's roll, leaving it, meets Canopus, loses it
+    and meets Avior again after 360 deg: the calibration is right, the reference is not.
+
+    The programmed angles are Canopus's, so the vehicle points the target's direction
+    turned about the Sun by the two stars' azimuth difference dphi:
+    2 asin(sin(dphi/2) sin(theta)), theta the Sun-target angle.
+    """
+    m, s = _fly('{kind="wrong_star", star="Avior"}')
+    assert s["status"] == "complete" and s["locked_star"] == "Avior"
+    assert s["reference_star"] == "Canopus"
+    locks = [e["star"] for e in s["events"] if e["kind"] == "star_lock"]
+    assert locks[:4] == ["Avior", "Canopus", None, "Avior"]  # Mode 2, then Mode 4's roll
+    assert m.counted_arcsec["roll"][0] == pytest.approx(360.0 * 3600.0, rel=3e-3)
+    cfg, d = m.cfg, m.cfg.mission.date_utc
+    sun = m.params.sun0_inertial + m.params.sun_rate_inertial * m.timeline[5].start_s
+    sun /= np.linalg.norm(sun)
+    dphi = math.radians(_sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
+                                         sky.star_direction_inertial("Canopus", d)))
+    assert abs(math.degrees(dphi)) == pytest.approx(5.83, abs=0.01)
     theta = math.acos(sun @ sky.star_direction_inertial(cfg.target.star, d))
     predicted = 2 * math.asin(abs(math.sin(dphi / 2)) * math.sin(theta)) / ARCSEC2RAD
-    assert predicted > 20000
+    assert predicted > 15000
     assert s["target"]["pointing_error_arcsec"] == pytest.approx(predicted, abs=50)
+
+
+def test_a_wrong_star_met_after_canopus_ends_the_calibration_roll():
+    """On 2026-06-04 Canopus is met first and locked; Avior lies 9.46 deg of roll on. The
+    tracker holds Canopus as Mode 4's roll starts, loses it past the slit's edge and
+    takes Avior, in the slit by then: the roll ends after 9.46 deg, which calibration
+    sequencer 19 takes for 360 deg, and Mode 6-1's roll loop, 38 times too stiff, never
+    settles. (The nearest-star rule this tracker had before let Canopus win back the
+    slit and rescued the calibration; a slit tracker does not.)"""
+    m, s = _fly('{kind="wrong_star", star="Avior"}',
+                extra=["mission.date_utc=2026-06-04T00:00:00Z"])
+    assert s["status"] == "aborted" and s["abort_reason"].startswith("Mode 6-1:")
+    locks = [e["star"] for e in s["events"] if e["kind"] == "star_lock"]
+    assert locks[:2] == ["Canopus", "Avior"]
+    d = m.cfg.mission.date_utc
+    sun = sky.sun_direction_inertial(d)
+    dphi = _sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
+                            sky.star_direction_inertial("Canopus", d))
+    assert abs(dphi) == pytest.approx(9.46, abs=0.01)
+    # Counter 14 holds the roll from Canopus to Avior, as the roll gyro (+1500 ppm) reads it.
+    assert m.counted_arcsec["roll"][0] == pytest.approx(abs(dphi) * 3600.0 * 1.0015, abs=60.0)
+
+
+def test_the_cone_angle_check_refuses_the_wrong_star_and_the_mission_flies_as_without_it():
+    """Avior's cone angle (+6.8 deg) is 16.8 deg from Canopus's (-9.95): with a 2 deg check
+    Mode 2 and Mode 4 refuse it (journaled) and lock Canopus; the flight is the fault-free
+    one's, frame for frame after the refusals (the refusal draws no noise)."""
+    check = "star_tracker.cone_angle_check_deg=2"
+    _, s = _fly('{kind="wrong_star", star="Avior"}', extra=[check])
+    clean = Mission(load_scenario(overrides=[check]), telemetry=False).run()
+    assert s["status"] == "complete" and s["locked_star"] == "Canopus"
+    assert s["target"]["pointing_error_arcsec"] == clean["target"]["pointing_error_arcsec"]
+    refused = [e for e in s["events"] if e["kind"] == "lock_rejected"]
+    assert [(e["mode"], e["star"]) for e in refused] == [("2", "Avior"), ("4", "Avior")]
+    assert refused[0]["cone_angle_deg"] == pytest.approx(6.83, abs=0.01)
+    assert refused[0]["reference_cone_angle_deg"] == pytest.approx(-9.95, abs=0.01)
+    assert refused[0]["check_deg"] == 2.0
 
 
 # -- the matrix, the dispersion, the packaged scenarios -----------------------------

@@ -19,7 +19,11 @@ The kinds (:data:`KINDS`) and the fields each needs:
   (star tracker 105 sees no star): no field;
 * ``tracker_stray_light``: ``offset_deg``, where a false target sits in the
   tracker's field (its yaw output, body-fixed: a glint off dust or the
-  vehicle), within the narrow half-field;
+  vehicle), within the narrow half-field; optional ``magnitude``, its
+  brightness [mag]: without it the tracker follows the glint whatever it
+  holds; with it the glint is one more light in the slit (locked only when
+  the tracker holds nothing and the glint is inside the magnitude window,
+  and added to the light the bright gate judges);
 * ``wrong_star``: ``star``, a catalog star the magnitude window also passes;
 * ``counter_upset``: ``register`` (the numeral as a string: "13"-"18" up/down
   and drift counters, "25"-"27" storage registers) and ``bit`` (0 = least
@@ -62,6 +66,8 @@ from allsky.vocabulary import AXES, FAULT_KINDS
 MAX_FAULTS = 8
 #: Fault kind -> the fields it needs beyond the timing (in this order): the vocabulary's.
 KINDS = {k.name: k.fields for k in FAULT_KINDS}
+#: Fault kind -> the fields it may have beyond those (absent: the behaviour without them).
+OPTIONAL = {k.name: k.optional for k in FAULT_KINDS}
 TIMING = ("start_s", "start_mode", "duration_s")
 #: Modes a fault may start with: the patent's, the hold on target, the moves to a next
 #: target, the dither mode (:func:`check_plan`: only those the mission flies).
@@ -76,6 +82,8 @@ REGISTER_BITS_KEY = {
 BIAS_STEP_MAX_DEG_H = 3600.0
 SCALE_STEP_MAX_PPM = 1e6
 LEAK_MAX_KG_S = 1.0
+#: [mag] brightest and faintest glint a stray-light fault may give (the Sun is -26.7).
+GLINT_MAG_RANGE = (-30.0, 30.0)
 DISPERSION_DIST = "fault"
 
 
@@ -116,16 +124,17 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
         raise ConfigError(f"{where}.kind", rule=f"missing: one of {_quoted(KINDS)}")
     _string(f"{where}.kind", kind, tuple(KINDS))
     need = KINDS[kind]
+    may = OPTIONAL[kind]
     for k in entry:
-        if k not in ("kind", *need, *TIMING):
+        if k not in ("kind", *need, *may, *TIMING):
             raise ConfigError(f"{where}.{k}", entry[k], f'unknown field for kind = "{kind}"; '
-                              f"valid: {', '.join((*need, *TIMING))}")
+                              f"valid: {', '.join((*need, *may, *TIMING))}")
     for k in need:
         if k not in entry:
             raise ConfigError(f"{where}.{k}", rule=f'missing: kind = "{kind}" needs '
                               f"{', '.join(need)}")
     out = {"kind": kind}
-    for k in need:
+    for k in (*need, *(m for m in may if m in entry)):
         key, v = f"{where}.{k}", entry[k]
         if k == "axis":
             out[k] = _string(key, v, AXES)
@@ -148,6 +157,8 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
             reg = out["register"]
             out[k] = _bit(key, v, values[REGISTER_BITS_KEY[reg]],
                           f"{'register' if reg >= '25' else 'counter'} {reg}")
+        elif k == "magnitude":
+            out[k] = number(in_closed(*GLINT_MAG_RANGE))(key, v)
         elif k == "rate_kg_s":
             out[k] = number(POSITIVE, in_closed(0, LEAK_MAX_KG_S))(key, v)
     if "start_s" in entry and "start_mode" in entry:
@@ -275,7 +286,9 @@ def describe(fault: Mapping) -> str:
         "gyro_scale_factor_step": f"{axis} gyro scale step {fault.get('size_ppm', 0):+g} ppm",
         "sun_sensor_blind": "sun sensor blind",
         "tracker_dropout": "tracker dropout",
-        "tracker_stray_light": f"stray light {fault.get('offset_deg', 0):g} deg off boresight",
+        "tracker_stray_light": (f"stray light {fault.get('offset_deg', 0):g} deg off boresight"
+                                + (f", magnitude {fault['magnitude']:+g}"
+                                   if "magnitude" in fault else "")),
         "wrong_star": f"wrong star {fault.get('star', '')}",
         "counter_upset": f"bit {fault.get('bit', 0)} of {fault.get('register', '')} upset",
         "propellant_leak": f"propellant leak {fault.get('rate_kg_s', 0):g} kg/s",

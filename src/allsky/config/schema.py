@@ -261,6 +261,8 @@ RULES: dict[str, Callable] = {
     "star_tracker.magnitude_window": magnitude_window,
     "star_tracker.noise_arcsec": number(NON_NEGATIVE),
     "star_tracker.reference_star": star_name,
+    "star_tracker.cone_angle_check_deg": number(in_closed(0, 90, "0 = no check")),
+    "star_tracker.bright_gate": boolean,
     "jets.thrust_n": vector(3, POSITIVE),
     "jets.moment_arm_m": vector(3, POSITIVE),
     "jets.min_on_time_s": number(in_open_closed(0, 1, "cold-gas valves: a few to tens of ms")),

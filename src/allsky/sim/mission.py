@@ -112,10 +112,12 @@ def build_params(cfg) -> sim_state.Params:
     stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
     stars_inertial = np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars],
                               dtype=float).reshape(-1, 3)
-    tracker = star_tracker.StarTrackerParams(
-        cfg.star_tracker.fov_long_half_deg * units.DEG2RAD,
-        cfg.star_tracker.fov_narrow_half_deg * units.DEG2RAD,
-        float(cfg.star_tracker.noise_arcsec), stars_inertial)
+    st = cfg.star_tracker
+    tracker = star_tracker.make_params(
+        st.fov_long_half_deg * units.DEG2RAD, st.fov_narrow_half_deg * units.DEG2RAD,
+        float(st.noise_arcsec), stars_inertial, [s.magnitude for s in stars], (lo, hi),
+        reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
+        bool(st.bright_gate))
     el = cfg.electronics
     return sim_state.Params(
         frame_s=dt,
@@ -166,7 +168,8 @@ def build_params(cfg) -> sim_state.Params:
         wheels=wheel_params(cfg),
         faults=sim_faults.compile_faults(
             cfg, tracker, [s.name for s in stars],
-            lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc)),
+            lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc),
+            lambda name: sky.star(name).magnitude),
     )
 
 
@@ -279,11 +282,25 @@ def new_target_record(cfg, index, start_s) -> dict:
 def reference_star_inertial(cfg) -> np.ndarray:
     """Unit vector to the planned reference star ``star_tracker.reference_star``.
 
-    The programmed angles are computed for it; the tracker locks whichever
-    star of its magnitude window it meets nearest its boresight, which is
-    this one only if the window and the date make it so.
+    The programmed angles are computed for it; the tracker locks the first
+    star of its magnitude window that it finds in its slit, which is this one
+    only if the window and the date make it so (or its cone-angle check,
+    ``star_tracker.cone_angle_check_deg``, refuses the others).
     """
     return sky.star_direction_inertial(cfg.star_tracker.reference_star, cfg.mission.date_utc)
+
+
+def reference_cone_deg(cfg) -> float:
+    """Cone angle [deg] of the planned reference star on the mission date.
+
+    Its place along the tracker's slit with the roll axis on the Sun: 90 deg
+    less its angle from the Sun at the mission's start
+    (:func:`allsky.hardware.star_tracker.cone_angle_deg`; the Sun moves about
+    1 deg a day, 0.02 deg in a mission of 30 minutes).
+    """
+    sun = sky.sun_direction_inertial(cfg.mission.date_utc)
+    cos = float(sun @ reference_star_inertial(cfg))
+    return star_tracker.cone_angle_deg(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
 
 
 def tracker_star_names(cfg) -> list:
@@ -348,9 +365,12 @@ class Mission:
         self._hooks = NO_HOOKS
         #: What happened, in order (:class:`allsky.sim.journal.Journal`).
         self.journal = journal.Journal(h.get("events"))
+        trk = self.params.tracker
         self._decoder = journal.Decoder(
             tracker_star_names(cfg), cfg.as_dict().get("faults", []), fault_config.describe,
-            self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S)
+            self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S,
+            trk.reference_cone_rad * units.RAD2DEG, float(cfg.star_tracker.cone_angle_check_deg),
+            trk.bright_gate_mag if math.isfinite(trk.bright_gate_mag) else None)
         self.state.target_inertial[:] = self.target_direction()
 
     # -- the seam: what master sequencer 20's steps use (sequencer.host.Host) -----
@@ -838,13 +858,15 @@ def newer_state_arrays() -> dict:
     """State arrays added since files of :data:`STATE_FORMAT` were first written.
 
     Each with the value a file saved before it stands for: ``locked_star``
-    -1 (which star the tracker held was not recorded); ``fault_state`` no
-    onset known (a mission of those days had no faults); the wheels' arrays
-    zero (it flew the jets).
+    -1 (which star the tracker held was not recorded); ``tracker_lock``
+    nothing held (the tracker searches at the next frame, and finds the star
+    it held if that is still in its slit); ``fault_state`` no onset known (a
+    mission of those days had no faults); the wheels' arrays zero (it flew
+    the jets).
     """
     blank = sim_state.new_state(np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), 0.0)
-    return {k: getattr(blank, k) for k in ("locked_star", "fault_state", "wheel_h",
-                                           "wheel_unload", "wheel_peak_fraction")}
+    return {k: getattr(blank, k) for k in ("locked_star", "tracker_lock", "fault_state",
+                                           "wheel_h", "wheel_unload", "wheel_peak_fraction")}
 
 
 def run_mission(cfg, telemetry=True) -> Mission:

@@ -124,6 +124,9 @@ ACTIONS = {
                               "counters"),
     "yaw_rate_toward_target": ("set yaw rate-command module 128 to the direction of the yaw "
                                "error"),
+    "check_turn": ("the turn check, settled at the turn's end: refuse the re-acquisition "
+                   "unless the {0} counter holds a whole number of turns within "
+                   "`sequencer.turn_check_ppm` (one turn unless `sequencer.recovery`)"),
     "record_hold_start": ("note the true attitude and pointing error at the start of the "
                           "hold (for the drift measured at its end)"),
     "measure_hold": ("measure the hold: pointing error at its end and the attitude's drift "

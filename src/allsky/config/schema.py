@@ -311,6 +311,9 @@ RULES: dict[str, Callable] = {
     "sequencer.timeout_s": mode_timeouts(in_open_closed(0, MISSION_MAX_S, _A_DAY)),
     "sequencer.between_targets": one_of("reacquire", "recycle"),
     "sequencer.recovery": boolean,
+    "sequencer.turn_check_ppm": number(in_closed(0, 500000, "half a turn: the nearest whole "
+                                                 "number of turns is then the one meant; "
+                                                 "0 = no check")),
     "target.star": star_name,
     "target.ra_deg": _RA_DEG,
     "target.dec_deg": _DEC_DEG,

@@ -37,6 +37,7 @@ class Host(Protocol):
     dither_estimates: dict | None  #: the dither analysis's estimates
     dither_record: Any  #: the dither record analysed
     hold: dict | None  #: the hold on target's measurements
+    current_mode: str | None  #: the mode being flown, by name (abort reasons name it)
 
     def now_s(self) -> float:
         """Mission time [s]."""

@@ -72,7 +72,8 @@ class FaultKind(NamedTuple):
 #: applies them in the frame loop).
 FAULT_KINDS = (
     FaultKind("jet_stuck_open", 1, ("axis", "sign"), ("39", "40", "41"),
-              "a jet of the axis's couple fires whatever its modulator commands"),
+              "the couple of the axis firing the sign's way (`jets = 2`, the default) or one "
+              "jet of it (`jets = 1`) fires whatever its modulator commands", ("jets",)),
     FaultKind("jet_failed_off", 2, ("axis", "sign"), ("39", "40", "41"),
               "a jet of the axis's couple gives no thrust when commanded"),
     FaultKind("gyro_stuck", 3, ("axis",), ("1", "2", "3"),
@@ -93,7 +94,8 @@ FAULT_KINDS = (
     FaultKind("counter_upset", 11, ("register", "bit"), ("13", "14", "15", "16", "17", "18",
                                                         "25", "26", "27"),
               "one bit of a counter or storage register flips, once"),
-    FaultKind("propellant_leak", 12, ("rate_kg_s",), ("",), "the tank leaks at the rate"),
+    FaultKind("propellant_leak", 12, ("rate_kg_s",), ("",),
+              "the tank leaks at the rate, with a body torque if given", ("torque_n_m",)),
 )
 #: Fault kind name -> :class:`FaultKind`.
 FAULT_KIND = {k.name: k for k in FAULT_KINDS}

@@ -42,6 +42,10 @@ def _params(*faults, extra=()):
     ('{kind="tracker_stray_light", offset_deg=9}', "faults[0].offset_deg"),
     ('{kind="gyro_dead", axis="roll", start_mode="7"}', "faults[0].start_mode"),
     ('{kind="gyro_dead", axis="roll", size_ppm=3}', "faults[0].size_ppm"),
+    ('{kind="jet_stuck_open", axis="roll", sign=1, jets=3}', "faults[0].jets"),
+    ('{kind="gyro_dead", axis="roll", jets=1}', "faults[0].jets"),
+    ('{kind="propellant_leak", rate_kg_s=0.1, torque_n_m=[1, 2]}', "faults[0].torque_n_m"),
+    ('{kind="tracker_stray_light", offset_deg=1, magnitude="bright"}', "faults[0].magnitude"),
 ])
 def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):
     with pytest.raises(ConfigError) as e:
@@ -292,24 +296,47 @@ def test_an_upset_flips_exactly_that_bit_once(reg, bit, start, expect):
     assert np.count_nonzero(flat) == (1 if expect else 0)
 
 
-def _actuate(p, fs, valve, kg=1.0):
+def _actuate(p, fs, valve, kg=1.0, feed=1.0):
     """``fault_actuate`` after what jets 39-41 did for ``valve``: (ok, torque, gas used)."""
-    torque = np.array([v * p.jets.torque_n_m[i] for i, v in enumerate(valve)])
-    tank = np.array([kg - sum(abs(v) * f * 0.01 for v, f in zip(valve, p.jets.flow_kg_s))])
+    torque = np.array([v * p.jets.torque_n_m[i] * feed for i, v in enumerate(valve)])
+    tank = np.array([kg - feed * sum(abs(v) * f * 0.01
+                                     for v, f in zip(valve, p.jets.flow_kg_s))])
     ok = sf.fault_actuate(p.faults, fs, 0.0, p.jets, 0.01, np.array(valve, dtype=np.int64),
-                          tank, torque, True)
+                          tank, torque, True, feed)
     return ok, torque, kg - tank[0]
 
 
-def test_a_stuck_open_jet_gives_its_torque_and_uses_its_gas():
-    _, p, fs = _params('{kind="jet_stuck_open", axis="yaw", sign=-1}')
+def test_a_stuck_open_couple_gives_its_torque_and_uses_its_gas():
+    _, p, fs = _params('{kind="jet_stuck_open", axis="yaw", sign=-1}')  # jets = 2
     t_yaw, flow = p.jets.torque_n_m[2], p.jets.flow_kg_s[2] * 0.01
     ok, torque, used = _actuate(p, fs, [0, 0, 0])
     assert ok and torque[2] == -t_yaw and used == pytest.approx(flow)
-    _, torque, used = _actuate(p, fs, [0, 0, 1])  # the opposite jet: the torques cancel
+    _, torque, used = _actuate(p, fs, [0, 0, 1])  # the opposite couple: the torques cancel
     assert torque[2] == 0.0 and used == pytest.approx(2 * flow)
     _, torque, used = _actuate(p, fs, [0, 0, -1])  # already firing that way
     assert torque[2] == -t_yaw and used == pytest.approx(flow)
+    _, p2, fs2 = _params('{kind="jet_stuck_open", axis="yaw", sign=-1, jets=2}')
+    assert _actuate(p2, fs2, [0, 0, 0])[1][2] == -t_yaw  # the default, said
+
+
+def test_one_stuck_jet_gives_half_the_couple_and_the_opposite_couple_still_brakes():
+    """One jet of thrust F at arm r: F r, half the couple's 2 F r, and F / (Isp g0), half
+    its flow. Commanded the other way, the couple's -2 F r and the stuck jet's +F r leave
+    -F r: it still brakes, at half the torque, using one and a half couples' gas."""
+    _, p, fs = _params('{kind="jet_stuck_open", axis="roll", sign=1, jets=1}')
+    f_r = 0.25 * 0.5  # default roll jet: 0.25 N at 0.5 m
+    flow = 0.25 / (65.0 * 9.80665) * 0.01  # one jet, one frame
+    _, torque, used = _actuate(p, fs, [0, 0, 0])
+    assert torque[0] == pytest.approx(f_r, rel=1e-12) and used == pytest.approx(flow, rel=1e-9)
+    _, torque, used = _actuate(p, fs, [-1, 0, 0])
+    assert torque[0] == pytest.approx(-f_r, rel=1e-12)
+    assert used == pytest.approx(3 * flow, rel=1e-9)
+    _, torque, used = _actuate(p, fs, [1, 0, 0])  # the stuck jet is one of the couple firing
+    assert torque[0] == pytest.approx(2 * f_r, rel=1e-12)
+    assert used == pytest.approx(2 * flow, rel=1e-9)
+    _, torque, used = _actuate(p, fs, [0, 0, 0], feed=0.5)  # a blow-down tank at half pressure
+    assert torque[0] == pytest.approx(0.5 * f_r, rel=1e-12)
+    assert used == pytest.approx(0.5 * flow, rel=1e-9)
 
 
 def test_a_failed_jet_gives_nothing_when_commanded():
@@ -322,10 +349,35 @@ def test_a_failed_jet_gives_nothing_when_commanded():
 
 def test_a_leak_drains_the_tank_until_it_is_dry():
     _, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.5}')
-    ok, _, used = _actuate(p, fs, [0, 0, 0])
-    assert ok and used == pytest.approx(0.005)
+    ok, torque, used = _actuate(p, fs, [0, 0, 0])
+    assert ok and used == pytest.approx(0.005) and list(torque) == [0.0, 0.0, 0.0]
     ok, _, _ = _actuate(p, fs, [0, 0, 0], kg=0.004)
     assert not ok
+
+
+def test_a_leak_with_a_torque_turns_the_vehicle_as_euler_says():
+    """A leak of 1 g/s with a torque [0, 0.002, 0] N m on a body at rest, with principal
+    axes along the body axes (no product of inertia): about pitch alone, Euler's equation
+    is I_yy dw/dt = tau, so w(50 s) = 0.002 * 50 / 650 rad/s; the tank loses 0.05 kg. The
+    leak's stage feeds the plant of the frame loop, frame by frame, nothing else acting."""
+    from allsky.sim.frame_loop import advance
+
+    cfg, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.001, torque_n_m=[0, 0.002, 0]}',
+                         extra=("vehicle.inertia_kg_m2=[[100,0,0],[0,650,0],[0,0,680]]",))
+    assert cfg.faults[0]["torque_n_m"] == (0.0, 0.002, 0.0)
+    x = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    tank = np.array([1.0])
+    time_s, frame = np.zeros(1), np.zeros(1, dtype=np.int64)
+    for _ in range(5000):
+        torque = np.zeros(3)
+        assert sf.fault_actuate(p.faults, fs, time_s[0], p.jets, 0.01,
+                                np.zeros(3, dtype=np.int64), tank, torque, True, 1.0)
+        advance(p.plant, 0.01, torque, x, np.zeros(3), time_s, frame, np.zeros(4), np.zeros(1))
+    assert x[5] == pytest.approx(0.002 * 50.0 / 650.0, rel=1e-9)
+    assert x[4] == x[6] == 0.0
+    # The pitch angle turned: w t / 2 over the 50 s (a quaternion's half angle, small).
+    assert 2.0 * x[2] == pytest.approx(0.5 * 0.002 / 650.0 * 50.0 ** 2, rel=1e-6)
+    assert tank[0] == pytest.approx(1.0 - 0.001 * 50.0, abs=1e-12)
 
 
 # -- outcomes -----------------------------------------------------------------------
@@ -349,7 +401,7 @@ def test_complete_with_degraded_figures():
     ('{kind="gyro_dead", axis="yaw", start_mode="6-2"}',
      ("Mode 6-2:", "mode timeout", "yaw gyro dead")),
     ('{kind="jet_stuck_open", axis="roll", sign=1, start_mode="4"}',
-     ("Mode 4:", "+roll jet stuck open")),
+     ("Mode 4:", "+roll jet couple stuck open")),
 ])
 def test_aborts_name_mode_symptom_and_fault(fault, words):
     m, s = _fly(fault)

@@ -253,9 +253,19 @@ def _reference_star_in_window(v):
                           f"[{lo:g}, {hi:g}]: the tracker could never lock it")
 
 
+def _blowdown_pressures(v):
+    """`jets.tank_pressure_final_bar` < `jets.tank_pressure_initial_bar` (the tank empties)."""
+    p0, pf = v["jets.tank_pressure_initial_bar"], v["jets.tank_pressure_final_bar"]
+    if not pf < p0:
+        raise ConfigError("jets.tank_pressure_final_bar", pf,
+                          f"must be < jets.tank_pressure_initial_bar ({p0:g} bar): the "
+                          "pressure falls as the gas is used")
+
+
 #: Cross-key rules, in the order they are checked.
 CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
                _dither_sampling, _dither_record, _fft_whole_periods, _one_limit_per_wheel,
                _unload_hysteresis, _converters_follow_the_turns,
                _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
-               _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window)
+               _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window,
+               _blowdown_pressures)

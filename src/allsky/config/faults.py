@@ -11,7 +11,10 @@ when it starts::
 The kinds (:data:`KINDS`) and the fields each needs:
 
 * ``jet_stuck_open``, ``jet_failed_off``: ``axis`` and ``sign`` (+1 or -1,
-  the jet of that axis's couple that fires the positive or negative way);
+  the couple of that axis that fires the positive or negative way); a stuck
+  couple may give ``jets``: 2 (the default: both jets of the couple, a
+  shared valve driver stuck on, the couple's whole torque) or 1 (one jet,
+  half the torque, and the opposite couple can still brake against it);
 * ``gyro_stuck`` (output frozen at its value at the onset), ``gyro_dead``
   (output zero): ``axis``; ``gyro_bias_step``: ``axis``, ``size_deg_h``;
   ``gyro_scale_factor_step``: ``axis``, ``size_ppm``;
@@ -28,7 +31,8 @@ The kinds (:data:`KINDS`) and the fields each needs:
 * ``counter_upset``: ``register`` (the numeral as a string: "13"-"18" up/down
   and drift counters, "25"-"27" storage registers) and ``bit`` (0 = least
   significant, below the word length): the bit flips once, at the onset;
-* ``propellant_leak``: ``rate_kg_s``.
+* ``propellant_leak``: ``rate_kg_s``; optional ``torque_n_m``, the body torque
+  [roll, pitch, yaw] the escaping gas gives while the tank leaks (none if absent).
 
 ``start_s`` [s] (mission time) or ``start_mode`` (a mode name: the fault
 starts when that mode starts) gives the onset; neither means ``start_s =
@@ -58,6 +62,7 @@ from allsky.config.rules import (
     in_closed,
     number,
     type_name,
+    vector,
 )
 from allsky.config.schema import DEFAULT_SCENARIO_PATH
 from allsky.vocabulary import AXES, FAULT_KINDS
@@ -82,6 +87,8 @@ REGISTER_BITS_KEY = {
 BIAS_STEP_MAX_DEG_H = 3600.0
 SCALE_STEP_MAX_PPM = 1e6
 LEAK_MAX_KG_S = 1.0
+#: [N m] largest leak torque per axis (a leak of 1 kg/s at Isp 65 s thrusts 640 N).
+LEAK_TORQUE_MAX_N_M = 100.0
 #: [mag] brightest and faintest glint a stray-light fault may give (the Sun is -26.7).
 GLINT_MAG_RANGE = (-30.0, 30.0)
 DISPERSION_DIST = "fault"
@@ -157,6 +164,12 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
             reg = out["register"]
             out[k] = _bit(key, v, values[REGISTER_BITS_KEY[reg]],
                           f"{'register' if reg >= '25' else 'counter'} {reg}")
+        elif k == "jets":
+            if isinstance(v, bool) or v not in (1, 2, 1.0, 2.0):
+                raise ConfigError(key, v, "must be 1 (one jet of the couple) or 2 (both)")
+            out[k] = int(v)
+        elif k == "torque_n_m":
+            out[k] = vector(3, in_closed(-LEAK_TORQUE_MAX_N_M, LEAK_TORQUE_MAX_N_M))(key, v)
         elif k == "magnitude":
             out[k] = number(in_closed(*GLINT_MAG_RANGE))(key, v)
         elif k == "rate_kg_s":
@@ -278,7 +291,8 @@ def describe(fault: Mapping) -> str:
     axis = fault.get("axis", "")
     sign = "+" if fault.get("sign", 1) > 0 else "-"
     return {
-        "jet_stuck_open": f"{sign}{axis} jet stuck open",
+        "jet_stuck_open": (f"one {sign}{axis} jet stuck open" if fault.get("jets") == 1
+                           else f"{sign}{axis} jet couple stuck open"),
         "jet_failed_off": f"{sign}{axis} jet failed off",
         "gyro_stuck": f"{axis} gyro stuck",
         "gyro_dead": f"{axis} gyro dead",
@@ -291,7 +305,9 @@ def describe(fault: Mapping) -> str:
                                    if "magnitude" in fault else "")),
         "wrong_star": f"wrong star {fault.get('star', '')}",
         "counter_upset": f"bit {fault.get('bit', 0)} of {fault.get('register', '')} upset",
-        "propellant_leak": f"propellant leak {fault.get('rate_kg_s', 0):g} kg/s",
+        "propellant_leak": (f"propellant leak {fault.get('rate_kg_s', 0):g} kg/s"
+                            + (" with torque [" + ", ".join(f"{t:g}" for t in fault["torque_n_m"])
+                               + "] N m" if "torque_n_m" in fault else "")),
     }[kind]
 
 

@@ -83,6 +83,8 @@ class FaultParams(NamedTuple):
     width_bits: np.ndarray  #: (MAX_FAULTS,) int64 word length of the upset word [bit]
     #: (MAX_FAULTS,) [mag] a glint's brightness; nan = none given (followed whatever it is)
     magnitude: np.ndarray
+    jets: np.ndarray  #: (MAX_FAULTS,) int64 jets of a couple stuck open: 1 or 2
+    torque_n_m: np.ndarray  #: (MAX_FAULTS, 3) [N m] a leak's body torque
     #: star tracker 105 with the wrong stars added after the window's (as Params.tracker if none)
     tracker: StarTrackerParams
 
@@ -123,6 +125,8 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
     bit = np.zeros(MAX_FAULTS, dtype=np.int64)
     width = np.ones(MAX_FAULTS, dtype=np.int64)
     magnitude = np.full(MAX_FAULTS, np.nan)
+    jets = np.full(MAX_FAULTS, 2, dtype=np.int64)
+    torque = np.zeros((MAX_FAULTS, 3))
     el = cfg.electronics
     for i, f in enumerate(faults):
         kind[i] = KIND_CODE[f["kind"]]
@@ -138,6 +142,8 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
             width[i] = (el.drift_counter_bits if reg in ("13", "15", "17") else
                         el.counter_bits if reg in ("14", "16", "18") else el.register_bits)
         magnitude[i] = f.get("magnitude", np.nan)
+        jets[i] = f.get("jets", 2)
+        torque[i] = f.get("torque_n_m", (0.0, 0.0, 0.0))
     extra = [s for s in wrong_stars(faults) if s not in window_names]
     if extra:
         stars = np.vstack([tracker.stars_inertial.reshape(-1, 3),
@@ -146,8 +152,8 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
                                np.array([star_magnitude(s) for s in extra], dtype=float)])
         tracker = tracker._replace(stars_inertial=np.ascontiguousarray(stars),
                                    magnitudes=np.ascontiguousarray(mags))
-    return FaultParams(n, kind, axis, sign, duration, size, word, bit, width, magnitude,
-                       tracker)
+    return FaultParams(n, kind, axis, sign, duration, size, word, bit, width, magnitude, jets,
+                       torque, tracker)
 
 
 def arm(fault_state, faults) -> None:
@@ -365,12 +371,20 @@ def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
 
 
 @njit_stage
-def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torque, tank_ok):
+def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torque, tank_ok,
+                  feed):
     """Jets 39-41 and the tank after ``actuate``; returns False once the tank is dry.
 
-    A jet stuck open fires whatever modulators 34-36 command (against its
-    opposite jet the couple's torques cancel, both use gas); a jet failed off
-    gives no torque and uses no gas when commanded; a leak drains the tank.
+    A couple stuck open (``jets`` 2) fires whatever modulators 34-36 command
+    (against the opposite couple the torques cancel, both use gas); one jet
+    of it stuck open (``jets`` 1) gives half the couple's torque and flow,
+    so that the opposite couple, commanded, still brakes at half its torque.
+    A couple failed off gives no torque and uses no gas when commanded. A
+    leak drains the tank and, if given, turns the vehicle. ``feed`` is the
+    jets' thrust over its full-pressure value in this frame
+    (:func:`allsky.hardware.jets.thrust_fraction` at the frame's start, 1 on
+    a regulated feed): a stuck or failed jet's thrust and flow are the
+    others'.
     """
     if not tank_ok:
         return False
@@ -380,13 +394,16 @@ def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torq
         k = fp.kind[i]
         a = fp.axis[i]
         if k == JET_STUCK_OPEN and valve[a] != fp.sign[i]:
-            torque[a] += fp.sign[i] * jets_p.torque_n_m[a]
-            propellant_kg[0] -= jets_p.flow_kg_s[a] * dt_s
+            share = 0.5 * fp.jets[i] * feed
+            torque[a] += fp.sign[i] * jets_p.torque_n_m[a] * share
+            propellant_kg[0] -= jets_p.flow_kg_s[a] * dt_s * share
         elif k == JET_FAILED_OFF and valve[a] == fp.sign[i]:
-            torque[a] -= fp.sign[i] * jets_p.torque_n_m[a]
-            propellant_kg[0] += jets_p.flow_kg_s[a] * dt_s
+            torque[a] -= fp.sign[i] * jets_p.torque_n_m[a] * feed
+            propellant_kg[0] += jets_p.flow_kg_s[a] * dt_s * feed
         elif k == PROPELLANT_LEAK:
             propellant_kg[0] -= fp.size[i] * dt_s
+            for j in range(3):
+                torque[j] += fp.torque_n_m[i, j]
     if propellant_kg[0] <= 0.0:
         propellant_kg[0] = 0.0
         return False

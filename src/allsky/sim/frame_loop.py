@@ -41,7 +41,7 @@ from allsky.gauss import seed as gauss_seed
 from allsky.hardware.control_amp import control_amp
 from allsky.hardware.dac import dac
 from allsky.hardware.gyro import RRW_STEP_S, gyro_output
-from allsky.hardware.jets import jets
+from allsky.hardware.jets import jets, thrust_fraction
 from allsky.hardware.pwpf import pwpf_step
 from allsky.hardware.rate_command import rate_command
 from allsky.hardware.star_tracker import star_tracker
@@ -239,6 +239,9 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                            s.registers):
                 note_clip(s.journal, s.journal_n, s.journal_seen, t_frame, s.drift_counters,
                           gates[GATE_DRIFT], dac_hi, dac_lo)
+        feed = 1.0  # the jets' thrust over its full-pressure value (a blow-down feed)
+        if faults is not None:
+            feed = thrust_fraction(p.jets, s.propellant_kg[0])
         if program == PROGRAM_MODE1:
             acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
         else:
@@ -256,7 +259,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                                      wheel_hb, wheel_hdot)
         if faults is not None:
             tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
-                                    s.propellant_kg, torque, tank_ok)
+                                    s.propellant_kg, torque, tank_ok, feed)
         count_jet_time(s.pwpf_out, dt, s.jet_on_s)
         if wheels_p is None:
             advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame,

@@ -154,7 +154,9 @@ def build_params(cfg) -> sim_state.Params:
         pwpf=pwpf.make_params(cfg.pwpf.filter_gain, cfg.pwpf.time_constant_s,
                               cfg.pwpf.on_threshold_v, cfg.pwpf.off_threshold_v,
                               cfg.pwpf.full_on_v, cfg.jets.min_on_time_s, dt),
-        jets=jets.make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s),
+        jets=jets.make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s,
+                              cfg.jets.supply, cfg.jets.tank_pressure_initial_bar,
+                              cfg.jets.tank_pressure_final_bar, cfg.jets.propellant_kg),
         mode1=sun_acquisition.SunAcquisitionParams(
             float(cfg.sequencer.mode1_slew_gain_per_s),
             cfg.sequencer.mode1_slew_rate_deg_s * units.DEG2ARCSEC),

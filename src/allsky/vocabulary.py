@@ -47,6 +47,8 @@ MODES = (
     ModeWord("hold", 6.3, "hold on target"),
     ModeWord("reacquire", 6.4, "next target: back to the Sun and the star, calibration kept"),
     ModeWord("recycle", 6.5, "next target: every mode again, calibration included"),
+    ModeWord("direct", 6.6, "next target: the roll from the target held, on the gyros alone "
+                            "(Mode 6-2's yaw follows)"),
     ModeWord("dither", 7.0, "dither calibration (comparison method)"),
 )
 #: Mode name -> telemetry code.
@@ -133,6 +135,12 @@ ACTIONS = {
                           "hold (for the drift measured at its end)"),
     "measure_hold": ("measure the hold: pointing error at its end and the attitude's drift "
                      "per body axis since its start"),
+    "turn_to_next_target": ("take the next target of `target.sequence`; CPU 22 forms the "
+                            "roll and yaw from the target held to it from the two targets' "
+                            "programmed angles (both from the first target's reference "
+                            "attitude) and loads register 24 with the roll, its yaw word "
+                            "zero while the vehicle rolls"),
+    "load_turn_yaw": "load register 24's yaw word with the yaw of the turn to the next target",
     "next_target": ("take the next target of `target.sequence`: its programmed angles are "
                     "computed when Mode 6-1 loads register 24"),
     "dither_analysis": ("analyse the dither record at each dither frequency; scale factors "

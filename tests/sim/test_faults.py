@@ -60,6 +60,8 @@ def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):
     ('{kind="gyro_dead", axis="roll", start_mode="reacquire"}', ()),  # one target
     ('{kind="gyro_dead", axis="roll", start_mode="recycle"}',
      ('target.sequence=["Vega", "Achernar"]',)),  # the targets are reacquired, not recycled
+    ('{kind="gyro_dead", axis="roll", start_mode="direct"}',
+     ('target.sequence=["Vega", "Achernar"]',)),  # ... nor flown one from the other
 ])
 def test_a_start_mode_the_scenario_never_flies_is_refused(fault, extra, capsys):
     with pytest.raises(ConfigError) as e:
@@ -75,6 +77,8 @@ def test_a_start_mode_the_scenario_flies_is_accepted():
                 extra=("target.hold_s=60",)).faults[0]["start_mode"] == "hold"
     seq = ('target.sequence=["Vega", "Achernar"]', "sequencer.between_targets=recycle")
     assert _cfg('{kind="gyro_dead", axis="roll", start_mode="recycle"}', extra=seq).faults
+    seq = ('target.sequence=["Vega", "Achernar"]', "sequencer.between_targets=direct")
+    assert _cfg('{kind="gyro_dead", axis="roll", start_mode="direct"}', extra=seq).faults
 
 
 def test_a_start_mode_outside_the_plan_is_refused_when_the_mission_is_built(capsys):

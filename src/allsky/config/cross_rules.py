@@ -149,7 +149,8 @@ def plan_durations_s(v) -> dict:
     :data:`DITHER_SETTLE_ALLOWANCE_S`; a hold on target (`target.hold_s` > 0), flown after
     either plan, its hold and :data:`HOLD_TIMEOUT_ALLOWANCE_S`. Each further target of
     `target.sequence` adds Modes 1, 2, 6-1, 6-2 and the hold
-    (`sequencer.between_targets = "reacquire"`) or the whole plan again ("recycle")."""
+    (`sequencer.between_targets = "reacquire"`), the whole plan again ("recycle"), or the
+    direct roll (allowed Mode 6-1's timeout), Mode 6-2 and the hold ("direct")."""
     t = v["sequencer.timeout_s"]
     hold = v["target.hold_s"] + HOLD_TIMEOUT_ALLOWANCE_S if v["target.hold_s"] > 0 else 0.0
     legacy = math.fsum([*(t[m] for m in MODE_KEYS), hold])
@@ -160,6 +161,9 @@ def plan_durations_s(v) -> dict:
     if further:
         if v["sequencer.between_targets"] == "recycle":
             legacy, dither = legacy * (1 + further), dither * (1 + further)
+        elif v["sequencer.between_targets"] == "direct":
+            again = further * math.fsum([*(t[m] for m in ("6-1", "6-2")), hold])
+            legacy, dither = legacy + again, dither + again
         else:
             again = further * math.fsum([*(t[m] for m in ("1", "2", "6-1", "6-2")), hold])
             legacy, dither = legacy + again, dither + again

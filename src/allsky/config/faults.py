@@ -76,7 +76,7 @@ OPTIONAL = {k.name: k.optional for k in FAULT_KINDS}
 TIMING = ("start_s", "start_mode", "duration_s")
 #: Modes a fault may start with: the patent's, the hold on target, the moves to a next
 #: target, the dither mode (:func:`check_plan`: only those the mission flies).
-START_MODES = (*MODE_KEYS, "hold", "reacquire", "recycle", "dither")
+START_MODES = (*MODE_KEYS, "hold", "reacquire", "recycle", "direct", "dither")
 #: Counter or register numeral -> the scenario key giving its word length [bit].
 REGISTER_BITS_KEY = {
     **dict.fromkeys(("13", "15", "17"), "electronics.drift_counter_bits"),
@@ -214,7 +214,7 @@ def _scenario_flies(key, mode, values):
     if mode == "hold" and not values["target.hold_s"] > 0:
         raise ConfigError(key, mode, "the mission flies no hold on target: set target.hold_s "
                           "> 0, or start the fault in another mode")
-    if mode in ("reacquire", "recycle"):
+    if mode in ("reacquire", "recycle", "direct"):
         seq = values.get("target.sequence") or ()
         how = values["sequencer.between_targets"]
         if len(seq) < 2 or how != mode:

@@ -312,7 +312,7 @@ RULES: dict[str, Callable] = {
     "sequencer.mode1_slew_rate_deg_s": number(POSITIVE),
     "sequencer.mode1_slew_gain_per_s": number(POSITIVE),
     "sequencer.timeout_s": mode_timeouts(in_open_closed(0, MISSION_MAX_S, _A_DAY)),
-    "sequencer.between_targets": one_of("reacquire", "recycle"),
+    "sequencer.between_targets": one_of("reacquire", "recycle", "direct"),
     "sequencer.recovery": boolean,
     "sequencer.turn_check_ppm": number(in_closed(0, 500000, "half a turn: the nearest whole "
                                                  "number of turns is then the one meant; "

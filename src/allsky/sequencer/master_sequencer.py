@@ -30,7 +30,7 @@ import numpy as np
 
 from allsky import units, vocabulary
 from allsky.computer import calibration_sequencer as cal19
-from allsky.computer import cpu
+from allsky.computer import cpu, targeting
 from allsky.computer import word_registers as wr
 from allsky.sequencer import modes
 from allsky.sequencer.dither_mode import dither_analysis
@@ -427,6 +427,38 @@ def measure_hold(m, records):
                                        zip(vocabulary.AXES, per_min)}}
 
 
+def turn_to_next_target(m, records):
+    """Take the next target; CPU 22 forms the turn to it from the target held.
+
+    The turn is formed from programmed angles only, all measured from the
+    first target's reference attitude (``m.program_target()`` keeps it for
+    ``sequencer.between_targets = "direct"``): the attitude the computer
+    holds, the first target's angles and the turns flown since
+    (``m.held_axes``), and the next target's angles
+    (:func:`allsky.computer.targeting.turn_to_deg`). Register 24 gets the
+    turn's roll; its yaw word stays zero while the vehicle rolls, so that
+    CPU 22 holds the yaw where it is (:func:`load_turn_yaw` loads the yaw
+    once the roll has settled).
+    """
+    held = (np.asarray(m.held_axes, dtype=float) if m.held_axes is not None else
+            targeting.attitude_after(m.programmed_roll_deg, m.programmed_yaw_deg))
+    m.next_target()
+    m.program_target()
+    roll, yaw, after = targeting.turn_to_deg(held, m.programmed_roll_deg, m.programmed_yaw_deg)
+    m.turn_roll_deg, m.turn_yaw_deg = roll, yaw
+    m.held_axes = after.tolist()
+    m.state.word24[wr.PROGRAMMED_ROLL] = roll * units.DEG2ARCSEC
+    m.state.word24[wr.PROGRAMMED_YAW] = 0.0
+    m.write_register("24", "roll", roll, "deg")
+    m.write_register("24", "yaw", 0.0, "deg")
+
+
+def load_turn_yaw(m, records):
+    """Load register 24's yaw word with the yaw of the turn to the next target."""
+    m.state.word24[wr.PROGRAMMED_YAW] = m.turn_yaw_deg * units.DEG2ARCSEC
+    m.write_register("24", "yaw", m.turn_yaw_deg, "deg")
+
+
 def next_target(m, records):
     """Take the next target of ``target.sequence``; Mode 6-1 loads its angles.
 
@@ -441,7 +473,8 @@ _FUNCTIONS = {f.__name__: f for f in (
     clear_drift_counters, clear_counters, roll_rate_positive, yaw_rate_positive,
     calibration_sequencer, withhold_calibration, load_register_24, start_roll_computation,
     roll_rate_toward_target, preset_counters, start_yaw_computation, yaw_rate_toward_target,
-    record_hold_start, measure_hold, next_target, dither_analysis, check_turn)}
+    record_hold_start, measure_hold, next_target, dither_analysis, check_turn,
+    turn_to_next_target, load_turn_yaw)}
 #: Action name -> function, for each action the vocabulary names (its words are
 #: :data:`allsky.vocabulary.ACTIONS`).
 ACTIONS = {name: _FUNCTIONS[name] for name in vocabulary.ACTIONS}

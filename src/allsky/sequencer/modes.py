@@ -198,6 +198,10 @@ def _revolution_s(cfg, mode) -> float:
     return 360.0 / cfg.electronics.rate_command_deg_s
 
 
+def _direct_s(cfg, mode) -> float:
+    return cfg.sequencer.timeout_s["6-1"]
+
+
 def _sun_and_star_again_s(cfg, mode) -> float:
     t = cfg.sequencer.timeout_s
     return t["1"] + t["2"] + t[mode]
@@ -220,6 +224,7 @@ DURATIONS = {
     "hold timeout": Duration(f"`target.hold_s` + {HOLD_TIMEOUT_ALLOWANCE_S:g} s",
                              _hold_timeout_s),
     "no time": Duration("none: the mode flies no leg", _no_time_s),
+    "target roll timeout": Duration("`sequencer.timeout_s` of Mode 6-1", _direct_s),
     "revolution": Duration("one revolution at the commanded rate: 360 deg / "
                            "`electronics.rate_command_deg_s`", _revolution_s),
     "Sun acquisition": Duration("`sequencer.timeout_s` of Mode 1",
@@ -472,6 +477,24 @@ MODE_TABLE = (
         Do("next_target"),
         Operate(open_=(1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
     ), "next target; every switch open, as at ejection", timeout="no time"),
+    # Or the new angles are the roll and yaw from the target held to the next, flown from
+    # where the vehicle is on the gyros alone (the patent's third reading, beyond the two
+    # above): the roll with CPU 22 holding pitch and yaw (S10, S11), then Mode 6-2's yaw.
+    _mode("direct", (
+        Do("turn_to_next_target"),
+        Do("clear_counters"),
+        Do("start_roll_computation"),
+        Do("roll_rate_toward_target"),
+        Operate(open_=(9,), close=(16, 18)),
+        Wait("roll error inside the hand-over threshold", "target", "handover",
+             ("roll error",)),
+        Operate(open_=(16, 18), close=(9,)),
+        Wait("roll, pitch and yaw errors settled", "target", "settle",
+             ("roll error", "pitch error", "yaw error")),
+        Do("load_turn_yaw"),
+        Operate(open_=(11,)),
+    ), "rolled toward the next target on the gyros; register 24 holds the turn's yaw",
+        timeout="target roll timeout"),
     _mode("dither", (
         Wait("dither record complete", "dither", "elapsed", hold="dither record",
              record="dither record"),
@@ -500,8 +523,12 @@ HOLD_MODE = "hold"
 TARGET_MODES = ("6-1", "6-2")
 #: Modes flown before Mode 6-1 for each target after the first, by
 #: ``sequencer.between_targets``: "reacquire" goes back to the Sun and the star (Modes 1
-#: and 2); "recycle" flies every mode of the plan before 6-1 again (None: the plan's).
-BETWEEN_TARGETS = {"reacquire": ("reacquire", "1", "2"), "recycle": ("recycle", None)}
+#: and 2); "recycle" flies every mode of the plan before 6-1 again (None: the plan's);
+#: "direct" flies its own roll in place of Mode 6-1 (:data:`DIRECT_REPLACES`).
+BETWEEN_TARGETS = {"reacquire": ("reacquire", "1", "2"), "recycle": ("recycle", None),
+                   "direct": ("direct",)}
+#: The move to a next target that replaces Mode 6-1 (its roll flown on the gyros).
+DIRECT_REPLACES = {"direct": "6-1"}
 
 
 def with_hold(plan, cfg) -> tuple:
@@ -519,17 +546,21 @@ def with_hold(plan, cfg) -> tuple:
 def next_target_modes(plan, how) -> tuple:
     """Modes flown for each target after the first: ``how``, then 6-1 and 6-2.
 
-    ``how`` is "reacquire" or "recycle" (:data:`BETWEEN_TARGETS`).
+    ``how`` is "reacquire", "recycle" or "direct" (:data:`BETWEEN_TARGETS`).
 
     ``plan`` is the plan flown for the first target (without the hold); with
-    ``how = "recycle"`` its modes before 6-1 are flown again.
+    ``how = "recycle"`` its modes before 6-1 are flown again; with "direct"
+    the move's own roll takes 6-1's place.
     """
     plan = tuple(m for m in plan if m != HOLD_MODE)
     first_6 = plan.index(TARGET_MODES[0])
     before = []
     for name in BETWEEN_TARGETS[how]:
         before += plan[:first_6] if name is None else [name]
-    return (*before, *plan[first_6:])
+    after = plan[first_6:]
+    if how in DIRECT_REPLACES:
+        after = tuple(m for m in after if m != DIRECT_REPLACES[how])
+    return (*before, *after)
 
 
 def target_count(cfg) -> int:

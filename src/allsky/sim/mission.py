@@ -271,7 +271,9 @@ def new_target_record(cfg, index, start_s) -> dict:
     computer's judgement: pointing_error_arcsec (true), body_rate_deg_s
     (true) and computed_error_arcsec (CPU 22's); hold (the hold's
     measurements) and hold_end_pointing_error_arcsec, locked_star; None until
-    known.
+    known. A target flown from the one before on the gyros
+    (``sequencer.between_targets = "direct"``) gains turn_roll_deg and
+    turn_yaw_deg, the turn CPU 22 formed (:meth:`Mission.targets`).
     """
     spec = target_specs(cfg)[index]
     return {"name": target_name(spec), **spec, "start_s": float(start_s), "end_s": None,
@@ -351,6 +353,14 @@ class Mission:
         self.abort_reason = h.get("abort_reason")
         self.programmed_roll_deg = h.get("programmed_roll_deg")
         self.programmed_yaw_deg = h.get("programmed_yaw_deg")
+        #: [deg] the turn from the target held to the one flown (between_targets = "direct")
+        self.turn_roll_deg = h.get("turn_roll_deg")
+        self.turn_yaw_deg = h.get("turn_yaw_deg")
+        #: The Sun [inertial] the first target's angles were computed for: the reference
+        #: attitude every target's angles are measured from when flown one from the other
+        self.reference_sun_inertial = h.get("reference_sun_inertial")
+        #: The body axes CPU 22 holds after the turns from target to target ("direct")
+        self.held_axes = h.get("held_axes")
         #: Measurements of the hold on target (master_sequencer.measure_hold); None if not flown.
         self.hold = h.get("hold")
         #: One record per target begun (:func:`new_target_record`); the last is being flown.
@@ -618,6 +628,14 @@ class Mission:
         (roll at the commanded rate plus a settle allowance), two passes.
         """
         star, target = reference_star_inertial(self.cfg), self.target_direction()
+        if self.cfg.sequencer.between_targets == "direct" \
+                and self.reference_sun_inertial is not None:
+            # Flown from target to target on the gyros: every target's angles from the
+            # reference attitude the first one was flown from.
+            sun = np.asarray(self.reference_sun_inertial, dtype=float)
+            self.programmed_roll_deg, self.programmed_yaw_deg = \
+                targeting.programmed_angles_deg(sun, star, target)
+            return
         t0 = float(self.state.time_s[0])
         rate_deg_s = float(self.cfg.electronics.rate_command_deg_s)
         roll = 0.0
@@ -626,6 +644,8 @@ class Mission:
             sun = self.params.sun0_inertial + self.params.sun_rate_inertial * t
             roll, yaw = targeting.programmed_angles_deg(sun, star, target)
         self.programmed_roll_deg, self.programmed_yaw_deg = roll, yaw
+        if self.cfg.sequencer.between_targets == "direct":
+            self.reference_sun_inertial = [float(x) for x in sun]
 
     # -- targets ---------------------------------------------------------------
     @property
@@ -647,6 +667,7 @@ class Mission:
         self.target_log[-1] = {**self.targets()[-1], "end_s": now}
         self.target_log.append(new_target_record(self.cfg, len(self.target_log), now))
         self.programmed_roll_deg = self.programmed_yaw_deg = None
+        self.turn_roll_deg = self.turn_yaw_deg = None
         self.hold = None
         self.state.target_inertial[:] = self.target_direction()
 
@@ -664,6 +685,8 @@ class Mission:
                    hold_end_pointing_error_arcsec=(hold["end_pointing_error_arcsec"]
                                                    if hold else None),
                    locked_star=self.locked_star())
+        if self.turn_roll_deg is not None:  # flown from the target before, on the gyros
+            cur.update(turn_roll_deg=self.turn_roll_deg, turn_yaw_deg=self.turn_yaw_deg)
         if self.finished:
             cur["end_s"] = float(self.state.time_s[0])
         return out
@@ -826,6 +849,9 @@ class Mission:
                    "events": [dict(e) for e in self.journal.events]}
         if self.hold is not None:
             history["hold"] = self.hold
+        for key in ("turn_roll_deg", "turn_yaw_deg", "reference_sun_inertial", "held_axes"):
+            if getattr(self, key) is not None:
+                history[key] = getattr(self, key)
         if len(self.target_log) > 1 or self.cfg.target.sequence is not None:
             history["targets"] = [dict(r) for r in self.target_log]
         arrays = {k: v.copy() for k, v in self.state._asdict().items()}

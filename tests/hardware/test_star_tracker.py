@@ -321,3 +321,17 @@ def test_the_cone_angle_check_refuses_avior_and_the_search_goes_on():
     assert math.degrees(math.atan(math.tan(math.radians(6.76)) / math.cos(
         math.radians(8.0)))) == pytest.approx(cone, abs=0.005)
     assert roll == pytest.approx(avior_yaw0 - NARROW_DEG, abs=0.15)  # as it enters the slit
+
+
+def test_the_cone_angle_check_acts_only_while_armed():
+    """Unarmed (the roll axis off the Sun: the pitch output is not the cone angle) the
+    tracker takes a star the check would refuse, and flags no refusal."""
+    p = params([star_at(0.0, 6.0)], reference_cone_rad=math.radians(-10.0),
+               cone_check_rad=math.radians(2.0))
+    lock = new_lock()
+    out = np.zeros(3)
+    assert star_tracker(p, IDENTITY, lock, out, RNG, False) == 0
+    assert lock[trk.NEW_REFUSAL] == trk.NONE and out[2] == 1.0
+    lock = new_lock()
+    assert star_tracker(p, IDENTITY, lock, out, RNG, True) == -1
+    assert lock[trk.NEW_REFUSAL] == 0

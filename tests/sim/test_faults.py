@@ -130,7 +130,7 @@ def _sense(p, fs, t, gyro=(10.0, 20.0, 30.0), dtheta=(1e-4, 0.0, 0.0)):
     trk = np.array([7.0, 8.0, 1.0])
     g = np.array(gyro)
     star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.array(dtheta), fine, trk,
-                          g, new_lock(), 3)
+                          g, new_lock(), 3, True)
     return fine, trk, g, star
 
 
@@ -190,7 +190,7 @@ def _tracker_frame(p, fs, t, lock, star=0):
     """``fault_sense`` after a tracker that found ``star``: (trk, star)."""
     trk = np.array([7.0, 8.0, 1.0]) if star >= 0 else np.zeros(3)
     star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.zeros(3),
-                          np.array([5.0, 6.0, 1.0]), trk, np.zeros(3), lock, star)
+                          np.array([5.0, 6.0, 1.0]), trk, np.zeros(3), lock, star, True)
     return trk, star
 
 

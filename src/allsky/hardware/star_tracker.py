@@ -30,7 +30,9 @@ from the catalog). The tracker has a memory, ``lock`` (:func:`new_lock`):
   is refused: the tracker does not lock it, remembers it (up to
   :data:`N_REFUSED` at once) and ignores it until it leaves the field, and
   the search goes on. Mariner 4's operators told Canopus from other objects
-  by brightness and cone angle in the same way.
+  by brightness and cone angle in the same way. The check is armed only
+  while the roll axis is held on the Sun (``cone_armed``), where the pitch
+  output is the cone angle.
 
 "Star present" flags a lock, and the tracker tells which star it holds
 (its index in ``stars_inertial``): the programmed angles assume a planned
@@ -164,16 +166,20 @@ def _sight(p, r0, r1, r2, k):
 
 
 @njit
-def star_tracker(p, q, lock, out, rng):
+def star_tracker(p, q, lock, out, rng, cone_armed=True):
     """Outputs of star tracker 105 for attitude ``q``, written into ``out``.
 
     ``out = [yaw_arcsec, pitch_arcsec, present]``; ``lock`` is the tracker's
     memory (:func:`new_lock`), updated: the star it holds, the stars the
-    cone-angle check refused, the refusal of this frame. Returns the index
-    of the tracked star in ``p.stars_inertial``, -1 when it holds none, and
+    cone-angle check refused, the refusal of this frame. The check acts only
+    while ``cone_armed``: the pitch output is the cone angle only with the
+    roll axis on the Sun (the frame loop arms it while S14 feeds the sun
+    sensor's pitch to control amplifier 32). Returns the index of the
+    tracked star in ``p.stars_inertial``, -1 when it holds none, and
     :data:`FALSE_TARGET` while it holds a glint (whose outputs the fault
     that makes it writes, :func:`allsky.sim.faults.fault_sense`).
     """
+    check_rad = p.cone_check_rad if cone_armed else 0.0
     lock[NEW_REFUSAL] = NONE
     lock[NEW_DROP] = NONE
     n = p.stars_inertial.shape[0]
@@ -215,7 +221,7 @@ def star_tracker(p, q, lock, out, rng):
         if not inside or refused(lock, k):
             continue
         d = yaw * yaw + pitch * pitch
-        if p.cone_check_rad > 0.0 and abs(pitch - p.reference_cone_rad) > p.cone_check_rad:
+        if check_rad > 0.0 and abs(pitch - p.reference_cone_rad) > check_rad:
             if d < refuse_d:
                 refuse_d = d
                 refuse = k

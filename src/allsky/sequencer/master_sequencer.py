@@ -298,7 +298,9 @@ def _stopped_at_a_whole_turn(axis):
     vanished (a dropout, an occultation), and one more turn can meet it
     again. Beyond it, the vehicle turned on and carried the target out of
     view -- a jet it cannot brake against --, which one more turn does not
-    mend. Returns None to retry, else why not.
+    mend; nor does it a counter that does not follow the vehicle (a dead or
+    stuck gyro), which the count shows the same way. Returns None to retry,
+    else why not.
     """
     def guard(m):
         ppm = m.cfg.sequencer.turn_check_ppm
@@ -315,8 +317,9 @@ def _stopped_at_a_whole_turn(axis):
         whole = "one turn" if turns == 1 else f"{turns} turns"
         return (f"counter {counter} holds {angle_deg:.2f} deg, {past_deg:+.2f} deg from "
                 f"{whole}, beyond the {field_deg:g} deg in which the {what} stays in view: "
-                f"the vehicle {turn}ed on and carried it away, and one more {turn} cannot "
-                "brake it")
+                f"the {what} did not vanish at the turn's end (the vehicle {turn}ed on past "
+                f"it, or the counter does not follow the vehicle), and one more {turn} "
+                "cannot mend that")
     guard.__name__ = f"stopped_at_a_whole_{axis}"
     return guard
 

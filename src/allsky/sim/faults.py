@@ -237,12 +237,13 @@ def fault_release(fp, fault_state, t_s, lock):
 
 
 @njit_stage
-def _glint_refused(tracker_p, lock):
+def _glint_refused(tracker_p, lock, cone_armed):
     """Whether the cone-angle check refuses a glint (its cone angle, pitch output, is 0).
 
+    Only while the check is armed (``cone_armed``: the roll axis on the Sun).
     The refusal is remembered and flagged once, as a star's is.
     """
-    if tracker_p.cone_check_rad <= 0.0 \
+    if not cone_armed or tracker_p.cone_check_rad <= 0.0 \
             or abs(tracker_p.reference_cone_rad) <= tracker_p.cone_check_rad:
         return False
     if not st.refused(lock, FALSE_TARGET):
@@ -251,7 +252,8 @@ def _glint_refused(tracker_p, lock):
 
 
 @njit_stage
-def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, lock, star):
+def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, lock, star,
+                cone_armed):
     """Sensor faults on the outputs of ``sense``; returns the star the tracker holds.
 
     Gyros 1-3 (``gyro`` [arcsec/s]): stuck at the output of the onset frame,
@@ -264,6 +266,7 @@ def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gy
     locked only when the tracker holds nothing and the glint is inside the
     magnitude window. With a bright gate, a slit brighter than the gate
     (the held star's light and the glints' together) loses the lock.
+    ``cone_armed`` says whether the cone-angle check is armed.
     """
     glint_flux = 0.0  # the glints of known brightness acting in this frame
     for i in range(fp.n):
@@ -299,7 +302,8 @@ def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gy
                 glint_flux += 10.0 ** (-0.4 * m)
             take = (not bright or (star == -1 and tracker_p.window_bright_mag <= m
                                    <= tracker_p.window_faint_mag))
-            if star == FALSE_TARGET or (take and not _glint_refused(tracker_p, lock)):
+            if star == FALSE_TARGET or (take and not _glint_refused(tracker_p, lock,
+                                                                    cone_armed)):
                 trk[0] = fp.size[i]
                 trk[1] = 0.0
                 trk[2] = 1.0

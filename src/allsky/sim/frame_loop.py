@@ -198,6 +198,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     rrw_every = max(1, round(RRW_STEP_S / dt))
     wire_leg(p.routing, el, sw, s.rate_sign, gates, position_gain)
     sun_in_use, star_in_use = sensors_in_use(sw, p.routing)
+    cone_armed = sun_holds_pitch(p.routing.position_routes, position_gain)
     timer = s.leg_clock[CLOCK_SETTLE]
     sun_gone = s.leg_clock[CLOCK_SUN_GONE]
     star_gone = s.leg_clock[CLOCK_STAR_GONE]
@@ -224,10 +225,10 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
             fault_release(faults, fault_state, t_frame, s.tracker_lock)
         star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
                      s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, s.tracker_lock,
-                     sun_b, fine, trk, gyro)
+                     cone_armed, sun_b, fine, trk, gyro)
         if faults is not None:
             star = fault_sense(faults, tracker_p, fault_state, t_frame, dt, s.dtheta_rad, fine,
-                               trk, gyro, s.tracker_lock, star)
+                               trk, gyro, s.tracker_lock, star, cone_armed)
         if star_in_use and star >= 0:
             s.locked_star[0] = star  # the star the loop is closed on (S12/S13)
         sum_and_count(el, p.vfc, dt, gates, gyro, s.drift_counters, s.counters,
@@ -317,8 +318,21 @@ def sun_inertial(sun0_inertial, sun_rate_inertial, t_s, out):
 
 
 @njit_stage
+def sun_holds_pitch(routes, position_gain):
+    """Whether S14 switches in the sun sensor's pitch: the roll axis held on the Sun.
+
+    Read once a leg from the wiring table's position routes and their gains
+    (:func:`wire_leg`); star tracker 105's cone-angle check is armed then.
+    """
+    for r in range(routes.shape[0]):
+        if routes[r, 1] == SRC_SUN_PITCH and position_gain[r] != 0.0:
+            return True
+    return False
+
+
+@njit_stage
 def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias,
-          bias_rw_arcsec_s, rng, tracker_lock, sun_b, fine, trk, gyro):
+          bias_rw_arcsec_s, rng, tracker_lock, cone_armed, sun_b, fine, trk, gyro):
     """Sun sensor 104 -> ``fine``, star tracker 105 -> ``trk``, gyros 1-3 -> ``gyro``.
 
     ``fine`` is (pitch, yaw [arcsec], present), ``trk`` (yaw, pitch [arcsec],
@@ -326,12 +340,13 @@ def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias
     body-angle increment ``dtheta_rad``; ``sun_b`` keeps the Sun's body
     direction for the Mode 1 controller. ``step_bias`` steps the gyros' rate
     random walk ``bias_rw_arcsec_s``; ``tracker_lock`` is the tracker's
-    memory (the star it holds). Returns the index of the star the tracker
-    holds in ``tracker_p.stars_inertial`` (-1: none).
+    memory (the star it holds), ``cone_armed`` arms its cone-angle check.
+    Returns the index of the star the tracker holds in
+    ``tracker_p.stars_inertial`` (-1: none).
     """
     rotate_to_body(x, sun_inertial, sun_b)
     sun_sensor(sun_p, sun_b, fine, rng)
-    star = star_tracker(tracker_p, x, tracker_lock, trk, rng)
+    star = star_tracker(tracker_p, x, tracker_lock, trk, rng, cone_armed)
     gyro_output(gyro_p, dtheta_rad, dt_s, bias_rw_arcsec_s, gyro, step_bias, rng)
     return star
 

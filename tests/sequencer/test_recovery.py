@@ -243,15 +243,18 @@ def test_a_wrong_star_re_acquired_is_refused_and_with_recovery_rolled_past():
     assert s["target"]["pointing_error_arcsec"] < POINTING_ARCSEC
 
 
+#: The +roll couple stuck open as Mode 4 begins (both jets, 0.25 N m).
+STUCK = 'faults=[{kind="jet_stuck_open", axis="roll", sign=1, start_mode="4"}]'
+
+
 def test_recovery_does_not_roll_again_a_vehicle_that_cannot_brake():
-    """A roll jet stuck open: the star is lost settling. Recovery alone rolls once more,
-    burns more gas, and still aborts; with the turn check, counter 14 shows the vehicle
-    rolled 16 deg past the turn, beyond the slit's 8 deg: no retry, and the flight is the
-    patent sequencer's, frame for frame, with the reason added."""
-    stuck = "stuck-jet-roll-calibration"
-    _, patent = _fly_named(stuck)
-    _, retried = _fly_named(stuck, ON)
-    _, checked = _fly_named(stuck, ON, CHECK)
+    """The +roll couple stuck open: the star is lost settling. Recovery alone rolls once
+    more, burns more gas (0.395 kg), and still aborts; with the turn check, counter 14 shows
+    the vehicle rolled 16 deg past the turn, beyond the slit's 8 deg: no retry, and the
+    flight is the patent sequencer's, frame for frame, with the reason added."""
+    _, patent = _fly(STUCK)
+    _, retried = _fly(STUCK, ON)
+    _, checked = _fly(STUCK, ON, CHECK)
     assert patent["status"] == retried["status"] == checked["status"] == "aborted"
     assert "recovery tried: roll on for one more revolution" in retried["abort_reason"]
     assert retried["propellant_kg"] > patent["propellant_kg"] + 0.3
@@ -273,7 +276,3 @@ def test_recovery_with_the_turn_check_still_finds_a_star_that_vanished():
     assert s["status"] == "complete"
     assert s["target"]["pointing_error_arcsec"] < POINTING_ARCSEC
 
-
-def _fly_named(name, *overrides):
-    m = Mission(load_scenario(name, overrides=list(overrides)), telemetry=False)
-    return m, m.run()

@@ -525,8 +525,8 @@ def test_faults_are_dispersed_with_a_probability_and_an_onset():
 
 def test_packaged_scenarios_are_listed_and_run_by_name(capsys):
     names = {e["name"] for e in packaged_scenarios()}
-    assert {"voyager1-wrong-star", "mariner4-star-hopping", "stuck-jet-roll-calibration",
-            "gyro-failure-to-target"} <= names
+    assert {"voyager1-wrong-star", "mariner4-star-hopping", "mariner4-dust-glints",
+            "stuck-jet-roll-calibration", "gyro-failure-to-target"} <= names
     for name in names:
         load_scenario(name)
     assert main(["scenarios"]) == 0

@@ -47,6 +47,8 @@ MODES = (
     ModeWord("hold", 6.3, "hold on target"),
     ModeWord("reacquire", 6.4, "next target: back to the Sun and the star, calibration kept"),
     ModeWord("recycle", 6.5, "next target: every mode again, calibration included"),
+    ModeWord("direct", 6.6, "next target: the roll from the target held, on the gyros alone "
+                            "(Mode 6-2's yaw follows)"),
     ModeWord("dither", 7.0, "dither calibration (comparison method)"),
 )
 #: Mode name -> telemetry code.
@@ -65,13 +67,15 @@ class FaultKind(NamedTuple):
     fields: tuple  #: the fields it needs beyond the timing, in this order
     blocks: tuple  #: patent numerals of the blocks it acts on ("" for the tank)
     meaning: str  #: what happens, in words
+    optional: tuple = ()  #: fields it may have beyond those, in this order
 
 
 #: Every fault kind (:mod:`allsky.config.faults` validates them, :mod:`allsky.sim.faults`
 #: applies them in the frame loop).
 FAULT_KINDS = (
     FaultKind("jet_stuck_open", 1, ("axis", "sign"), ("39", "40", "41"),
-              "a jet of the axis's couple fires whatever its modulator commands"),
+              "the couple of the axis firing the sign's way (`jets = 2`, the default) or one "
+              "jet of it (`jets = 1`) fires whatever its modulator commands", ("jets",)),
     FaultKind("jet_failed_off", 2, ("axis", "sign"), ("39", "40", "41"),
               "a jet of the axis's couple gives no thrust when commanded"),
     FaultKind("gyro_stuck", 3, ("axis",), ("1", "2", "3"),
@@ -84,13 +88,16 @@ FAULT_KINDS = (
     FaultKind("sun_sensor_blind", 7, (), ("104",), "sun sensor 104 sees no Sun"),
     FaultKind("tracker_dropout", 8, (), ("105",), "star tracker 105 sees no star"),
     FaultKind("tracker_stray_light", 9, ("offset_deg",), ("105",),
-              "star tracker 105 tracks a body-fixed false target (a glint) at the offset"),
+              "a body-fixed false target (a glint) at the offset in star tracker 105's slit: "
+              "tracked instead of the star or, with a magnitude, as bright as that",
+              ("magnitude",)),
     FaultKind("wrong_star", 10, ("star",), ("105",),
               "another catalog star passes the tracker's magnitude window"),
     FaultKind("counter_upset", 11, ("register", "bit"), ("13", "14", "15", "16", "17", "18",
                                                         "25", "26", "27"),
               "one bit of a counter or storage register flips, once"),
-    FaultKind("propellant_leak", 12, ("rate_kg_s",), ("",), "the tank leaks at the rate"),
+    FaultKind("propellant_leak", 12, ("rate_kg_s",), ("",),
+              "the tank leaks at the rate, with a body torque if given", ("torque_n_m",)),
 )
 #: Fault kind name -> :class:`FaultKind`.
 FAULT_KIND = {k.name: k for k in FAULT_KINDS}
@@ -121,10 +128,19 @@ ACTIONS = {
                               "counters"),
     "yaw_rate_toward_target": ("set yaw rate-command module 128 to the direction of the yaw "
                                "error"),
+    "check_turn": ("the turn check, settled at the turn's end: refuse the re-acquisition "
+                   "unless the {0} counter holds a whole number of turns within "
+                   "`sequencer.turn_check_ppm` (one turn unless `sequencer.recovery`)"),
     "record_hold_start": ("note the true attitude and pointing error at the start of the "
                           "hold (for the drift measured at its end)"),
     "measure_hold": ("measure the hold: pointing error at its end and the attitude's drift "
                      "per body axis since its start"),
+    "turn_to_next_target": ("take the next target of `target.sequence`; CPU 22 forms the "
+                            "roll and yaw from the target held to it from the two targets' "
+                            "programmed angles (both from the first target's reference "
+                            "attitude) and loads register 24 with the roll, its yaw word "
+                            "zero while the vehicle rolls"),
+    "load_turn_yaw": "load register 24's yaw word with the yaw of the turn to the next target",
     "next_target": ("take the next target of `target.sequence`: its programmed angles are "
                     "computed when Mode 6-1 loads register 24"),
     "dither_analysis": ("analyse the dither record at each dither frequency; scale factors "
@@ -164,6 +180,14 @@ EVENT_KINDS = (
     EventKind("fault", 8, "`fault` (its index in `[[faults]]`), `fault_kind`, `text`, "
                           "`active` (true at the onset, false at the end)"),
     EventKind("abort", 9, "`reason`"),
+    EventKind("lock_rejected", 10, "`star` (the star, or `stray light`, the tracker found "
+                                   "in its slit and refused), `cone_angle_deg` (its position "
+                                   "along the slit), `reference_cone_angle_deg` (the planned "
+                                   "reference star's), `check_deg` "
+                                   "(`star_tracker.cone_angle_check_deg`), `in_use`"),
+    EventKind("lock_dropped", 11, "`star` (the star, or `stray light`, the tracker held), "
+                                  "`magnitude` (the light in its slit), `gate_magnitude` (the "
+                                  "bright gate: the magnitude window's bright end), `in_use`"),
 )
 #: Journal kind name -> :class:`EventKind`.
 EVENT_KIND = {k.name: k for k in EVENT_KINDS}

@@ -18,7 +18,13 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from allsky.computer.targeting import pointing_direction, programmed_angles_deg, reference_frame
+from allsky.computer.targeting import (
+    attitude_after,
+    pointing_direction,
+    programmed_angles_deg,
+    reference_frame,
+    turn_between_deg,
+)
 from allsky.vehicle import quaternion
 
 component = st.floats(-1.0, 1.0, allow_nan=False)
@@ -128,3 +134,30 @@ def test_the_star_itself_is_a_pure_yaw_toward_plus_z():
     assert roll == pytest.approx(90.0, abs=1e-9)
     assert yaw == pytest.approx(sun_canopus_deg, abs=1e-9)
     assert 90.0 < sun_canopus_deg < 110.0  # the geometry SPEC section 1 describes
+
+
+@settings(max_examples=200, deadline=None)
+@given(sun=directions, star=directions, first=directions, second=directions)
+def test_the_turn_between_two_targets_lands_on_the_second(sun, star, first, second):
+    """Fly the first target's programmed roll and yaw from the reference attitude, then the
+    turn between the targets from there, by quaternions: +x lands on the second target."""
+    assume(np.linalg.norm(np.cross(sun, star)) > 0.1)
+    r1, y1 = programmed_angles_deg(sun, star, first)
+    r2, y2 = programmed_angles_deg(sun, star, second)
+    roll, yaw = turn_between_deg(r1, y1, r2, y2)
+    assert abs(roll) <= 90.0 + 1e-9
+    q = quaternion.from_dcm(reference_frame(sun, star))
+    for axis, angle in (((1, 0, 0), r1), ((0, 0, 1), y1), ((1, 0, 0), roll), ((0, 0, 1), yaw)):
+        q = quaternion.multiply(q, quaternion.from_axis_angle(axis, math.radians(angle)))
+    x_inertial = quaternion.dcm_body_from_inertial(q)[0]
+    assert np.allclose(x_inertial, second, atol=1e-9)
+    # The turn's yaw is the angle between the two targets (a roll does not move +x).
+    between = math.atan2(np.linalg.norm(np.cross(first, second)), first @ second)
+    assert abs(yaw) == pytest.approx(math.degrees(between), abs=1e-7)
+
+
+def test_the_attitude_after_a_manoeuvre_points_x_where_pointing_direction_says():
+    for roll, yaw in ((0.0, 0.0), (30.0, 45.0), (-80.0, 170.0), (90.0, -10.0)):
+        b = attitude_after(roll, yaw)
+        assert np.allclose(b.T @ b, np.eye(3), atol=1e-15)
+        assert np.allclose(b[:, 0], pointing_direction(roll, yaw), atol=1e-15)

@@ -64,12 +64,13 @@ def test_default_loads_with_frozen_types():
 
 def test_every_default_key_has_its_unit_in_its_name():
     units = ("_s", "_deg", "_deg_h", "_ppm", "_arcsec", "_kg_m2", "_n", "_m", "_kg", "_v",
-             "_pps", "_bits", "_frames", "_per_s", "_deg_s", "_rt_h", "_arcsec_s", "_utc", "_urad")
+             "_pps", "_bits", "_frames", "_per_s", "_deg_s", "_rt_h", "_arcsec_s", "_utc", "_urad",
+             "_bar")
     unitless = {"seed", "attitude", "magnitude_window", "counter_overflow", "star",
                 "reference_star", "apply", "between_targets",
                 "filter_gain", "feedforward", "inertia_estimate_scale", "estimator", "detector",
                 "store_cross_coupling", "kind", "axes", "unload_fraction",
-                "unload_end_fraction", "recovery"}
+                "unload_end_fraction", "recovery", "bright_gate", "supply"}
     for sec, table in DEFAULT.items():
         for k in table:
             assert k in unitless or k.endswith(units), f"{sec}.{k} has no unit in its name"
@@ -260,6 +261,8 @@ RULE_CASES = [
     ("star_tracker.magnitude_window", "[1, 1]", "brightest < faintest"),
     ("star_tracker.magnitude_window", "[1]", "array of 2 numbers"),
     ("star_tracker.noise_arcsec", "-2", "must be >= 0"),
+    ("star_tracker.cone_angle_check_deg", "-1", "must be in [0, 90] (0 = no check)"),
+    ("star_tracker.bright_gate", "1", "must be true or false"),
     # jets
     ("jets.thrust_n", "[0.25, 0, 0.5]", "element 1 must be > 0"),
     ("jets.moment_arm_m", "[0.5, 1.25, -1]", "element 2 must be > 0"),
@@ -267,6 +270,9 @@ RULE_CASES = [
     ("jets.min_on_time_s", "1e300", "must be in (0, 1] (cold-gas valves"),
     ("jets.isp_s", "-65", "must be > 0"),
     ("jets.propellant_kg", "0", "must be > 0"),
+    ("jets.supply", '"pressure-fed"', 'must be "regulated" or "blowdown"'),
+    ("jets.tank_pressure_initial_bar", "0", "must be > 0"),
+    ("jets.tank_pressure_final_bar", "20", "must be < jets.tank_pressure_initial_bar (20 bar)"),
     # pwpf
     ("pwpf.filter_gain", "0", "must be > 0"),
     ("pwpf.time_constant_s", "0", "must be > 0"),
@@ -308,6 +314,8 @@ RULE_CASES = [
     ("sequencer.sensor_loss_s", "0", "must be > 0"),
     ("sequencer.mode1_slew_rate_deg_s", "0", "must be > 0"),
     ("sequencer.mode1_slew_gain_per_s", "0", "must be > 0"),
+    ("sequencer.turn_check_ppm", "-1", "must be in [0, 500000] (half a turn"),
+    ("sequencer.turn_check_ppm", "500001", "must be in [0, 500000]"),
     ("sequencer.timeout_s.6-1", "0", "must be in (0, 86400] (a mission lasts at most a day)"),
     ("sequencer.timeout_s.1", "1e12", "must be in (0, 86400]"),
     ("sequencer.timeout_s.1", '"long"', "must be a number"),

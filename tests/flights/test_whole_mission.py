@@ -34,6 +34,7 @@ Truth:
 
 import json
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -246,6 +247,64 @@ def test_a_resumed_sequence_flies_as_one_flown_straight_through(tmp_path, three_
     m = resumed(before(Mission(cfg, telemetry=False), "6-1", occurrence=2), tmp_path)
     assert m.target_index == 1 and m.targets()[0]["end_s"] is not None
     assert m.run() == three_targets.summary()
+
+
+#: The five-target plan of docs/examples/five_targets.toml.
+FIVE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "five_targets.toml"
+#: The issue's bound for a target reached from the one before on the gyros alone [arcsec].
+DIRECT_POINTING_ARCSEC = 120.0
+
+
+@pytest.fixture(scope="module")
+def five_direct():
+    return Mission(load_scenario(FIVE, overrides=["sequencer.between_targets=direct"]),
+                   telemetry=False)
+
+
+def test_direct_flies_five_targets_from_one_to_the_next_each_inside_120_arcsec(five_direct):
+    """No optics after the first target: each next one is a roll and a yaw on the gyros,
+    formed by CPU 22 from the programmed angles. The roll never moves +x, so the turn's
+    yaw is the angle between the two targets (spherical geometry, from the catalog)."""
+    from allsky.sim.mission import target_inertial
+    from allsky.vehicle import sky
+
+    m = five_direct
+    s = m.run()
+    assert s["status"] == "complete", s["abort_reason"]
+    assert m.plan == (*LEGACY_PLAN, *("direct", "6-2") * 4)
+    names = ["Vega", "Achernar", "Capella", "Arcturus", "Fomalhaut"]
+    assert [t["name"] for t in s["targets"]] == names
+    for t in s["targets"]:
+        assert t["pointing_error_arcsec"] < DIRECT_POINTING_ARCSEC, t
+    assert "turn_roll_deg" not in s["targets"][0]
+    for k in range(1, 5):
+        a, b = target_inertial(m.cfg, k - 1), target_inertial(m.cfg, k)
+        turn = s["targets"][k]
+        assert abs(turn["turn_yaw_deg"]) == pytest.approx(sky.separation_deg(a, b), abs=1e-9)
+        assert abs(turn["turn_roll_deg"]) <= 90.0
+    # The Sun and the star are not used again: no optical switch closes after the first.
+    first_end = s["targets"][0]["end_s"]
+    later = [e for e in s["events"] if e["kind"] == "switch" and e["t_s"] > first_end]
+    assert later and not {12, 13, 14, 15} & {k for e in later for k in e["close"]}
+
+
+def test_direct_is_cheaper_than_reacquiring_and_errs_more(five_direct):
+    """Reacquiring goes back to the Sun and the star (Modes 1 and 2) for each target; the
+    direct move does not, and its errors add up from target to target."""
+    direct = five_direct.summary()
+    reacquire = Mission(load_scenario(FIVE), telemetry=False).run()
+    assert reacquire["status"] == "complete"
+    assert direct["mission_time_s"] < reacquire["mission_time_s"] - 4 * 200.0
+    assert direct["propellant_kg"] < reacquire["propellant_kg"] - 4 * 0.2
+    last = [t["pointing_error_arcsec"] for t in direct["targets"]]
+    assert last[-1] > max(t["pointing_error_arcsec"] for t in reacquire["targets"])
+
+
+def test_a_direct_sequence_resumed_flies_as_one_flown_straight_through(tmp_path, five_direct):
+    cfg = load_scenario(FIVE, overrides=["sequencer.between_targets=direct"])
+    m = resumed(before(Mission(cfg, telemetry=False), "direct", occurrence=2), tmp_path)
+    assert m.target_index == 1 and m.held_axes is not None
+    assert m.run() == five_direct.run()
 
 
 def recycle_mission():

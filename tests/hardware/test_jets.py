@@ -7,15 +7,19 @@ Truth:
   F / (Isp g0), g0 = 9.80665 m/s^2 by definition (Sutton & Biblarz, *Rocket
   Propulsion Elements*, 9th ed., eq. 2-5); a couple fires two jets;
 - the default scenario: F = [0.25, 0.5, 0.5] N, r = [0.5, 1.25, 1.25] m,
-  Isp = 65 s (cold nitrogen).
+  Isp = 65 s (cold nitrogen);
+- a blow-down feed: the ideal gas law in a tank of fixed volume at constant
+  temperature, thrust proportional to the tank pressure.
 """
+
+import math
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allsky.hardware.jets import JetParams, jets, make_params
+from allsky.hardware.jets import JetParams, jets, make_params, thrust_fraction
 
 THRUST_N = [0.25, 0.5, 0.5]
 ARM_M = [0.5, 1.25, 1.25]
@@ -104,3 +108,45 @@ def test_no_net_propellant_gain_and_torque_only_when_fed(valve, tank):
         assert np.array_equal(torque, np.array(valve) * P.torque_n_m)
     else:
         assert np.array_equal(torque, [0.0, 0.0, 0.0]) and left == 0.0
+
+
+# -- the feed: regulated and blow-down ------------------------------------------------------
+
+def test_a_regulated_feed_holds_thrust_until_the_tank_is_empty():
+    p = make_params(THRUST_N, ARM_M, ISP_S, "regulated", 20.0, 5.0, 4.0)
+    for kg in (4.0, 1.0, 0.01):
+        _, torque, _ = fire(p, [1, 0, 0], kg)
+        assert torque[0] == P.torque_n_m[0]  # the same number, whatever is left
+
+
+def test_blowdown_thrust_and_impulse_follow_the_ideal_gas_in_a_fixed_tank():
+    """An ideal gas at constant temperature in a tank of fixed volume: p V = (m/M_w) R T,
+    so p is proportional to the gas held. With p0 = 20 bar full and 5 bar once the usable
+    M = 0.01 kg is gone, the gas held is M / (1 - f) at first, f = 5/20, and the feed
+    pressure over p0 is u = f + (1 - f) m / M. Thrust and flow (constant Isp) go as u:
+    dm/dt = -k u, k = 2 F0 / (Isp g0) for a couple, so u = exp(-t / tau),
+    tau = M / ((1 - f) k); the tank is empty when u = f, at tau ln(1/f); the angular
+    impulse to t is T0 tau (1 - exp(-t / tau)), T0 = 2 F0 r, and to the end
+    T0 M / k = r Isp g0 M (the rocket's impulse Isp g0 M on the couple's arm)."""
+    usable, f = 0.01, 5.0 / 20.0
+    p = make_params(THRUST_N, ARM_M, ISP_S, "blowdown", 20.0, 5.0, usable)
+    k = 2 * THRUST_N[0] / (ISP_S * G0)
+    t0 = 2 * THRUST_N[0] * ARM_M[0]
+    tau = usable / ((1 - f) * k)
+    tank = np.array([usable])
+    torque = np.zeros(3)
+    impulse, t, at_10s = 0.0, 0.0, None
+    while jets(p, np.array([1, 0, 0], dtype=np.int64), DT_S, tank, torque):
+        impulse += torque[0] * DT_S
+        t += DT_S
+        if at_10s is None and t >= 10.0 - 1e-9:
+            at_10s = impulse
+            # thrust at 10 s, as the frame after it starts: the tank pressure then
+            assert torque[0] / t0 == pytest.approx(math.exp(-(t - DT_S) / tau), rel=1e-3)
+    assert at_10s == pytest.approx(t0 * tau * (1 - math.exp(-10.0 / tau)), rel=1e-3)
+    assert t == pytest.approx(tau * math.log(1 / f), abs=2 * DT_S)
+    assert impulse == pytest.approx(ARM_M[0] * ISP_S * G0 * usable, rel=2e-3)
+    # At the end the feed is at the final pressure: a quarter of the thrust.
+    assert torque[0] == 0.0 and tank[0] == 0.0
+    assert thrust_fraction(p, 0.0) == pytest.approx(f, abs=1e-15)
+    assert thrust_fraction(p, usable) == pytest.approx(1.0, abs=1e-15)

@@ -8,9 +8,15 @@ Truth:
 - field of view a slit, +-16 deg along the tracker pitch direction and
   +-8 deg across (default scenario; SPEC section 1: the Sun-Canopus angle
   moves the star along the slit);
-- of several stars in the field, the one nearest the boresight is tracked; only
-  stars handed to the block (those inside the magnitude window, chosen before
-  flight) exist for it;
+- a slit tracker of the era (SPEC section 2) locks the first window star it
+  finds in its slit (of several found at once, the one nearest the
+  boresight) and holds it until it leaves the field: a second window star
+  entering the slit does not take the lock; only then does it search again;
+  only stars handed to the block (those inside the magnitude window, chosen
+  before flight) exist for it;
+- the pitch output is the star's cone angle, 90 deg less its angle from the
+  Sun when the roll axis is on the Sun; the cone-angle check refuses a star
+  whose cone angle is further than the check from the reference star's;
 - white noise of 1-sigma sigma per output.
 """
 
@@ -22,8 +28,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from allsky import gauss, units
-from allsky.hardware.star_tracker import StarTrackerParams, star_tracker
-from allsky.vehicle import quaternion
+from allsky.hardware import star_tracker as trk
+from allsky.hardware.star_tracker import make_params, new_lock, star_tracker
+from allsky.vehicle import quaternion, sky
 
 LONG_DEG, NARROW_DEG = 16.0, 8.0  # default scenario
 
@@ -36,9 +43,9 @@ def seed(s):
     gauss.seed(RNG, s)
 
 
-def params(stars_inertial, noise_arcsec=0.0):
-    return StarTrackerParams(LONG_DEG * units.DEG2RAD, NARROW_DEG * units.DEG2RAD, noise_arcsec,
-                             np.atleast_2d(np.asarray(stars_inertial, dtype=float)))
+def params(stars_inertial, noise_arcsec=0.0, **kwargs):
+    return make_params(LONG_DEG * units.DEG2RAD, NARROW_DEG * units.DEG2RAD, noise_arcsec,
+                       np.atleast_2d(np.asarray(stars_inertial, dtype=float)), **kwargs)
 
 
 def star_at(yaw_deg, pitch_deg):
@@ -50,9 +57,10 @@ def star_at(yaw_deg, pitch_deg):
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
-def look(p, q=IDENTITY):
+def look(p, q=IDENTITY, lock=None):
+    """The outputs for attitude ``q``: a tracker that held nothing, or the memory ``lock``."""
     out = np.full(3, np.nan)
-    star_tracker(p, np.asarray(q, dtype=float), out, RNG)
+    star_tracker(p, np.asarray(q, dtype=float), new_lock() if lock is None else lock, out, RNG)
     return out
 
 
@@ -128,13 +136,12 @@ def test_star_behind_or_beside_is_absent(star):
 
 
 def test_empty_catalog_is_absent():
-    p = StarTrackerParams(LONG_DEG * units.DEG2RAD, NARROW_DEG * units.DEG2RAD, 0.0,
-                          np.zeros((0, 3)))
+    p = make_params(LONG_DEG * units.DEG2RAD, NARROW_DEG * units.DEG2RAD, 0.0, np.zeros((0, 3)))
     assert np.array_equal(look(p), [0.0, 0.0, 0.0])
 
 
 @pytest.mark.parametrize("order", [(0, 1, 2), (2, 1, 0), (1, 2, 0)])
-def test_the_star_nearest_the_boresight_is_tracked(order):
+def test_of_stars_found_at_once_the_one_nearest_the_boresight_is_locked(order):
     stars = [star_at(0.0, 10.0),   # 10 deg along the slit
              star_at(2.0, -3.0),   # 3.6 deg off: nearest
              star_at(0.0, -30.0)]  # outside the field, though "nearer" than none
@@ -167,14 +174,164 @@ def test_noise_standard_deviation():
 
 
 def test_the_tracker_tells_which_star_it_holds():
-    """It returns the index of the star nearest the boresight, -1 with none in the field.
+    """It returns the index of the star it locked, -1 with none in the field.
 
     Stars at (yaw, pitch) = (30, 0) deg (outside the +-8 deg narrow field),
     (0.5, 3) and (-2, 1): squared distances 9.25 and 5 deg^2, so star 2.
     """
     p = params([star_at(30.0, 0.0), star_at(0.5, 3.0), star_at(-2.0, 1.0)])
     out = np.full(3, np.nan)
-    assert star_tracker(p, IDENTITY, out, RNG) == 2
-    assert out[2] == 1.0
-    assert star_tracker(params([star_at(30.0, 0.0)]), IDENTITY, out, RNG) == -1
-    assert out[2] == 0.0
+    lock = new_lock()
+    assert star_tracker(p, IDENTITY, lock, out, RNG) == 2
+    assert out[2] == 1.0 and lock[trk.HELD] == 2
+    lock = new_lock()
+    assert star_tracker(params([star_at(30.0, 0.0)]), IDENTITY, lock, out, RNG) == -1
+    assert out[2] == 0.0 and lock[trk.HELD] == trk.NONE
+
+
+def _roll(deg):
+    """The attitude rolled by ``deg`` about +x (the Sun line) from the identity."""
+    return quaternion.from_axis_angle([1.0, 0.0, 0.0], math.radians(deg))
+
+
+def _geometric_deg(star_body, roll_deg):
+    """(yaw, pitch) outputs [deg] of a star for a roll about +x: the body turns, not the star."""
+    v = quaternion.dcm_body_from_inertial(_roll(roll_deg)) @ star_body
+    return math.degrees(math.atan2(-v[1], v[2])), math.degrees(math.atan2(v[0], v[2]))
+
+
+def test_a_second_star_entering_the_slit_does_not_take_the_lock():
+    """Rolling about the Sun line, star A (pitch 5 deg) enters the slit first, then star B
+    (pitch -2 deg, nearer the boresight) while A is still in it: the tracker holds A, frame
+    after frame, until A leaves the narrow field (|yaw| > 8 deg); then it searches and
+    takes B. The outputs are A's geometry throughout, then B's.
+
+    A sits at yaw +12 deg, B at yaw +15 deg at zero roll; a roll of r moves both to
+    about yaw - r (a roll of +d shows a star on the boresight at yaw -d).
+    """
+    a, b = star_at(12.0, 5.0), star_at(15.0, -2.0)
+    p = params([a, b])
+    lock = new_lock()
+    rolls = np.arange(0.0, 30.0, 0.25)
+    held = []
+    for roll in rolls:
+        out = look(p, _roll(roll), lock)
+        k = int(lock[trk.HELD])
+        held.append(k)
+        if k >= 0:
+            yaw, pitch = _geometric_deg((a, b)[k], roll)
+            assert out[0] == pytest.approx(yaw * 3600.0, abs=1e-6)
+            assert out[1] == pytest.approx(pitch * 3600.0, abs=1e-6)
+    held = np.array(held)
+    inside_a = np.array([abs(_geometric_deg(a, r)[0]) <= NARROW_DEG for r in rolls])
+    inside_b = np.array([abs(_geometric_deg(b, r)[0]) <= NARROW_DEG for r in rolls])
+    assert np.any(inside_a & inside_b & (np.abs([_geometric_deg(b, r)[0] for r in rolls])
+                                         < np.abs([_geometric_deg(a, r)[0] for r in rolls])))
+    assert np.all(held[inside_a] == 0)  # A, all the while it is in the slit
+    first_out = np.flatnonzero(~inside_a & (rolls > 10.0))[0]
+    assert held[first_out] == 1  # the frame A has left, the search finds B
+    # Without the memory (a fresh search each frame) B, nearer the boresight, would win:
+    both = np.flatnonzero(inside_a & inside_b)[-1]
+    assert look(p, _roll(rolls[both]))[0] == pytest.approx(
+        _geometric_deg(b, rolls[both])[0] * 3600.0, abs=1e-6)
+
+
+def test_a_held_star_is_kept_only_while_in_the_field():
+    p = params([star_at(0.0, 15.0)])
+    lock = new_lock()
+    assert look(p, IDENTITY, lock)[2] == 1.0
+    gone = quaternion.from_axis_angle([0.0, 1.0, 0.0], math.radians(-2.0))  # pitch 17 deg
+    assert look(p, gone, lock)[2] == 0.0 and lock[trk.HELD] == trk.NONE
+
+
+def _sun_frame_attitude(date, star_name, yaw_deg=0.0):
+    """The attitude with +x on the Sun and ``star_name`` at tracker yaw ``yaw_deg``.
+
+    The body frame of the reference attitude (computer.targeting's), rolled
+    so that the star sits ``yaw_deg`` off the slit's centre line.
+    """
+    from allsky.computer.targeting import reference_frame
+
+    sun = sky.sun_direction_inertial(date)
+    star = sky.star_direction_inertial(star_name, date)
+    dcm = reference_frame(sun, star)  # rows: body axes in inertial components
+    q = quaternion.from_dcm(dcm)
+    return quaternion.multiply(q, quaternion.from_axis_angle([1, 0, 0],
+                                                             -math.radians(yaw_deg)))
+
+
+#: The default mission's date (scenarios/default.toml).
+DEFAULT_DATE = "2026-11-22T12:00:00Z"
+
+
+def test_cone_angles_are_90_deg_less_the_angle_from_the_sun():
+    """The issue's figures: Canopus -9.95 deg, Avior +6.76 deg on the default date."""
+    from datetime import datetime
+
+    date = datetime.fromisoformat(DEFAULT_DATE)
+    sun = sky.sun_direction_inertial(date)
+    for name, cone in (("Canopus", -9.95), ("Avior", 6.76)):
+        star = sky.star_direction_inertial(name, date)
+        theta = math.degrees(math.acos(sun @ star))
+        assert trk.cone_angle_deg(theta) == pytest.approx(cone, abs=0.005)
+        out = look(params([star]), _sun_frame_attitude(date, name))
+        assert out[1] / 3600.0 == pytest.approx(cone, abs=0.005)  # the pitch output
+
+
+def test_the_cone_angle_check_refuses_avior_and_the_search_goes_on():
+    """Reference Canopus (cone -9.95 deg), check 5 deg. Rolling positive about the Sun
+    line from the reference attitude, Avior (cone +6.76, 16.7 deg away), 5.83 deg of roll
+    ahead of Canopus, enters the slit first: it is refused once, remembered while it
+    crosses, and Canopus, entering 5.83 deg of roll later, is locked; Avior is forgotten
+    once it has left. Without the check Avior is locked, and held."""
+    from datetime import datetime
+
+    from allsky.computer.targeting import reference_frame
+
+    date = datetime.fromisoformat(DEFAULT_DATE)
+    sun = sky.sun_direction_inertial(date)
+    stars = [sky.star_direction_inertial(n, date) for n in ("Avior", "Canopus")]
+    frame = reference_frame(sun, stars[1])  # rows: body axes, Canopus at yaw 0
+    in_ref = [frame @ v for v in stars]
+    avior_yaw0 = math.degrees(math.atan2(-in_ref[0][1], in_ref[0][2]))
+    assert avior_yaw0 == pytest.approx(-5.83, abs=0.01)
+    ref = math.radians(-9.95)
+    checked = params(in_ref, reference_cone_rad=ref, cone_check_rad=math.radians(5.0))
+    plain = params(in_ref, reference_cone_rad=ref)
+    lock, lock_plain = new_lock(), new_lock()
+    refusals = []
+    for roll in np.arange(-20.0, 10.0, 0.1):
+        look(checked, _roll(roll), lock)
+        look(plain, _roll(roll), lock_plain)
+        if lock[trk.NEW_REFUSAL] != trk.NONE:
+            refusals.append((roll, int(lock[trk.NEW_REFUSAL]),
+                             lock[trk.REFUSED_CONE_ARCSEC] / 3600.0))
+        canopus_yaw = _geometric_deg(in_ref[1], roll)[0]
+        assert lock[trk.HELD] == (1 if abs(canopus_yaw) <= NARROW_DEG else trk.NONE)
+        if roll > 2.3:  # Avior has left the slit (yaw < -8 deg): forgotten
+            assert not trk.refused(lock, 0)
+        avior_yaw = _geometric_deg(in_ref[0], roll)[0]
+        if abs(avior_yaw) <= NARROW_DEG and roll < -2.0:
+            assert lock_plain[trk.HELD] == 0  # no check: Avior, met first, is held
+    assert len(refusals) == 1
+    roll, k, cone = refusals[0]
+    # Its cone angle as seen where it entered: the pitch output at |yaw| = 8 deg, a little
+    # more than at the slit's centre line (tan pitch = cot theta / cos yaw).
+    assert k == 0 and cone == pytest.approx(_geometric_deg(in_ref[0], roll)[1], abs=1e-9)
+    assert math.degrees(math.atan(math.tan(math.radians(6.76)) / math.cos(
+        math.radians(8.0)))) == pytest.approx(cone, abs=0.005)
+    assert roll == pytest.approx(avior_yaw0 - NARROW_DEG, abs=0.15)  # as it enters the slit
+
+
+def test_the_cone_angle_check_acts_only_while_armed():
+    """Unarmed (the roll axis off the Sun: the pitch output is not the cone angle) the
+    tracker takes a star the check would refuse, and flags no refusal."""
+    p = params([star_at(0.0, 6.0)], reference_cone_rad=math.radians(-10.0),
+               cone_check_rad=math.radians(2.0))
+    lock = new_lock()
+    out = np.zeros(3)
+    assert star_tracker(p, IDENTITY, lock, out, RNG, False) == 0
+    assert lock[trk.NEW_REFUSAL] == trk.NONE and out[2] == 1.0
+    lock = new_lock()
+    assert star_tracker(p, IDENTITY, lock, out, RNG, True) == -1
+    assert lock[trk.NEW_REFUSAL] == 0

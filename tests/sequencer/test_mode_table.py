@@ -44,7 +44,8 @@ SPEC_CLOSED_AT_END = {
     "6-2": {1, 2, 3, 9, 10, 11},
 }
 TELEMETRY_CODES = {"1": 1.0, "2": 2.0, "3": 3.0, "4": 4.0, "5": 5.0, "6-1": 6.1, "6-2": 6.2,
-                   "hold": 6.3, "reacquire": 6.4, "recycle": 6.5, "dither": 7.0}
+                   "hold": 6.3, "reacquire": 6.4, "recycle": 6.5, "direct": 6.6,
+                   "dither": 7.0}
 
 
 def test_every_mode_of_every_plan_is_in_the_table():

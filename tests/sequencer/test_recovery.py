@@ -165,3 +165,114 @@ def test_whole_turns_counted_from_the_counter():
     for turns, frac in ((1, 1.0005), (2, 1.999), (1, 0.2), (3, -3.01)):
         counters[0] = counters[2] = round(frac * FULL_TURN_ARCSEC / 0.1)
         assert ms.turns_counted(m, "roll") == ms.turns_counted(m, "yaw") == turns
+
+
+# -- the turn check (sequencer.turn_check_ppm) -------------------------------------------
+
+CHECK = "sequencer.turn_check_ppm=10000"
+#: The Voyager-like scenario: Mode 4's roll re-acquires Rigil Kentaurus 58.5 deg on.
+VOYAGER = "voyager1-wrong-star"
+
+
+def _counted(deg, recovery=False, ppm=10000.0):
+    """A stand-in mission whose counters 14 and 18 hold ``deg`` of turn."""
+    from types import SimpleNamespace
+
+    counters = np.zeros(3, dtype=np.int64)
+    counters[0] = counters[2] = round(deg * 3600.0 / 0.1)
+    cfg = SimpleNamespace(sequencer=SimpleNamespace(turn_check_ppm=ppm, recovery=recovery),
+                          star_tracker=SimpleNamespace(fov_narrow_half_deg=8.0),
+                          sun_sensor=SimpleNamespace(presence_half_angle_deg=30.0))
+    return SimpleNamespace(pulse_weight_arcsec=0.1, state=SimpleNamespace(counters=counters),
+                           cfg=cfg, current_mode="4")
+
+
+@pytest.mark.parametrize("deg, scale_factor", [(58.5, 6.1538), (301.5, 1.1940)])
+def test_the_turn_check_refuses_a_turn_that_is_not_a_turn(deg, scale_factor):
+    """A re-acquisition after 58.5 deg (or 301.5 deg) is refused: (deg - 360) / 360 parts,
+    -837500 (-162500) ppm. The patent's sequencer, taking it for 360 deg, would store a roll
+    scale factor of 360 / deg: 6.15 (1.19)."""
+    assert 360.0 / deg == pytest.approx(scale_factor, abs=1e-4)
+    m = _counted(deg)
+    with pytest.raises(ms.ModeAbort) as e:
+        ms.check_turn(m, {}, "roll")
+    assert e.value.failure == "turn refused"
+    ppm = (deg - 360.0) / 360.0 * 1e6
+    assert f"counter 14 holds {deg:.2f} deg" in str(e.value) and f"{ppm:+.0f} ppm" in str(e.value)
+    assert str(e.value).startswith("Mode 4: the turn check refused the star re-acquired")
+
+
+def test_the_turn_check_passes_whole_turns_and_counts_them_with_recovery():
+    ms.check_turn(_counted(360.0 * 1.0015), {}, "roll")  # a 1500 ppm gyro: 1500 ppm off
+    with pytest.raises(ms.ModeAbort):  # the patent's sequencer calibrates one turn only
+        ms.check_turn(_counted(720.8), {}, "yaw")
+    ms.check_turn(_counted(720.8, recovery=True), {}, "yaw")  # two turns, +1111 ppm
+    assert ms.turn_verdict(_counted(720.8, recovery=True), "yaw")[0] == 2
+    with pytest.raises(ms.ModeAbort):
+        ms.check_turn(_counted(360.0 * 1.0015, ppm=1000.0), {}, "roll")  # tighter than the gyro
+
+
+def test_the_turn_check_off_flies_the_patent_and_on_flies_a_good_turn_the_same():
+    _, s_off = _fly()
+    _, s_on = _fly(CHECK)
+    assert s_on["target"] == s_off["target"] and s_on["modes"] == s_off["modes"]
+    checks = [e for e in s_on["events"] if e["kind"] == "action" and e["action"] == "check_turn"]
+    assert [e["mode"] for e in checks] == ["4", "5"]
+    assert not [e for e in s_off["events"] if e.get("action") == "check_turn"]
+
+
+def test_a_wrong_star_re_acquired_is_refused_and_with_recovery_rolled_past():
+    """Voyager-like: the calibration roll stops on Rigil Kentaurus after 58.59 deg. Without
+    the check calibration sequencer 19 stores a roll scale factor of 360/58.59 = 6.14 and
+    Mode 6-1 aborts; with it Mode 4 aborts naming the count; with recovery too the roll
+    goes on to Canopus, met again after 360 deg, and the mission points as a fault-free one."""
+    m = Mission(load_scenario(VOYAGER), telemetry=False)
+    s = m.run()
+    assert s["status"] == "aborted" and s["abort_reason"].startswith("Mode 6-1:")
+    counted = m.counted_arcsec["roll"][0] / 3600.0
+    assert counted == pytest.approx(58.5 * 1.0015, abs=0.1)
+    assert s["calibration"]["scale_factor"]["roll"] == pytest.approx(360.0 / counted, rel=1e-4)
+    s = Mission(load_scenario(VOYAGER, overrides=[CHECK]), telemetry=False).run()
+    assert s["status"] == "aborted"
+    assert s["abort_reason"].startswith("Mode 4: the turn check refused the star re-acquired: "
+                                        "counter 14 holds 58.59 deg")
+    s = Mission(load_scenario(VOYAGER, overrides=[CHECK, ON]), telemetry=False).run()
+    assert s["status"] == "complete", s["abort_reason"]
+    assert "recovered: roll on past the refused star" in s["modes"][3]["exit"]
+    assert s["locked_star"] == "Canopus"
+    assert s["target"]["pointing_error_arcsec"] < POINTING_ARCSEC
+
+
+#: The +roll couple stuck open as Mode 4 begins (both jets, 0.25 N m).
+STUCK = 'faults=[{kind="jet_stuck_open", axis="roll", sign=1, start_mode="4"}]'
+
+
+def test_recovery_does_not_roll_again_a_vehicle_that_cannot_brake():
+    """The +roll couple stuck open: the star is lost settling. Recovery alone rolls once
+    more, burns more gas (0.395 kg), and still aborts; with the turn check, counter 14 shows
+    the vehicle rolled 16 deg past the turn, beyond the slit's 8 deg: no retry, and the
+    flight is the patent sequencer's, frame for frame, with the reason added."""
+    _, patent = _fly(STUCK)
+    _, retried = _fly(STUCK, ON)
+    _, checked = _fly(STUCK, ON, CHECK)
+    assert patent["status"] == retried["status"] == checked["status"] == "aborted"
+    assert "recovery tried: roll on for one more revolution" in retried["abort_reason"]
+    assert retried["propellant_kg"] > patent["propellant_kg"] + 0.3
+    assert checked["propellant_kg"] == patent["propellant_kg"]
+    assert checked["mission_time_s"] == patent["mission_time_s"]
+    assert "; no recovery: counter 14 holds 376.12 deg, +16.12 deg from one turn, beyond the 8 " \
+           "deg in which the star stays in view" in checked["abort_reason"]
+
+
+def test_recovery_with_the_turn_check_still_finds_a_star_that_vanished():
+    """The star hidden while the loop settles on it: counter 14 is within the slit of a
+    whole turn, so the star vanished: rolled on for, found, and the calibration is right."""
+    _, s = _fly(DROPOUT_WHILE_SETTLING, ON, CHECK)
+    assert s["status"] == "complete", s["abort_reason"]
+    assert s["target"]["pointing_error_arcsec"] < POINTING_ARCSEC
+    _, s = _fly(DROPOUT_AT_THE_CROSSING, CHECK)  # the patent's one turn: 720 deg refused
+    assert s["status"] == "aborted" and "counter 14 holds 721." in s["abort_reason"]
+    _, s = _fly(DROPOUT_AT_THE_CROSSING, ON, CHECK)  # with recovery: two turns
+    assert s["status"] == "complete"
+    assert s["target"]["pointing_error_arcsec"] < POINTING_ARCSEC
+

@@ -9,9 +9,10 @@ from allsky.apps.cli import main
 from allsky.config import ConfigError, load_scenario
 from allsky.config import dispersions as disp
 from allsky.config.faults import KINDS, packaged_scenarios
-from allsky.hardware.star_tracker import FALSE_TARGET, star_tracker
+from allsky.hardware import star_tracker as trk
+from allsky.hardware.star_tracker import FALSE_TARGET, new_lock, star_tracker
 from allsky.sim import faults as sf
-from allsky.sim.mission import Mission, build_params
+from allsky.sim.mission import Mission, build_params, tracker_star_names
 from allsky.studies.faults import fault_matrix
 from allsky.units import ARCSEC2RAD, DEG2ARCSEC
 from allsky.vehicle import quaternion, sky
@@ -41,6 +42,10 @@ def _params(*faults, extra=()):
     ('{kind="tracker_stray_light", offset_deg=9}', "faults[0].offset_deg"),
     ('{kind="gyro_dead", axis="roll", start_mode="7"}', "faults[0].start_mode"),
     ('{kind="gyro_dead", axis="roll", size_ppm=3}', "faults[0].size_ppm"),
+    ('{kind="jet_stuck_open", axis="roll", sign=1, jets=3}', "faults[0].jets"),
+    ('{kind="gyro_dead", axis="roll", jets=1}', "faults[0].jets"),
+    ('{kind="propellant_leak", rate_kg_s=0.1, torque_n_m=[1, 2]}', "faults[0].torque_n_m"),
+    ('{kind="tracker_stray_light", offset_deg=1, magnitude="bright"}', "faults[0].magnitude"),
 ])
 def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):
     with pytest.raises(ConfigError) as e:
@@ -55,6 +60,8 @@ def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):
     ('{kind="gyro_dead", axis="roll", start_mode="reacquire"}', ()),  # one target
     ('{kind="gyro_dead", axis="roll", start_mode="recycle"}',
      ('target.sequence=["Vega", "Achernar"]',)),  # the targets are reacquired, not recycled
+    ('{kind="gyro_dead", axis="roll", start_mode="direct"}',
+     ('target.sequence=["Vega", "Achernar"]',)),  # ... nor flown one from the other
 ])
 def test_a_start_mode_the_scenario_never_flies_is_refused(fault, extra, capsys):
     with pytest.raises(ConfigError) as e:
@@ -70,6 +77,8 @@ def test_a_start_mode_the_scenario_flies_is_accepted():
                 extra=("target.hold_s=60",)).faults[0]["start_mode"] == "hold"
     seq = ('target.sequence=["Vega", "Achernar"]', "sequencer.between_targets=recycle")
     assert _cfg('{kind="gyro_dead", axis="roll", start_mode="recycle"}', extra=seq).faults
+    seq = ('target.sequence=["Vega", "Achernar"]', "sequencer.between_targets=direct")
+    assert _cfg('{kind="gyro_dead", axis="roll", start_mode="direct"}', extra=seq).faults
 
 
 def test_a_start_mode_outside_the_plan_is_refused_when_the_mission_is_built(capsys):
@@ -120,7 +129,8 @@ def _sense(p, fs, t, gyro=(10.0, 20.0, 30.0), dtheta=(1e-4, 0.0, 0.0)):
     fine = np.array([5.0, 6.0, 1.0])
     trk = np.array([7.0, 8.0, 1.0])
     g = np.array(gyro)
-    star = sf.fault_sense(p.faults, fs, t, 0.01, np.array(dtheta), fine, trk, g, 3)
+    star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.array(dtheta), fine, trk,
+                          g, new_lock(), 3, True)
     return fine, trk, g, star
 
 
@@ -176,6 +186,81 @@ def test_blind_sun_sensor_dropout_and_stray_light():
     assert list(trk) == [1.5 * DEG2ARCSEC, 0.0, 1.0] and star == FALSE_TARGET  # a glint
 
 
+def _tracker_frame(p, fs, t, lock, star=0):
+    """``fault_sense`` after a tracker that found ``star``: (trk, star)."""
+    trk = np.array([7.0, 8.0, 1.0]) if star >= 0 else np.zeros(3)
+    star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.zeros(3),
+                          np.array([5.0, 6.0, 1.0]), trk, np.zeros(3), lock, star, True)
+    return trk, star
+
+
+def test_the_bright_gate_drops_the_lock_while_the_slit_is_too_bright():
+    """Mariner 4's window, Canopus (-0.62 mag) +-2.26 mag: the gate at -2.88 mag. Canopus
+    with a -4 mag glint beside it: fluxes add, 10^(0.4*0.62) + 10^(0.4*4) = 41.6 times a
+    magnitude-0 star, -4.05 mag: brighter than the gate, the lock is lost, once journaled.
+    A -2 mag glint: -2.27 mag together, fainter than the gate: Canopus is kept."""
+    extra = ("star_tracker.magnitude_window=[-2.88, 1.64]", "star_tracker.bright_gate=true")
+    cfg, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.0, magnitude=-4.0, '
+                         'start_s=1, duration_s=2}', extra=extra)
+    k = tracker_star_names(cfg).index("Canopus")
+    mag = p.faults.tracker.magnitudes[k]
+    assert mag == pytest.approx(-0.62, abs=0.005)
+    assert p.faults.tracker.bright_gate_mag == -2.88
+    lock = new_lock()
+    lock[trk.HELD] = k
+    out, star = _tracker_frame(p, fs, 0.5, lock, k)  # before the glint
+    assert star == k and out[2] == 1.0 and lock[trk.GATE] == 0.0
+    seen = -2.5 * math.log10(10 ** (-0.4 * mag) + 10 ** (-0.4 * -4.0))
+    assert seen == pytest.approx(-4.05, abs=0.01)
+    out, star = _tracker_frame(p, fs, 1.0, lock, k)
+    assert star == -1 and list(out) == [0.0, 0.0, 0.0] and lock[trk.HELD] == trk.NONE
+    assert lock[trk.NEW_DROP] == k and lock[trk.SEEN_MAG] == pytest.approx(seen, abs=1e-9)
+    lock[trk.NEW_DROP] = trk.NONE  # the next frame's tracker clears its flags ...
+    out, star = _tracker_frame(p, fs, 1.5, lock, k)  # ... and finds Canopus again: dropped
+    assert star == -1 and lock[trk.NEW_DROP] == trk.NONE  # one drop, told once
+    out, star = _tracker_frame(p, fs, 3.0, lock, k)  # the glint is over
+    assert star == k and out[2] == 1.0 and lock[trk.GATE] == 0.0
+    _, p2, fs2 = _params('{kind="tracker_stray_light", offset_deg=1.0, magnitude=-2.0}',
+                         extra=extra)
+    assert -2.5 * math.log10(10 ** (-0.4 * mag) + 10 ** 0.8) == pytest.approx(-2.27, abs=0.01)
+    lock = new_lock()
+    lock[trk.HELD] = k
+    _, star = _tracker_frame(p2, fs2, 1.0, lock, k)
+    assert star == k and lock[trk.GATE] == 0.0  # held: the glint only adds light
+    _, p3, fs3 = _params('{kind="tracker_stray_light", offset_deg=1.0, magnitude=-4.0}',
+                         extra=extra[:1])
+    _, star = _tracker_frame(p3, fs3, 1.0, lock, k)
+    assert star == k  # no gate: the memory holds Canopus
+
+
+def test_a_glint_with_a_brightness_is_locked_only_by_an_empty_tracker_inside_the_window():
+    extra = ("star_tracker.magnitude_window=[-2.88, 1.64]",)
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5, magnitude=0.5}',
+                       extra=extra)
+    lock = new_lock()
+    out, star = _tracker_frame(p, fs, 0.0, lock, -1)  # nothing held: the glint is taken
+    assert star == FALSE_TARGET and list(out) == [1.5 * DEG2ARCSEC, 0.0, 1.0]
+    assert lock[trk.HELD] == FALSE_TARGET
+    lock = new_lock()
+    lock[trk.HELD] = 3
+    out, star = _tracker_frame(p, fs, 0.0, lock, 3)  # a star held: kept
+    assert star == 3 and list(out) == [7.0, 8.0, 1.0]
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5, magnitude=3.0}',
+                       extra=extra)
+    _, star = _tracker_frame(p, fs, 0.0, new_lock(), -1)
+    assert star == -1  # too faint for the window
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5}', extra=extra)
+    lock = new_lock()
+    _, star = _tracker_frame(p, fs, 0.0, lock, 3)
+    assert star == FALSE_TARGET and lock[trk.HELD] == FALSE_TARGET  # no brightness: taken
+    sf.fault_release(p.faults, fs, 0.0, lock)
+    assert lock[trk.HELD] == FALSE_TARGET  # the glint acts: held
+    _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5, duration_s=1}',
+                       extra=extra)
+    sf.fault_release(p.faults, fs, 2.0, lock)
+    assert lock[trk.HELD] == trk.NONE  # over: forgotten, the tracker searches again
+
+
 def test_a_wrong_star_joins_the_window_and_is_locked_on_boresight():
     # On this date Rigil Kentaurus is inside the slit's cone about the Sun (voyager1-wrong-star).
     cfg, p, fs = _params('{kind="wrong_star", star="Rigil Kentaurus", start_s=10}',
@@ -194,8 +279,8 @@ def test_a_wrong_star_joins_the_window_and_is_locked_on_boresight():
     x /= np.linalg.norm(x)
     q = quaternion.from_dcm(np.array([x, np.cross(w, x), w]))  # rows: body axes, inertial
     out = np.zeros(3)
-    assert star_tracker(extended, q, out, np.ones(1, dtype=np.uint64)) == k
-    assert star_tracker(p.tracker, q, out, np.ones(1, dtype=np.uint64)) != k
+    assert star_tracker(extended, q, new_lock(), out, np.ones(1, dtype=np.uint64)) == k
+    assert star_tracker(p.tracker, q, new_lock(), out, np.ones(1, dtype=np.uint64)) != k
 
 
 @pytest.mark.parametrize("reg, bit, start, expect", [
@@ -215,24 +300,47 @@ def test_an_upset_flips_exactly_that_bit_once(reg, bit, start, expect):
     assert np.count_nonzero(flat) == (1 if expect else 0)
 
 
-def _actuate(p, fs, valve, kg=1.0):
+def _actuate(p, fs, valve, kg=1.0, feed=1.0):
     """``fault_actuate`` after what jets 39-41 did for ``valve``: (ok, torque, gas used)."""
-    torque = np.array([v * p.jets.torque_n_m[i] for i, v in enumerate(valve)])
-    tank = np.array([kg - sum(abs(v) * f * 0.01 for v, f in zip(valve, p.jets.flow_kg_s))])
+    torque = np.array([v * p.jets.torque_n_m[i] * feed for i, v in enumerate(valve)])
+    tank = np.array([kg - feed * sum(abs(v) * f * 0.01
+                                     for v, f in zip(valve, p.jets.flow_kg_s))])
     ok = sf.fault_actuate(p.faults, fs, 0.0, p.jets, 0.01, np.array(valve, dtype=np.int64),
-                          tank, torque, True)
+                          tank, torque, True, feed)
     return ok, torque, kg - tank[0]
 
 
-def test_a_stuck_open_jet_gives_its_torque_and_uses_its_gas():
-    _, p, fs = _params('{kind="jet_stuck_open", axis="yaw", sign=-1}')
+def test_a_stuck_open_couple_gives_its_torque_and_uses_its_gas():
+    _, p, fs = _params('{kind="jet_stuck_open", axis="yaw", sign=-1}')  # jets = 2
     t_yaw, flow = p.jets.torque_n_m[2], p.jets.flow_kg_s[2] * 0.01
     ok, torque, used = _actuate(p, fs, [0, 0, 0])
     assert ok and torque[2] == -t_yaw and used == pytest.approx(flow)
-    _, torque, used = _actuate(p, fs, [0, 0, 1])  # the opposite jet: the torques cancel
+    _, torque, used = _actuate(p, fs, [0, 0, 1])  # the opposite couple: the torques cancel
     assert torque[2] == 0.0 and used == pytest.approx(2 * flow)
     _, torque, used = _actuate(p, fs, [0, 0, -1])  # already firing that way
     assert torque[2] == -t_yaw and used == pytest.approx(flow)
+    _, p2, fs2 = _params('{kind="jet_stuck_open", axis="yaw", sign=-1, jets=2}')
+    assert _actuate(p2, fs2, [0, 0, 0])[1][2] == -t_yaw  # the default, said
+
+
+def test_one_stuck_jet_gives_half_the_couple_and_the_opposite_couple_still_brakes():
+    """One jet of thrust F at arm r: F r, half the couple's 2 F r, and F / (Isp g0), half
+    its flow. Commanded the other way, the couple's -2 F r and the stuck jet's +F r leave
+    -F r: it still brakes, at half the torque, using one and a half couples' gas."""
+    _, p, fs = _params('{kind="jet_stuck_open", axis="roll", sign=1, jets=1}')
+    f_r = 0.25 * 0.5  # default roll jet: 0.25 N at 0.5 m
+    flow = 0.25 / (65.0 * 9.80665) * 0.01  # one jet, one frame
+    _, torque, used = _actuate(p, fs, [0, 0, 0])
+    assert torque[0] == pytest.approx(f_r, rel=1e-12) and used == pytest.approx(flow, rel=1e-9)
+    _, torque, used = _actuate(p, fs, [-1, 0, 0])
+    assert torque[0] == pytest.approx(-f_r, rel=1e-12)
+    assert used == pytest.approx(3 * flow, rel=1e-9)
+    _, torque, used = _actuate(p, fs, [1, 0, 0])  # the stuck jet is one of the couple firing
+    assert torque[0] == pytest.approx(2 * f_r, rel=1e-12)
+    assert used == pytest.approx(2 * flow, rel=1e-9)
+    _, torque, used = _actuate(p, fs, [0, 0, 0], feed=0.5)  # a blow-down tank at half pressure
+    assert torque[0] == pytest.approx(0.5 * f_r, rel=1e-12)
+    assert used == pytest.approx(0.5 * flow, rel=1e-9)
 
 
 def test_a_failed_jet_gives_nothing_when_commanded():
@@ -245,10 +353,35 @@ def test_a_failed_jet_gives_nothing_when_commanded():
 
 def test_a_leak_drains_the_tank_until_it_is_dry():
     _, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.5}')
-    ok, _, used = _actuate(p, fs, [0, 0, 0])
-    assert ok and used == pytest.approx(0.005)
+    ok, torque, used = _actuate(p, fs, [0, 0, 0])
+    assert ok and used == pytest.approx(0.005) and list(torque) == [0.0, 0.0, 0.0]
     ok, _, _ = _actuate(p, fs, [0, 0, 0], kg=0.004)
     assert not ok
+
+
+def test_a_leak_with_a_torque_turns_the_vehicle_as_euler_says():
+    """A leak of 1 g/s with a torque [0, 0.002, 0] N m on a body at rest, with principal
+    axes along the body axes (no product of inertia): about pitch alone, Euler's equation
+    is I_yy dw/dt = tau, so w(50 s) = 0.002 * 50 / 650 rad/s; the tank loses 0.05 kg. The
+    leak's stage feeds the plant of the frame loop, frame by frame, nothing else acting."""
+    from allsky.sim.frame_loop import advance
+
+    cfg, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.001, torque_n_m=[0, 0.002, 0]}',
+                         extra=("vehicle.inertia_kg_m2=[[100,0,0],[0,650,0],[0,0,680]]",))
+    assert cfg.faults[0]["torque_n_m"] == (0.0, 0.002, 0.0)
+    x = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    tank = np.array([1.0])
+    time_s, frame = np.zeros(1), np.zeros(1, dtype=np.int64)
+    for _ in range(5000):
+        torque = np.zeros(3)
+        assert sf.fault_actuate(p.faults, fs, time_s[0], p.jets, 0.01,
+                                np.zeros(3, dtype=np.int64), tank, torque, True, 1.0)
+        advance(p.plant, 0.01, torque, x, np.zeros(3), time_s, frame, np.zeros(4), np.zeros(1))
+    assert x[5] == pytest.approx(0.002 * 50.0 / 650.0, rel=1e-9)
+    assert x[4] == x[6] == 0.0
+    # The pitch angle turned: w t / 2 over the 50 s (a quaternion's half angle, small).
+    assert 2.0 * x[2] == pytest.approx(0.5 * 0.002 / 650.0 * 50.0 ** 2, rel=1e-6)
+    assert tank[0] == pytest.approx(1.0 - 0.001 * 50.0, abs=1e-12)
 
 
 # -- outcomes -----------------------------------------------------------------------
@@ -272,7 +405,7 @@ def test_complete_with_degraded_figures():
     ('{kind="gyro_dead", axis="yaw", start_mode="6-2"}',
      ("Mode 6-2:", "mode timeout", "yaw gyro dead")),
     ('{kind="jet_stuck_open", axis="roll", sign=1, start_mode="4"}',
-     ("Mode 4:", "+roll jet stuck open")),
+     ("Mode 4:", "+roll jet couple stuck open")),
 ])
 def test_aborts_name_mode_symptom_and_fault(fault, words):
     m, s = _fly(fault)
@@ -286,30 +419,77 @@ def test_aborts_name_mode_symptom_and_fault(fault, words):
         assert r.end_s - r.start_s <= m.mode_timeout_s(r.mode) + 1.0
 
 
-def test_a_wrong_star_points_where_its_geometry_says():
-    """Locked on Avior instead of Canopus, the roll reference turns about the Sun line.
-
-    The programmed angles are Canopus's, so the vehicle points the target's
-    direction turned by the two stars' azimuth difference about the Sun.
-    """
-    m, s = _fly('{kind="wrong_star", star="Avior"}',
-                extra=["mission.date_utc=2026-06-04T00:00:00Z"])
-    assert s["status"] == "complete" and s["locked_star"] == "Avior"
-    assert s["reference_star"] == "Canopus"
-    cfg, d = m.cfg, m.cfg.mission.date_utc
-    sun = m.params.sun0_inertial + m.params.sun_rate_inertial * m.timeline[5].start_s
-    sun /= np.linalg.norm(sun)
-
+def _sun_azimuth_deg(sun, star, reference):
+    """Azimuth [deg] of ``star`` about the Sun line from ``reference``, right-handed."""
     def across(x):
         v = x - (x @ sun) * sun
         return v / np.linalg.norm(v)
-    a = across(sky.star_direction_inertial("Canopus", d))
-    b = across(sky.star_direction_inertial("Avior", d))
-    dphi = math.atan2(np.cross(a, b) @ sun, a @ b)
+    a, b = across(reference), across(star)
+    return math.degrees(math.atan2(np.cross(a, b) @ sun, a @ b))
+
+
+def test_a_wrong_star_met_first_points_where_its_geometry_says():
+    """On the default date Avior crosses the slit 5.83 deg of roll before Canopus: Mode 2
+    locks it, the tracker holds it, and Mode 4's roll, leaving it, meets Canopus, loses it
+    and meets Avior again after 360 deg: the calibration is right, the reference is not.
+
+    The programmed angles are Canopus's, so the vehicle points the target's direction
+    turned about the Sun by the two stars' azimuth difference dphi:
+    2 asin(sin(dphi/2) sin(theta)), theta the Sun-target angle.
+    """
+    m, s = _fly('{kind="wrong_star", star="Avior"}')
+    assert s["status"] == "complete" and s["locked_star"] == "Avior"
+    assert s["reference_star"] == "Canopus"
+    locks = [e["star"] for e in s["events"] if e["kind"] == "star_lock"]
+    assert locks[:4] == ["Avior", "Canopus", None, "Avior"]  # Mode 2, then Mode 4's roll
+    assert m.counted_arcsec["roll"][0] == pytest.approx(360.0 * 3600.0, rel=3e-3)
+    cfg, d = m.cfg, m.cfg.mission.date_utc
+    sun = m.params.sun0_inertial + m.params.sun_rate_inertial * m.timeline[5].start_s
+    sun /= np.linalg.norm(sun)
+    dphi = math.radians(_sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
+                                         sky.star_direction_inertial("Canopus", d)))
+    assert abs(math.degrees(dphi)) == pytest.approx(5.83, abs=0.01)
     theta = math.acos(sun @ sky.star_direction_inertial(cfg.target.star, d))
     predicted = 2 * math.asin(abs(math.sin(dphi / 2)) * math.sin(theta)) / ARCSEC2RAD
-    assert predicted > 20000
+    assert predicted > 15000
     assert s["target"]["pointing_error_arcsec"] == pytest.approx(predicted, abs=50)
+
+
+def test_a_wrong_star_met_after_canopus_ends_the_calibration_roll():
+    """On 2026-06-04 Canopus is met first and locked; Avior lies 9.46 deg of roll on. The
+    tracker holds Canopus as Mode 4's roll starts, loses it past the slit's edge and
+    takes Avior, in the slit by then: the roll ends after 9.46 deg, which calibration
+    sequencer 19 takes for 360 deg, and Mode 6-1's roll loop, 38 times too stiff, never
+    settles. (The nearest-star rule this tracker had before let Canopus win back the
+    slit and rescued the calibration; a slit tracker does not.)"""
+    m, s = _fly('{kind="wrong_star", star="Avior"}',
+                extra=["mission.date_utc=2026-06-04T00:00:00Z"])
+    assert s["status"] == "aborted" and s["abort_reason"].startswith("Mode 6-1:")
+    locks = [e["star"] for e in s["events"] if e["kind"] == "star_lock"]
+    assert locks[:2] == ["Canopus", "Avior"]
+    d = m.cfg.mission.date_utc
+    sun = sky.sun_direction_inertial(d)
+    dphi = _sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
+                            sky.star_direction_inertial("Canopus", d))
+    assert abs(dphi) == pytest.approx(9.46, abs=0.01)
+    # Counter 14 holds the roll from Canopus to Avior, as the roll gyro (+1500 ppm) reads it.
+    assert m.counted_arcsec["roll"][0] == pytest.approx(abs(dphi) * 3600.0 * 1.0015, abs=60.0)
+
+
+def test_the_cone_angle_check_refuses_the_wrong_star_and_the_mission_flies_as_without_it():
+    """Avior's cone angle (+6.8 deg) is 16.8 deg from Canopus's (-9.95): with a 2 deg check
+    Mode 2 and Mode 4 refuse it (journaled) and lock Canopus; the flight is the fault-free
+    one's, frame for frame after the refusals (the refusal draws no noise)."""
+    check = "star_tracker.cone_angle_check_deg=2"
+    _, s = _fly('{kind="wrong_star", star="Avior"}', extra=[check])
+    clean = Mission(load_scenario(overrides=[check]), telemetry=False).run()
+    assert s["status"] == "complete" and s["locked_star"] == "Canopus"
+    assert s["target"]["pointing_error_arcsec"] == clean["target"]["pointing_error_arcsec"]
+    refused = [e for e in s["events"] if e["kind"] == "lock_rejected"]
+    assert [(e["mode"], e["star"]) for e in refused] == [("2", "Avior"), ("4", "Avior")]
+    assert refused[0]["cone_angle_deg"] == pytest.approx(6.83, abs=0.01)
+    assert refused[0]["reference_cone_angle_deg"] == pytest.approx(-9.95, abs=0.01)
+    assert refused[0]["check_deg"] == 2.0
 
 
 # -- the matrix, the dispersion, the packaged scenarios -----------------------------
@@ -345,8 +525,8 @@ def test_faults_are_dispersed_with_a_probability_and_an_onset():
 
 def test_packaged_scenarios_are_listed_and_run_by_name(capsys):
     names = {e["name"] for e in packaged_scenarios()}
-    assert {"voyager1-wrong-star", "mariner4-star-hopping", "stuck-jet-roll-calibration",
-            "gyro-failure-to-target"} <= names
+    assert {"voyager1-wrong-star", "mariner4-star-hopping", "mariner4-dust-glints",
+            "stuck-jet-roll-calibration", "gyro-failure-to-target"} <= names
     for name in names:
         load_scenario(name)
     assert main(["scenarios"]) == 0

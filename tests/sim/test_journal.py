@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from allsky.config.faults import describe
-from allsky.hardware.star_tracker import FALSE_TARGET
+from allsky.hardware import star_tracker as trk
+from allsky.hardware.star_tracker import FALSE_TARGET, new_lock
 from allsky.sim import journal as J
 
 WHEELS, FAULTS = 4, 2
@@ -23,7 +24,8 @@ def buffer():
 def decoder():
     faults = [{"kind": "tracker_dropout", "duration_s": 5.0},
               {"kind": "gyro_dead", "axis": "pitch"}]
-    return J.Decoder(["Canopus", "Avior"], faults, describe, 0.0025)
+    return J.Decoder(["Canopus", "Avior"], faults, describe, 0.0025, reference_cone_deg=-9.95,
+                     cone_check_deg=2.0, gate_magnitude=-2.88)
 
 
 def drained(buf, n, mode="2"):
@@ -37,7 +39,8 @@ def test_the_star_in_the_slit_is_journaled_at_each_change_only():
     overflow = np.zeros(6, dtype=np.int64)
     stars = [-1, -1, 0, 0, 0, -1, 1, FALSE_TARGET, -1]
     for k, star in enumerate(stars):
-        J.note_frame(buf, n, seen, 0.01 * k, star, 1.0, -36000.0 * (star >= 0), overflow)
+        J.note_frame(buf, n, seen, 0.01 * k, star, 1.0, -36000.0 * (star >= 0), overflow,
+                     new_lock())
     j = drained(buf, n)
     assert [(e["t_s"], e["star"], e["previous"]) for e in j.events] == [
         (0.02, "Canopus", None), (0.05, None, "Canopus"), (0.06, "Avior", None),
@@ -45,6 +48,33 @@ def test_the_star_in_the_slit_is_journaled_at_each_change_only():
     assert j.events[0]["cone_angle_deg"] == pytest.approx(-10.0) and j.events[0]["in_use"]
     assert j.events[1]["cone_angle_deg"] is None
     assert n[0] == 0 and not buf.any()  # drained and empty
+
+
+def test_a_refusal_and_a_drop_are_journaled_in_the_frame_the_tracker_flags_them():
+    """The tracker flags a refusal (cone-angle check) or a drop (bright gate) for one
+    frame; each becomes one entry with the values of that frame."""
+    buf, n, seen = buffer()
+    overflow = np.zeros(6, dtype=np.int64)
+    for k in range(6):
+        lock = new_lock()
+        if k == 1:
+            lock[trk.NEW_REFUSAL] = 1  # Avior
+            lock[trk.REFUSED_CONE_ARCSEC] = 6.83 * 3600.0
+        if k == 2:
+            lock[trk.NEW_REFUSAL] = FALSE_TARGET
+            lock[trk.REFUSED_CONE_ARCSEC] = 0.0
+        if k == 4:
+            lock[trk.NEW_DROP] = 0  # Canopus, in a slit of -4.1 mag
+            lock[trk.SEEN_MAG] = -4.1
+        J.note_frame(buf, n, seen, float(k), -1, 1.0, 0.0, overflow, lock)
+    j = drained(buf, n)
+    assert [(e["t_s"], e["kind"], e["star"]) for e in j.events] == [
+        (1.0, "lock_rejected", "Avior"), (2.0, "lock_rejected", "stray light"),
+        (4.0, "lock_dropped", "Canopus")]
+    assert j.events[0]["cone_angle_deg"] == pytest.approx(6.83)
+    assert j.events[0]["reference_cone_angle_deg"] == -9.95 and j.events[0]["check_deg"] == 2.0
+    assert j.events[2]["magnitude"] == pytest.approx(-4.1)
+    assert j.events[2]["gate_magnitude"] == -2.88 and j.events[2]["in_use"]
 
 
 def test_each_overflow_latch_is_journaled_once():
@@ -55,7 +85,7 @@ def test_each_overflow_latch_is_journaled_once():
             overflow[1] = 1  # counter 16
         if k == 6:
             overflow[3] = 1  # drift counter 13
-        J.note_frame(buf, n, seen, float(k), -1, 0.0, 0.0, overflow)
+        J.note_frame(buf, n, seen, float(k), -1, 0.0, 0.0, overflow, new_lock())
     j = drained(buf, n)
     assert [(e["t_s"], e["block"], e["axis"]) for e in j.events] == [
         (3.0, "16", "pitch"), (6.0, "13", "roll")]
@@ -110,7 +140,7 @@ def test_a_full_buffer_counts_what_it_lost():
     buf, n, seen = buffer()
     overflow = np.zeros(6, dtype=np.int64)
     for k in range(J.ROWS + 7):  # a change every frame
-        J.note_frame(buf, n, seen, float(k), k % 2, 0.0, 0.0, overflow)
+        J.note_frame(buf, n, seen, float(k), k % 2, 0.0, 0.0, overflow, new_lock())
     assert n[0] == J.ROWS and n[1] == 7
     j = drained(buf, n)
     assert len(j) == J.ROWS and j.lost == 7 and n[1] == 0

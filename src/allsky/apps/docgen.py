@@ -211,7 +211,12 @@ def step_text(step, cfg, mode) -> str:
         return _operate_text(step)
     if isinstance(step, modes.Wait):
         return _wait_text(step, cfg, mode)
-    return modes.action_text(step)
+    text = modes.action_text(step)
+    if step.when:
+        text = f"only when {modes.CONDITIONS[step.when][0]}: {text}"
+    if step.retry:
+        text += f"; with `sequencer.recovery`, {modes.retry_text(step)}"
+    return text
 
 
 def mode_reference() -> str:

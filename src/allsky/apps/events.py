@@ -95,6 +95,13 @@ def event_text(e) -> str:
         where = f" at cone angle {e['cone_angle_deg']:+.2f} deg"
         use = " (in use)" if e.get("in_use") else ""
         return f"tracker: {e['star']} in the slit{where}{use}"
+    if kind == "lock_rejected":
+        return (f"tracker: {e['star']} refused at cone angle {e['cone_angle_deg']:+.2f} deg, "
+                f"{abs(e['cone_angle_deg'] - e['reference_cone_angle_deg']):.2f} deg from "
+                f"the reference star's (check {e['check_deg']:g} deg)")
+    if kind == "lock_dropped":
+        return (f"tracker: {e['star']} dropped, the slit at {e['magnitude']:+.2f} mag, brighter "
+                f"than the gate ({e['gate_magnitude']:+.2f} mag)")
     if kind == "saturation":
         state = "" if e["active"] else " ends"
         if e["what"] == "drift_dac_clip":
@@ -163,8 +170,10 @@ def page_log(events) -> list:
         elif kind == "abort":
             continue  # the aborted mode's row says it
         else:
-            row["reason"] = {"star_lock": "the star tracker", "saturation": "a saturation",
-                             "fault": "an injected fault"}[kind]
+            row["reason"] = {"star_lock": "the star tracker",
+                             "lock_rejected": "the tracker's cone-angle check",
+                             "lock_dropped": "the tracker's bright gate",
+                             "saturation": "a saturation", "fault": "an injected fault"}[kind]
         out.append(row)
     return out
 

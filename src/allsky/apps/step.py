@@ -56,7 +56,8 @@ def _sensor_view(m):
     sun_b = quaternion.dcm_body_from_inertial(s.x[0:4]) @ sun_i
     fine, trk = np.zeros(3), np.zeros(3)
     _py(sun_sensor)(p.sun._replace(noise_arcsec=0.0), sun_b, fine, gauss.new_generator())
-    _py(star_tracker)(p.tracker._replace(noise_arcsec=0.0), s.x, trk, gauss.new_generator())
+    _py(star_tracker)(p.tracker._replace(noise_arcsec=0.0), s.x, s.tracker_lock.copy(), trk,
+                      gauss.new_generator())  # on a copy of its memory: looking changes nothing
     return fine, trk
 
 

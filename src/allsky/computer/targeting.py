@@ -39,6 +39,16 @@ def programmed_angles_deg(sun_inertial, star_inertial, target_inertial) -> tuple
     The turns start from the reference attitude.
     """
     t = reference_frame(sun_inertial, star_inertial) @ np.asarray(target_inertial, dtype=float)
+    return angles_to_deg(t)
+
+
+def angles_to_deg(direction) -> tuple:
+    """(roll, yaw) [deg] carrying +x onto ``direction`` (in the start frame).
+
+    A roll about +x, then a yaw about the rolled +z; of the two solutions the
+    one with ``|roll| <= 90 deg``.
+    """
+    t = np.asarray(direction, dtype=float)
     t = t / np.linalg.norm(t)
     phi = math.atan2(t[2], t[1])
     psi = math.atan2(math.hypot(t[1], t[2]), t[0])
@@ -56,3 +66,49 @@ def pointing_direction(roll_deg, yaw_deg) -> np.ndarray:
     phi, psi = roll_deg * units.DEG2RAD, yaw_deg * units.DEG2RAD
     return np.array([math.cos(psi), math.sin(psi) * math.cos(phi),
                      math.sin(psi) * math.sin(phi)])
+
+
+def attitude_after(roll_deg, yaw_deg) -> np.ndarray:
+    """The body axes after the roll-then-yaw manoeuvre, as columns, in the start frame.
+
+    The roll turns the frame about +x, the yaw about the rolled +z:
+    ``Rx(roll) Rz(yaw)``; its first column is :func:`pointing_direction`.
+    """
+    phi, psi = roll_deg * units.DEG2RAD, yaw_deg * units.DEG2RAD
+    cf, sf, cp, sp = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cf, -sf], [0.0, sf, cf]])
+    rz = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]])
+    return rx @ rz
+
+
+def turn_to_deg(body_axes, to_roll_deg, to_yaw_deg) -> tuple:
+    """The turn from the attitude held to a target given by its programmed angles.
+
+    ``body_axes`` are the body axes held, as columns in the reference frame
+    the programmed angles are measured from (:func:`attitude_after` of the
+    first target's angles, then of each turn flown). The target,
+    :func:`pointing_direction` of ``to_roll_deg`` and ``to_yaw_deg``, is
+    reached by a roll about the current +x and a yaw about the rolled +z
+    (:func:`angles_to_deg` in the current body frame). This is the
+    arithmetic CPU 22 would do (products and sums of sines and cosines) to
+    go from target to target without the Sun and the star.
+
+    Returns ``(roll_deg, yaw_deg, body_axes_after)``: the turn, and the body
+    axes it leaves the vehicle in (``body_axes @ attitude_after(roll, yaw)``).
+    A target reached this way has its +x where its programmed angles say,
+    but not in general their roll about it.
+    """
+    body = np.asarray(body_axes, dtype=float)
+    roll, yaw = angles_to_deg(body.T @ pointing_direction(to_roll_deg, to_yaw_deg))
+    return roll, yaw, body @ attitude_after(roll, yaw)
+
+
+def turn_between_deg(from_roll_deg, from_yaw_deg, to_roll_deg, to_yaw_deg) -> tuple:
+    """(roll, yaw) [deg] from a target reached by its programmed angles to the next.
+
+    Both pairs are measured from the same reference attitude; the vehicle on
+    the first target has the body axes :func:`attitude_after` of its angles
+    (:func:`turn_to_deg`).
+    """
+    return turn_to_deg(attitude_after(from_roll_deg, from_yaw_deg), to_roll_deg,
+                       to_yaw_deg)[:2]

@@ -149,7 +149,8 @@ def plan_durations_s(v) -> dict:
     :data:`DITHER_SETTLE_ALLOWANCE_S`; a hold on target (`target.hold_s` > 0), flown after
     either plan, its hold and :data:`HOLD_TIMEOUT_ALLOWANCE_S`. Each further target of
     `target.sequence` adds Modes 1, 2, 6-1, 6-2 and the hold
-    (`sequencer.between_targets = "reacquire"`) or the whole plan again ("recycle")."""
+    (`sequencer.between_targets = "reacquire"`), the whole plan again ("recycle"), or the
+    direct roll (allowed Mode 6-1's timeout), Mode 6-2 and the hold ("direct")."""
     t = v["sequencer.timeout_s"]
     hold = v["target.hold_s"] + HOLD_TIMEOUT_ALLOWANCE_S if v["target.hold_s"] > 0 else 0.0
     legacy = math.fsum([*(t[m] for m in MODE_KEYS), hold])
@@ -160,6 +161,9 @@ def plan_durations_s(v) -> dict:
     if further:
         if v["sequencer.between_targets"] == "recycle":
             legacy, dither = legacy * (1 + further), dither * (1 + further)
+        elif v["sequencer.between_targets"] == "direct":
+            again = further * math.fsum([*(t[m] for m in ("6-1", "6-2")), hold])
+            legacy, dither = legacy + again, dither + again
         else:
             again = further * math.fsum([*(t[m] for m in ("1", "2", "6-1", "6-2")), hold])
             legacy, dither = legacy + again, dither + again
@@ -253,9 +257,19 @@ def _reference_star_in_window(v):
                           f"[{lo:g}, {hi:g}]: the tracker could never lock it")
 
 
+def _blowdown_pressures(v):
+    """`jets.tank_pressure_final_bar` < `jets.tank_pressure_initial_bar` (the tank empties)."""
+    p0, pf = v["jets.tank_pressure_initial_bar"], v["jets.tank_pressure_final_bar"]
+    if not pf < p0:
+        raise ConfigError("jets.tank_pressure_final_bar", pf,
+                          f"must be < jets.tank_pressure_initial_bar ({p0:g} bar): the "
+                          "pressure falls as the gas is used")
+
+
 #: Cross-key rules, in the order they are checked.
 CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
                _dither_sampling, _dither_record, _fft_whole_periods, _one_limit_per_wheel,
                _unload_hysteresis, _converters_follow_the_turns,
                _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
-               _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window)
+               _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window,
+               _blowdown_pressures)

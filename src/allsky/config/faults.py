@@ -11,7 +11,10 @@ when it starts::
 The kinds (:data:`KINDS`) and the fields each needs:
 
 * ``jet_stuck_open``, ``jet_failed_off``: ``axis`` and ``sign`` (+1 or -1,
-  the jet of that axis's couple that fires the positive or negative way);
+  the couple of that axis that fires the positive or negative way); a stuck
+  couple may give ``jets``: 2 (the default: both jets of the couple, a
+  shared valve driver stuck on, the couple's whole torque) or 1 (one jet,
+  half the torque, and the opposite couple can still brake against it);
 * ``gyro_stuck`` (output frozen at its value at the onset), ``gyro_dead``
   (output zero): ``axis``; ``gyro_bias_step``: ``axis``, ``size_deg_h``;
   ``gyro_scale_factor_step``: ``axis``, ``size_ppm``;
@@ -19,12 +22,17 @@ The kinds (:data:`KINDS`) and the fields each needs:
   (star tracker 105 sees no star): no field;
 * ``tracker_stray_light``: ``offset_deg``, where a false target sits in the
   tracker's field (its yaw output, body-fixed: a glint off dust or the
-  vehicle), within the narrow half-field;
+  vehicle), within the narrow half-field; optional ``magnitude``, its
+  brightness [mag]: without it the tracker follows the glint whatever it
+  holds; with it the glint is one more light in the slit (locked only when
+  the tracker holds nothing and the glint is inside the magnitude window,
+  and added to the light the bright gate judges);
 * ``wrong_star``: ``star``, a catalog star the magnitude window also passes;
 * ``counter_upset``: ``register`` (the numeral as a string: "13"-"18" up/down
   and drift counters, "25"-"27" storage registers) and ``bit`` (0 = least
   significant, below the word length): the bit flips once, at the onset;
-* ``propellant_leak``: ``rate_kg_s``.
+* ``propellant_leak``: ``rate_kg_s``; optional ``torque_n_m``, the body torque
+  [roll, pitch, yaw] the escaping gas gives while the tank leaks (none if absent).
 
 ``start_s`` [s] (mission time) or ``start_mode`` (a mode name: the fault
 starts when that mode starts) gives the onset; neither means ``start_s =
@@ -54,6 +62,7 @@ from allsky.config.rules import (
     in_closed,
     number,
     type_name,
+    vector,
 )
 from allsky.config.schema import DEFAULT_SCENARIO_PATH
 from allsky.vocabulary import AXES, FAULT_KINDS
@@ -62,10 +71,12 @@ from allsky.vocabulary import AXES, FAULT_KINDS
 MAX_FAULTS = 8
 #: Fault kind -> the fields it needs beyond the timing (in this order): the vocabulary's.
 KINDS = {k.name: k.fields for k in FAULT_KINDS}
+#: Fault kind -> the fields it may have beyond those (absent: the behaviour without them).
+OPTIONAL = {k.name: k.optional for k in FAULT_KINDS}
 TIMING = ("start_s", "start_mode", "duration_s")
 #: Modes a fault may start with: the patent's, the hold on target, the moves to a next
 #: target, the dither mode (:func:`check_plan`: only those the mission flies).
-START_MODES = (*MODE_KEYS, "hold", "reacquire", "recycle", "dither")
+START_MODES = (*MODE_KEYS, "hold", "reacquire", "recycle", "direct", "dither")
 #: Counter or register numeral -> the scenario key giving its word length [bit].
 REGISTER_BITS_KEY = {
     **dict.fromkeys(("13", "15", "17"), "electronics.drift_counter_bits"),
@@ -76,6 +87,10 @@ REGISTER_BITS_KEY = {
 BIAS_STEP_MAX_DEG_H = 3600.0
 SCALE_STEP_MAX_PPM = 1e6
 LEAK_MAX_KG_S = 1.0
+#: [N m] largest leak torque per axis (a leak of 1 kg/s at Isp 65 s thrusts 640 N).
+LEAK_TORQUE_MAX_N_M = 100.0
+#: [mag] brightest and faintest glint a stray-light fault may give (the Sun is -26.7).
+GLINT_MAG_RANGE = (-30.0, 30.0)
 DISPERSION_DIST = "fault"
 
 
@@ -116,16 +131,17 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
         raise ConfigError(f"{where}.kind", rule=f"missing: one of {_quoted(KINDS)}")
     _string(f"{where}.kind", kind, tuple(KINDS))
     need = KINDS[kind]
+    may = OPTIONAL[kind]
     for k in entry:
-        if k not in ("kind", *need, *TIMING):
+        if k not in ("kind", *need, *may, *TIMING):
             raise ConfigError(f"{where}.{k}", entry[k], f'unknown field for kind = "{kind}"; '
-                              f"valid: {', '.join((*need, *TIMING))}")
+                              f"valid: {', '.join((*need, *may, *TIMING))}")
     for k in need:
         if k not in entry:
             raise ConfigError(f"{where}.{k}", rule=f'missing: kind = "{kind}" needs '
                               f"{', '.join(need)}")
     out = {"kind": kind}
-    for k in need:
+    for k in (*need, *(m for m in may if m in entry)):
         key, v = f"{where}.{k}", entry[k]
         if k == "axis":
             out[k] = _string(key, v, AXES)
@@ -148,6 +164,14 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
             reg = out["register"]
             out[k] = _bit(key, v, values[REGISTER_BITS_KEY[reg]],
                           f"{'register' if reg >= '25' else 'counter'} {reg}")
+        elif k == "jets":
+            if isinstance(v, bool) or v not in (1, 2, 1.0, 2.0):
+                raise ConfigError(key, v, "must be 1 (one jet of the couple) or 2 (both)")
+            out[k] = int(v)
+        elif k == "torque_n_m":
+            out[k] = vector(3, in_closed(-LEAK_TORQUE_MAX_N_M, LEAK_TORQUE_MAX_N_M))(key, v)
+        elif k == "magnitude":
+            out[k] = number(in_closed(*GLINT_MAG_RANGE))(key, v)
         elif k == "rate_kg_s":
             out[k] = number(POSITIVE, in_closed(0, LEAK_MAX_KG_S))(key, v)
     if "start_s" in entry and "start_mode" in entry:
@@ -190,7 +214,7 @@ def _scenario_flies(key, mode, values):
     if mode == "hold" and not values["target.hold_s"] > 0:
         raise ConfigError(key, mode, "the mission flies no hold on target: set target.hold_s "
                           "> 0, or start the fault in another mode")
-    if mode in ("reacquire", "recycle"):
+    if mode in ("reacquire", "recycle", "direct"):
         seq = values.get("target.sequence") or ()
         how = values["sequencer.between_targets"]
         if len(seq) < 2 or how != mode:
@@ -267,7 +291,8 @@ def describe(fault: Mapping) -> str:
     axis = fault.get("axis", "")
     sign = "+" if fault.get("sign", 1) > 0 else "-"
     return {
-        "jet_stuck_open": f"{sign}{axis} jet stuck open",
+        "jet_stuck_open": (f"one {sign}{axis} jet stuck open" if fault.get("jets") == 1
+                           else f"{sign}{axis} jet couple stuck open"),
         "jet_failed_off": f"{sign}{axis} jet failed off",
         "gyro_stuck": f"{axis} gyro stuck",
         "gyro_dead": f"{axis} gyro dead",
@@ -275,10 +300,14 @@ def describe(fault: Mapping) -> str:
         "gyro_scale_factor_step": f"{axis} gyro scale step {fault.get('size_ppm', 0):+g} ppm",
         "sun_sensor_blind": "sun sensor blind",
         "tracker_dropout": "tracker dropout",
-        "tracker_stray_light": f"stray light {fault.get('offset_deg', 0):g} deg off boresight",
+        "tracker_stray_light": (f"stray light {fault.get('offset_deg', 0):g} deg off boresight"
+                                + (f", magnitude {fault['magnitude']:+g}"
+                                   if "magnitude" in fault else "")),
         "wrong_star": f"wrong star {fault.get('star', '')}",
         "counter_upset": f"bit {fault.get('bit', 0)} of {fault.get('register', '')} upset",
-        "propellant_leak": f"propellant leak {fault.get('rate_kg_s', 0):g} kg/s",
+        "propellant_leak": (f"propellant leak {fault.get('rate_kg_s', 0):g} kg/s"
+                            + (" with torque [" + ", ".join(f"{t:g}" for t in fault["torque_n_m"])
+                               + "] N m" if "torque_n_m" in fault else "")),
     }[kind]
 
 

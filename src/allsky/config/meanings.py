@@ -18,7 +18,7 @@ UNIT_SUFFIXES = (
     ("_deg_s", "deg/s"), ("_arcsec", "arcsec"), ("_urad", "urad"), ("_ppm", "ppm"),
     ("_n_m_s", "N m s"), ("_n_m", "N m"), ("_kg_m2", "kg m^2"), ("_kg", "kg"), ("_deg", "deg"), ("_per_s", "1/s"), ("_pps", "pulse/s"),
     ("_frames", "frames"), ("_bits", "bit"), ("_utc", "UTC"), ("_s", "s"), ("_n", "N"),
-    ("_m", "m"), ("_v", "V"),
+    ("_m", "m"), ("_v", "V"), ("_bar", "bar"),
 )
 SPECIAL_UNITS = {"star_tracker.magnitude_window": "mag", "target.ra_deg": "deg",
                  "sequencer.timeout_s": "s"}

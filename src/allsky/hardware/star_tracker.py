@@ -1,4 +1,4 @@
-"""Star tracker 105 on the +z (yaw) axis.
+"""Star tracker 105 on +z (yaw): a slit tracker that holds the star it locked.
 
 The tracker reports, in arcsec, the rotations that would bring its boresight
 (+z) onto the tracked star ``s`` (unit vector, body axes)::
@@ -8,15 +8,38 @@ The tracker reports, in arcsec, the rotations that would bring its boresight
 
 Its field of view is a slit: long (``fov_long_half``) in the pitch direction,
 since the Sun-Canopus angle varies by about +-14 deg over a year, narrow
-(``fov_narrow_half``) across. Only stars inside the magnitude window reach
-the kernel (the window is applied once, before flight, by
-:func:`allsky.sim.mission` from the catalog); of those in the field, the one
-nearest the boresight is tracked. "Star present" flags a lock, and the
-tracker tells which star it holds (its index in ``stars_inertial``): the
-programmed angles assume a planned star, and a window that passes two stars
-can lock the other one.
+(``fov_narrow_half``) across. The pitch output is the star's *cone angle*,
+its place along the slit: with the roll axis on the Sun it is 90 deg less
+the star's angle from the Sun, whatever the roll (Canopus -9.95 deg on the
+default date).
+
+Only stars inside the magnitude window reach the kernel (the window is
+applied once, before flight, by :func:`allsky.sim.mission.build_params`
+from the catalog). The tracker has a memory, ``lock`` (:func:`new_lock`):
+
+* **Lock and hold.** With nothing held, it searches: it locks the first
+  window star found in the slit (of several found in the same frame, the
+  one nearest the boresight) and then tracks that star, and no other,
+  until the star leaves the field or the tracker loses it (a dropout, a
+  glint, the bright gate: :mod:`allsky.sim.faults`); only then does it
+  search again. A second window star entering the slit does not take the
+  lock.
+* **Cone-angle check** (``cone_check_rad`` > 0; beyond the patent, off by
+  default). A star found in the search whose cone angle differs from the
+  planned reference star's (``reference_cone_rad``) by more than the check
+  is refused: the tracker does not lock it, remembers it (up to
+  :data:`N_REFUSED` at once) and ignores it until it leaves the field, and
+  the search goes on. Mariner 4's operators told Canopus from other objects
+  by brightness and cone angle in the same way. The check is armed only
+  while the roll axis is held on the Sun (``cone_armed``), where the pitch
+  output is the cone angle.
+
+"Star present" flags a lock, and the tracker tells which star it holds
+(its index in ``stars_inertial``): the programmed angles assume a planned
+star, and a window that passes two stars can lock the other one.
 """
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -28,6 +51,21 @@ from allsky.units import RAD2ARCSEC
 #: What the tracker holds when it holds no star of the catalog but a false target (a glint
 #: of stray light): its index is neither a star's nor -1 (nothing in the slit).
 FALSE_TARGET = -2
+#: No target (nothing held, nothing refused, no event in ``lock``).
+NONE = -1
+#: Stars the cone-angle check remembers as refused at once (a slit +-16 x +-8 deg rarely
+#: holds more than two window stars; a fifth refusal replaces the first).
+N_REFUSED = 4
+# Entries of the tracker's memory ``lock`` (State.tracker_lock), all float64.
+HELD = 0  #: the target held: a star's index, NONE, or FALSE_TARGET (a glint)
+REFUSED = 1  #: N_REFUSED slots: stars refused by the cone-angle check, still in the field
+NEW_REFUSAL = REFUSED + N_REFUSED  #: the target refused in this frame (NONE: none)
+REFUSED_CONE_ARCSEC = NEW_REFUSAL + 1  #: [arcsec] its cone angle (pitch output)
+GATE = REFUSED_CONE_ARCSEC + 1  #: 1.0 while the light in the slit exceeds the bright gate
+DROPPED = GATE + 1  #: the target the bright gate last took the lock from
+NEW_DROP = DROPPED + 1  #: the target the bright gate took the lock from in this frame (NONE)
+SEEN_MAG = NEW_DROP + 1  #: [mag] the light in the slit when the gate took the lock
+N_LOCK = SEEN_MAG + 1
 
 
 class StarTrackerParams(NamedTuple):
@@ -37,41 +75,166 @@ class StarTrackerParams(NamedTuple):
     fov_narrow_half_rad: float  #: [rad] half field across (tracker yaw direction)
     noise_arcsec: float  #: [arcsec] 1-sigma white noise per output per frame
     stars_inertial: np.ndarray  #: [-] (n, 3) unit vectors of the stars inside the magnitude window
+    magnitudes: np.ndarray  #: [mag] (n,) visual magnitude of each of those stars
+    window_bright_mag: float  #: [mag] the magnitude window's bright end
+    window_faint_mag: float  #: [mag] its faint end
+    reference_cone_rad: float  #: [rad] cone angle of the planned reference star
+    cone_check_rad: float  #: [rad] refuse a lock this far from it; 0 = no check
+    #: [mag] the lock is dropped while the slit is brighter than this; -inf = no gate
+    bright_gate_mag: float
+
+
+def make_params(fov_long_half_rad, fov_narrow_half_rad, noise_arcsec, stars_inertial,
+                magnitudes=None, window_mag=(-math.inf, math.inf), reference_cone_rad=0.0,
+                cone_check_rad=0.0, bright_gate=False) -> StarTrackerParams:
+    """:class:`StarTrackerParams` from the field, the noise and the stars.
+
+    Parameters
+    ----------
+    fov_long_half_rad, fov_narrow_half_rad : float
+        [rad] half fields along and across the slit.
+    noise_arcsec : float
+        [arcsec] white noise per output per frame (1 sigma).
+    stars_inertial : array_like
+        (n, 3) unit vectors of the stars the window passes.
+    magnitudes : array_like, optional
+        [mag] their visual magnitudes (default: all at the window's faint end, or 0).
+    window_mag : tuple of float
+        [mag] the magnitude window, (bright end, faint end).
+    reference_cone_rad : float
+        [rad] cone angle of the planned reference star (90 deg less its angle from the Sun).
+    cone_check_rad : float
+        [rad] refuse a lock whose cone angle is further than this from it; 0 = no check.
+    bright_gate : bool
+        Drop the lock while the light in the slit is brighter than the window's bright end.
+    """
+    stars = np.ascontiguousarray(np.asarray(stars_inertial, dtype=float).reshape(-1, 3))
+    bright, faint = float(window_mag[0]), float(window_mag[1])
+    if magnitudes is None:
+        magnitudes = np.full(stars.shape[0], faint if math.isfinite(faint) else 0.0)
+    mags = np.ascontiguousarray(np.asarray(magnitudes, dtype=float).reshape(-1))
+    if mags.shape[0] != stars.shape[0]:
+        raise ValueError(f"{stars.shape[0]} stars but {mags.shape[0]} magnitudes")
+    return StarTrackerParams(float(fov_long_half_rad), float(fov_narrow_half_rad),
+                             float(noise_arcsec), stars, mags, bright, faint,
+                             float(reference_cone_rad), float(cone_check_rad),
+                             bright if bright_gate else -math.inf)
+
+
+def new_lock() -> np.ndarray:
+    """The tracker's memory before its first frame: nothing held, refused or seen."""
+    lock = np.full(N_LOCK, float(NONE))
+    lock[GATE] = 0.0
+    lock[REFUSED_CONE_ARCSEC] = 0.0
+    lock[SEEN_MAG] = 0.0
+    return lock
+
+
+def cone_angle_deg(sun_star_angle_deg) -> float:
+    """The cone angle [deg] of a star this far from the Sun, the roll axis on the Sun.
+
+    The pitch output ``atan2(s_x, s_z)`` of a star at zero yaw, ``s_x = cos
+    theta`` along the roll axis and ``s_z = sin theta``: 90 deg - theta.
+    ``sun_star_angle_deg`` is theta [deg].
+    """
+    return 90.0 - float(sun_star_angle_deg)
+
+
+def seen_magnitude(magnitudes) -> float:
+    """The magnitude of the light of several sources together (fluxes add).
+
+    ``magnitudes`` are their visual magnitudes; with none the slit is dark
+    (+inf).
+    """
+    flux = math.fsum(10.0 ** (-0.4 * m) for m in magnitudes)
+    return -2.5 * math.log10(flux) if flux > 0 else math.inf
 
 
 @njit
-def star_tracker(p, q, out, rng):
+def _sight(p, r0, r1, r2, k):
+    """``(in_field, yaw, pitch)`` [rad] of star ``k`` for the body rows ``r0, r1, r2``."""
+    a, b, c = p.stars_inertial[k, 0], p.stars_inertial[k, 1], p.stars_inertial[k, 2]
+    sz = r2[0] * a + r2[1] * b + r2[2] * c
+    if sz <= 0.0:
+        return False, 0.0, 0.0
+    sx = r0[0] * a + r0[1] * b + r0[2] * c
+    sy = r1[0] * a + r1[1] * b + r1[2] * c
+    yaw = np.arctan2(-sy, sz)
+    pitch = np.arctan2(sx, sz)
+    inside = abs(yaw) <= p.fov_narrow_half_rad and abs(pitch) <= p.fov_long_half_rad
+    return inside, yaw, pitch
+
+
+@njit
+def star_tracker(p, q, lock, out, rng, cone_armed=True):
     """Outputs of star tracker 105 for attitude ``q``, written into ``out``.
 
-    ``out = [yaw_arcsec, pitch_arcsec, present]``. Returns the index of the
-    tracked star in ``p.stars_inertial``, -1 when none is in the field.
+    ``out = [yaw_arcsec, pitch_arcsec, present]``; ``lock`` is the tracker's
+    memory (:func:`new_lock`), updated: the star it holds, the stars the
+    cone-angle check refused, the refusal of this frame. The check acts only
+    while ``cone_armed``: the pitch output is the cone angle only with the
+    roll axis on the Sun (the frame loop arms it while S14 feeds the sun
+    sensor's pitch to control amplifier 32). Returns the index of the
+    tracked star in ``p.stars_inertial``, -1 when it holds none, and
+    :data:`FALSE_TARGET` while it holds a glint (whose outputs the fault
+    that makes it writes, :func:`allsky.sim.faults.fault_sense`).
     """
-    best = 1e9
-    k_best = -1
-    yaw_best = 0.0
-    pitch_best = 0.0
+    check_rad = p.cone_check_rad if cone_armed else 0.0
+    lock[NEW_REFUSAL] = NONE
+    lock[NEW_DROP] = NONE
+    n = p.stars_inertial.shape[0]
     w, x, y, z = q[0], q[1], q[2], q[3]
     # Rows of the body-from-inertial matrix (see quaternion.dcm_body_from_inertial).
     r0 = (w * w + x * x - y * y - z * z, 2.0 * (x * y + w * z), 2.0 * (x * z - w * y))
     r1 = (2.0 * (x * y - w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z + w * x))
     r2 = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z)
-    for k in range(p.stars_inertial.shape[0]):
-        a, b, c = p.stars_inertial[k, 0], p.stars_inertial[k, 1], p.stars_inertial[k, 2]
-        sz = r2[0] * a + r2[1] * b + r2[2] * c
-        if sz <= 0.0:
-            continue
-        sx = r0[0] * a + r0[1] * b + r0[2] * c
-        sy = r1[0] * a + r1[1] * b + r1[2] * c
-        yaw = np.arctan2(-sy, sz)
-        pitch = np.arctan2(sx, sz)
-        if abs(yaw) > p.fov_narrow_half_rad or abs(pitch) > p.fov_long_half_rad:
+    # Refused stars are forgotten once they have left the field (a glint's, by its fault);
+    # only the cone-angle check refuses any.
+    if p.cone_check_rad > 0.0:
+        for j in range(N_REFUSED):
+            k = int(lock[REFUSED + j])
+            if k >= 0 and (k >= n or not _sight(p, r0, r1, r2, k)[0]):
+                lock[REFUSED + j] = NONE
+    held = int(lock[HELD])
+    if held == FALSE_TARGET:
+        out[0] = 0.0
+        out[1] = 0.0
+        out[2] = 0.0
+        return FALSE_TARGET
+    if 0 <= held < n:
+        inside, yaw, pitch = _sight(p, r0, r1, r2, held)
+        if inside:  # held: no other star is looked at (the same noise as a star found)
+            out[0] = yaw * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
+            out[1] = pitch * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
+            out[2] = 1.0
+            return held
+    # The search: the window star in the slit nearest the boresight that the check passes.
+    k_best = -1
+    yaw_best = 0.0
+    pitch_best = 0.0
+    best = 1e9
+    refuse = -1
+    refuse_d = 1e9
+    refuse_pitch = 0.0
+    for k in range(n):
+        inside, yaw, pitch = _sight(p, r0, r1, r2, k)
+        if not inside or refused(lock, k):
             continue
         d = yaw * yaw + pitch * pitch
+        if check_rad > 0.0 and abs(pitch - p.reference_cone_rad) > check_rad:
+            if d < refuse_d:
+                refuse_d = d
+                refuse = k
+                refuse_pitch = pitch
+            continue
         if d < best:
             best = d
             yaw_best = yaw
             pitch_best = pitch
             k_best = k
+    if refuse >= 0:  # one refusal a frame, remembered and told to the journal
+        refuse_now(lock, refuse, refuse_pitch * RAD2ARCSEC)
+    lock[HELD] = k_best
     if k_best < 0:
         out[0] = 0.0
         out[1] = 0.0
@@ -81,3 +244,29 @@ def star_tracker(p, q, out, rng):
     out[1] = pitch_best * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
     out[2] = 1.0
     return k_best
+
+
+@njit
+def refuse_now(lock, target, cone_arcsec):
+    """Remember ``target`` as refused by the cone-angle check; flag the refusal.
+
+    ``cone_arcsec`` is its cone angle [arcsec]. A free slot of the memory
+    takes it; with none free, the first slot.
+    """
+    slot = 0
+    for j in range(N_REFUSED):
+        if lock[REFUSED + j] == NONE:
+            slot = j
+            break
+    lock[REFUSED + slot] = target
+    lock[NEW_REFUSAL] = target
+    lock[REFUSED_CONE_ARCSEC] = cone_arcsec
+
+
+@njit
+def refused(lock, target) -> bool:
+    """Whether ``target`` is among the targets the cone-angle check refused."""
+    for j in range(N_REFUSED):
+        if lock[REFUSED + j] == target:
+            return True
+    return False

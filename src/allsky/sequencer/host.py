@@ -37,6 +37,14 @@ class Host(Protocol):
     dither_estimates: dict | None  #: the dither analysis's estimates
     dither_record: Any  #: the dither record analysed
     hold: dict | None  #: the hold on target's measurements
+    current_mode: str | None  #: the mode being flown, by name (abort reasons name it)
+    #: [deg] the roll and yaw from the target held to the one being flown, formed by CPU 22
+    #: (``sequencer.between_targets = "direct"``); None otherwise
+    turn_roll_deg: float | None
+    turn_yaw_deg: float | None
+    #: the body axes CPU 22 holds the vehicle in, as columns in the first target's reference
+    #: frame (a 3x3 list), once it has turned from target to target; None before
+    held_axes: list | None
 
     def now_s(self) -> float:
         """Mission time [s]."""
@@ -62,7 +70,11 @@ class Host(Protocol):
         """Move the mode's deadline on by ``seconds`` [s] (a recovery)."""
 
     def program_target(self) -> None:
-        """The ground computation of register 24's angles for the target being flown."""
+        """The ground computation of register 24's angles for the target being flown.
+
+        From the reference attitude of the first target when the targets are
+        flown one from the other (``sequencer.between_targets = "direct"``).
+        """
 
     def pointing_error_arcsec(self) -> float:
         """True angle between the roll axis and the target being flown [arcsec]."""

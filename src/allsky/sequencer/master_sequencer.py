@@ -30,7 +30,7 @@ import numpy as np
 
 from allsky import units, vocabulary
 from allsky.computer import calibration_sequencer as cal19
-from allsky.computer import cpu
+from allsky.computer import cpu, targeting
 from allsky.computer import word_registers as wr
 from allsky.sequencer import modes
 from allsky.sequencer.dither_mode import dither_analysis
@@ -93,8 +93,14 @@ def run_mode(m, name) -> str:
             key = _recovery_for(step, e.failure, i, tried) if recovery else None
             if key is None:
                 raise _with_recoveries(e, tried) from None
-            tried.append((i, key))
             rule = modes.RETRIES[key]
+            why_not = GUARDS[rule.needs](m) if rule.needs else None
+            if why_not:
+                m.note("action", action="recovery", recovery=key,
+                       text=f"no recovery after {e.failure}: {why_not}")
+                raise _with_recoveries(ModeAbort(f"{e}; no recovery: {why_not}", e.failure),
+                                       tried) from None
+            tried.append((i, key))
             m.note("action", action="recovery", text=f"recovery after {e.failure}: "
                    f"{rule.text}", recovery=key)
             m.extend_mode(modes.DURATIONS[rule.extend].seconds(m.cfg, name))
@@ -130,7 +136,7 @@ def _fly_step(m, name, step, records, context):
         context["after"] = f"after \u00ab{step.what}\u00bb"
         if step.record:
             records[step.record] = out
-    else:
+    elif not step.when or modes.CONDITIONS[step.when][1](m.cfg):
         m.note("action", action=step.action, text=modes.action_text(step))
         ACTIONS[step.action](m, records, *step.args)
 
@@ -206,12 +212,17 @@ def calibration_sequencer(m, records, axis):
     """Start calibration sequencer 19 for ``axis``: counters -> register 23.
 
     ``axis`` is "roll" or "yaw". The turn is one full turn; with
-    ``sequencer.recovery`` it is the whole number of turns nearest the
-    angle the turned axis's counter holds (:func:`turns_counted`), so that a
-    turn flown on past a missed star or Sun is calibrated as two.
+    ``sequencer.recovery`` it is the whole number of turns the turned axis's
+    counter holds, so that a turn flown on past a missed star or Sun is
+    calibrated as two: with the turn check (``sequencer.turn_check_ppm`` >
+    0) the number it accepted (:func:`check_turn`), without it the nearest
+    to the count, whatever the count (:func:`turns_counted`).
     """
     s = m.state
-    turns = turns_counted(m, axis) if m.cfg.sequencer.recovery else 1
+    turns = 1
+    if m.cfg.sequencer.recovery:
+        turns = (turn_verdict(m, axis)[0] if m.cfg.sequencer.turn_check_ppm > 0
+                 else turns_counted(m, axis))
     counts = cal19.calibrate(axis, s.switches, s.counters, m.pulse_weight_arcsec,
                              s.rate_sign[RATE_SIGN[axis]] * turns, s.word23)
     m.counted_arcsec[axis] = counts.tolist()
@@ -227,6 +238,96 @@ def turns_counted(m, axis) -> int:
     k = 0 if axis == "roll" else 2
     angle_arcsec = abs(float(m.state.counters[k])) * m.pulse_weight_arcsec
     return max(1, round(angle_arcsec / cal19.FULL_TURN_ARCSEC))
+
+
+def turn_verdict(m, axis):
+    """What the turn check makes of the count of ``axis`` ("roll", "yaw").
+
+    Returns ``(turns, angle_deg, off_ppm)``: the whole number of turns the
+    counter (14 or 18) is judged against -- one for the patent's sequencer,
+    the nearest whole number (at least one) with ``sequencer.recovery`` --,
+    the counted angle [deg] and its departure from that many turns [ppm].
+    """
+    k = 0 if axis == "roll" else 2
+    angle_arcsec = abs(float(m.state.counters[k])) * m.pulse_weight_arcsec
+    turns = turns_counted(m, axis) if m.cfg.sequencer.recovery else 1
+    full = turns * cal19.FULL_TURN_ARCSEC
+    return turns, angle_arcsec * units.ARCSEC2DEG, (angle_arcsec - full) / full * units.FRACTION2PPM
+
+
+def _turn_words(m, axis) -> tuple:
+    """``(off_ppm, text)``: the count of ``axis`` against whole turns, in words."""
+    turns, angle_deg, off_ppm = turn_verdict(m, axis)
+    counter = COUNTERS[0 if axis == "roll" else 2]
+    whole = "one turn" if turns == 1 else f"{turns} turns"
+    text = (f"counter {counter} holds {angle_deg:.2f} deg, {angle_deg - 360.0 * turns:+.2f} "
+            f"deg ({off_ppm:+.0f} ppm) from {whole}; sequencer.turn_check_ppm = "
+            f"{m.cfg.sequencer.turn_check_ppm:g}")
+    return off_ppm, text
+
+
+def check_turn(m, records, axis):
+    """The turn check: refuse a re-acquisition that ends no whole turn of ``axis``.
+
+    Beyond the patent (``sequencer.turn_check_ppm`` > 0; the mode table flies
+    it only then). The optics say that *a* star (or the Sun) is back in view;
+    the turned axis's counter says how far the vehicle turned. A count more
+    than the check from one full turn (from the nearest whole number of
+    turns with ``sequencer.recovery``) is not a turn, whatever the optics
+    saw: a wrong star met on the way, or a turn flown on past a missed one.
+
+    Raises
+    ------
+    ModeAbort
+        The turn refused (failure "turn refused"), with the count in words.
+    """
+    off_ppm, text = _turn_words(m, axis)
+    if abs(off_ppm) > m.cfg.sequencer.turn_check_ppm:
+        what = "star" if axis == "roll" else "Sun"
+        raise ModeAbort(f"Mode {m.current_mode}: the turn check refused the {what} re-acquired: "
+                        f"{text}", "turn refused")
+
+
+def _stopped_at_a_whole_turn(axis):
+    """The guard of a retry after the star (the Sun) was lost settling at a turn's end.
+
+    With the turn check on, the turned axis's counter tells the causes
+    apart. Within the sensor's field of whole turns (the tracker's narrow
+    half-field for the star, the sun sensor's presence cone for the Sun,
+    plus the turn check's tolerance), the target should still be in view: it
+    vanished (a dropout, an occultation), and one more turn can meet it
+    again. Beyond it, the vehicle turned on and carried the target out of
+    view -- a jet it cannot brake against --, which one more turn does not
+    mend; nor does it a counter that does not follow the vehicle (a dead or
+    stuck gyro), which the count shows the same way. Returns None to retry,
+    else why not.
+    """
+    def guard(m):
+        ppm = m.cfg.sequencer.turn_check_ppm
+        if ppm <= 0:
+            return None
+        turns, angle_deg, _ = turn_verdict(m, axis)
+        field_deg = (m.cfg.star_tracker.fov_narrow_half_deg if axis == "roll"
+                     else m.cfg.sun_sensor.presence_half_angle_deg)
+        past_deg = angle_deg - 360.0 * turns
+        if abs(past_deg) <= field_deg + 360.0 * turns * ppm * units.PPM2FRACTION:
+            return None
+        counter, what, turn = (("14", "star", "roll") if axis == "roll"
+                               else ("18", "Sun", "yaw"))
+        whole = "one turn" if turns == 1 else f"{turns} turns"
+        return (f"counter {counter} holds {angle_deg:.2f} deg, {past_deg:+.2f} deg from "
+                f"{whole}, beyond the {field_deg:g} deg in which the {what} stays in view: "
+                f"the {what} did not vanish at the turn's end (the vehicle {turn}ed on past "
+                f"it, or the counter does not follow the vehicle), and one more {turn} "
+                "cannot mend that")
+    guard.__name__ = f"stopped_at_a_whole_{axis}"
+    return guard
+
+
+#: The tests of :data:`allsky.sequencer.modes.GUARDS`: ``guard(m)`` -> None (a retry can
+#: help) or the reason it cannot.
+GUARDS = {"roll stopped at a whole turn": _stopped_at_a_whole_turn("roll"),
+          "yaw stopped at a whole turn": _stopped_at_a_whole_turn("yaw")}
 
 
 def withhold_calibration(m, records):
@@ -329,6 +430,38 @@ def measure_hold(m, records):
                                        zip(vocabulary.AXES, per_min)}}
 
 
+def turn_to_next_target(m, records):
+    """Take the next target; CPU 22 forms the turn to it from the target held.
+
+    The turn is formed from programmed angles only, all measured from the
+    first target's reference attitude (``m.program_target()`` keeps it for
+    ``sequencer.between_targets = "direct"``): the attitude the computer
+    holds, the first target's angles and the turns flown since
+    (``m.held_axes``), and the next target's angles
+    (:func:`allsky.computer.targeting.turn_to_deg`). Register 24 gets the
+    turn's roll; its yaw word stays zero while the vehicle rolls, so that
+    CPU 22 holds the yaw where it is (:func:`load_turn_yaw` loads the yaw
+    once the roll has settled).
+    """
+    held = (np.asarray(m.held_axes, dtype=float) if m.held_axes is not None else
+            targeting.attitude_after(m.programmed_roll_deg, m.programmed_yaw_deg))
+    m.next_target()
+    m.program_target()
+    roll, yaw, after = targeting.turn_to_deg(held, m.programmed_roll_deg, m.programmed_yaw_deg)
+    m.turn_roll_deg, m.turn_yaw_deg = roll, yaw
+    m.held_axes = after.tolist()
+    m.state.word24[wr.PROGRAMMED_ROLL] = roll * units.DEG2ARCSEC
+    m.state.word24[wr.PROGRAMMED_YAW] = 0.0
+    m.write_register("24", "roll", roll, "deg")
+    m.write_register("24", "yaw", 0.0, "deg")
+
+
+def load_turn_yaw(m, records):
+    """Load register 24's yaw word with the yaw of the turn to the next target."""
+    m.state.word24[wr.PROGRAMMED_YAW] = m.turn_yaw_deg * units.DEG2ARCSEC
+    m.write_register("24", "yaw", m.turn_yaw_deg, "deg")
+
+
 def next_target(m, records):
     """Take the next target of ``target.sequence``; Mode 6-1 loads its angles.
 
@@ -343,7 +476,8 @@ _FUNCTIONS = {f.__name__: f for f in (
     clear_drift_counters, clear_counters, roll_rate_positive, yaw_rate_positive,
     calibration_sequencer, withhold_calibration, load_register_24, start_roll_computation,
     roll_rate_toward_target, preset_counters, start_yaw_computation, yaw_rate_toward_target,
-    record_hold_start, measure_hold, next_target, dither_analysis)}
+    record_hold_start, measure_hold, next_target, dither_analysis, check_turn,
+    turn_to_next_target, load_turn_yaw)}
 #: Action name -> function, for each action the vocabulary names (its words are
 #: :data:`allsky.vocabulary.ACTIONS`).
 ACTIONS = {name: _FUNCTIONS[name] for name in vocabulary.ACTIONS}

@@ -13,7 +13,8 @@ next target, and the dither comparison mode of seed 000):
 * :class:`Do`: a named action, for what is neither a switch nor a leg
   (clear counters 14/16/18, set a rate-command direction, calibration
   sequencer 19, load register 24, preset counters 16/18, the dither
-  analysis ...).
+  analysis ...), flown always or only when the scenario asks for it
+  (:data:`CONDITIONS`: the turn check).
 
 :func:`allsky.sequencer.master_sequencer.run_mode` walks a mode's steps;
 the actions are the functions of
@@ -70,6 +71,12 @@ class Do(NamedTuple):
 
     action: str
     args: tuple = ()
+    #: key of :data:`CONDITIONS`: the action is flown only when the scenario asks for it
+    #: ("" = always); skipped, it leaves no trace
+    when: str = ""
+    #: keys of :data:`RETRIES`: what the sequencer may do once, with ``sequencer.recovery``,
+    #: when the action refuses to go on (as a wait's)
+    retry: tuple = ()
 
 
 class Retry(NamedTuple):
@@ -86,6 +93,9 @@ class Retry(NamedTuple):
     steps: tuple  #: :class:`Operate`, :class:`Wait` and :class:`Do` flown first
     extend: str  #: key of :data:`DURATIONS`: the mode's deadline moves on by this
     resume: int | None = None  #: step of the mode to go on from; None = the failed wait
+    #: key of :data:`GUARDS`: what must hold for a retry to help ("" = nothing); when it
+    #: does not, the sequencer does not retry and its abort says why
+    needs: str = ""
 
 
 class Mode(NamedTuple):
@@ -188,6 +198,10 @@ def _revolution_s(cfg, mode) -> float:
     return 360.0 / cfg.electronics.rate_command_deg_s
 
 
+def _direct_s(cfg, mode) -> float:
+    return cfg.sequencer.timeout_s["6-1"]
+
+
 def _sun_and_star_again_s(cfg, mode) -> float:
     t = cfg.sequencer.timeout_s
     return t["1"] + t["2"] + t[mode]
@@ -210,6 +224,7 @@ DURATIONS = {
     "hold timeout": Duration(f"`target.hold_s` + {HOLD_TIMEOUT_ALLOWANCE_S:g} s",
                              _hold_timeout_s),
     "no time": Duration("none: the mode flies no leg", _no_time_s),
+    "target roll timeout": Duration("`sequencer.timeout_s` of Mode 6-1", _direct_s),
     "revolution": Duration("one revolution at the commanded rate: 360 deg / "
                            "`electronics.rate_command_deg_s`", _revolution_s),
     "Sun acquisition": Duration("`sequencer.timeout_s` of Mode 1",
@@ -236,8 +251,28 @@ def action_text(step: Do) -> str:
     return ACTIONS[step.action].format(*step.args)
 
 
-#: Failures of a leg a recovery can answer (the exits of the frame loop's watch).
-FAILURES = ("timeout", "Sun lost", "star lost")
+#: Failures a recovery can answer: the exits of the frame loop's watch, and a turn the
+#: turn check refused (:func:`allsky.sequencer.master_sequencer.check_turn`).
+FAILURES = ("timeout", "Sun lost", "star lost", "turn refused")
+
+#: Steps flown only when the scenario asks for them: name -> (meaning, ``applies(cfg)``).
+CONDITIONS = {
+    "turn check": ("`sequencer.turn_check_ppm` > 0",
+                   lambda cfg: cfg.sequencer.turn_check_ppm > 0),
+}
+#: What must hold for a recovery to help (:attr:`Retry.needs`), in words; the tests are
+#: :data:`allsky.sequencer.master_sequencer.GUARDS`. Each holds when the turn check is off.
+GUARDS = {
+    "roll stopped at a whole turn": (
+        "counter 14 holds whole turns to within the tracker's narrow half-field "
+        "(`star_tracker.fov_narrow_half_deg`, and `sequencer.turn_check_ppm`): the star "
+        "should still be in the slit, so it vanished and may be met again; beyond, the "
+        "vehicle rolled on and carried it away, which one more roll cannot mend"),
+    "yaw stopped at a whole turn": (
+        "counter 18 holds whole turns to within the sun sensor's presence cone "
+        "(`sun_sensor.presence_half_angle_deg`, and `sequencer.turn_check_ppm`): the Sun "
+        "should still be in view; beyond, the vehicle yawed on and carried it away"),
+}
 
 # Recoveries (beyond the patent): steps a 1970s sequencer could fly again from wherever the
 # vehicle is. The drift calibration (S1-S3, drift DACs 7/9/11) is kept through them.
@@ -289,20 +324,50 @@ RETRIES = {
         (Operate(open_=(12,), close=(16, 18)),
          Wait("star re-acquired after one more roll", "none", "handover", ("tracker yaw",),
               blank="blanking"),
-         Operate(open_=(16, 18), close=(12,))), "revolution"),
+         Operate(open_=(16, 18), close=(12,))), "revolution",
+        needs="roll stopped at a whole turn"),
     "yaw again": Retry(
         "yaw on for one more revolution to the Sun, calibration sequencer 19 counting two "
         "turns", ("Sun lost",),
         (Operate(open_=(15,), close=(17, 19)),
          Wait("Sun re-acquired in yaw after one more yaw", "none", "handover", ("sun yaw",),
               blank="blanking"),
-         Operate(open_=(17, 19), close=(15,))), "revolution"),
+         Operate(open_=(17, 19), close=(15,))), "revolution",
+        needs="yaw stopped at a whole turn"),
+    # The turn is checked settled on the star (the Sun): the roll (yaw) starts again.
+    "roll on to the next star": Retry(
+        "roll on past the refused star to the next one, settle and check the turn again",
+        ("turn refused",),
+        (Operate(open_=(12,), close=(16, 18)),
+         Wait("next star in the slit after the refused one", "none", "handover",
+              ("tracker yaw",), blank="blanking"),
+         Operate(open_=(16, 18), close=(12,)),
+         Wait("settled on Sun and the next star", "none", "settle", OPTICAL)),
+        "revolution", resume=6),
+    "yaw on to the Sun": Retry(
+        "yaw on past the refused re-acquisition to the Sun's next, settle and check the turn "
+        "again", ("turn refused",),
+        (Operate(open_=(15,), close=(17, 19)),
+         Wait("Sun in yaw again after the refused re-acquisition", "none", "handover",
+              ("sun yaw",), blank="blanking"),
+         Operate(open_=(17, 19), close=(15,)),
+         Wait("settled on star (yaw, pitch) and the Sun's next yaw", "none", "settle",
+              ("tracker yaw", "tracker pitch", "sun yaw"))),
+        "revolution", resume=8),
 }
 
 
-def retry_text(step: Wait) -> str:
-    """The recoveries of a wait, in words ("" for none)."""
-    return "; ".join(f"on {' or '.join(RETRIES[r].on)}: {RETRIES[r].text}" for r in step.retry)
+def retry_text(step) -> str:
+    """The recoveries of a wait or an action (``step``), in words ("" for none).
+
+    A recovery with a guard (:attr:`Retry.needs`) says when it is flown.
+    """
+    def one(r):
+        rule = RETRIES[r]
+        guard = (f" (with the turn check, only if {rule.needs}: {GUARDS[rule.needs]})"
+                 if rule.needs else "")
+        return f"on {' or '.join(rule.on)}: {rule.text}{guard}"
+    return "; ".join(one(r) for r in step.retry)
 
 
 #: The mode table: the patent's six modes (SPEC section 4) and the hold after them, then
@@ -346,6 +411,7 @@ MODE_TABLE = (
         Operate(open_=(16, 18), close=(12,)),
         Wait("settled on Sun and star", "none", "settle", OPTICAL,
              retry=("roll again", "Sun and star again, mode again")),
+        Do("check_turn", ("roll",), when="turn check", retry=("roll on to the next star",)),
         Do("calibration_sequencer", ("roll",)),
     ), "roll scale factor and roll cross-coupling stored in register 23"),
     _mode("5", (
@@ -362,6 +428,7 @@ MODE_TABLE = (
         Wait("settled on star (yaw, pitch) and Sun yaw", "none", "settle",
              ("tracker yaw", "tracker pitch", "sun yaw"),
              retry=("yaw again", "Sun and star again, Mode 5 again")),
+        Do("check_turn", ("yaw",), when="turn check", retry=("yaw on to the Sun",)),
         Operate(close=(14,), open_=(13,)),
         Wait("pitched back, settled on Sun and star", "none", "settle", OPTICAL,
              retry=("Sun and star again, Mode 5 again",)),
@@ -410,6 +477,24 @@ MODE_TABLE = (
         Do("next_target"),
         Operate(open_=(1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
     ), "next target; every switch open, as at ejection", timeout="no time"),
+    # Or the new angles are the roll and yaw from the target held to the next, flown from
+    # where the vehicle is on the gyros alone (the patent's third reading, beyond the two
+    # above): the roll with CPU 22 holding pitch and yaw (S10, S11), then Mode 6-2's yaw.
+    _mode("direct", (
+        Do("turn_to_next_target"),
+        Do("clear_counters"),
+        Do("start_roll_computation"),
+        Do("roll_rate_toward_target"),
+        Operate(open_=(9,), close=(16, 18)),
+        Wait("roll error inside the hand-over threshold", "target", "handover",
+             ("roll error",)),
+        Operate(open_=(16, 18), close=(9,)),
+        Wait("roll, pitch and yaw errors settled", "target", "settle",
+             ("roll error", "pitch error", "yaw error")),
+        Do("load_turn_yaw"),
+        Operate(open_=(11,)),
+    ), "rolled toward the next target on the gyros; register 24 holds the turn's yaw",
+        timeout="target roll timeout"),
     _mode("dither", (
         Wait("dither record complete", "dither", "elapsed", hold="dither record",
              record="dither record"),
@@ -438,8 +523,12 @@ HOLD_MODE = "hold"
 TARGET_MODES = ("6-1", "6-2")
 #: Modes flown before Mode 6-1 for each target after the first, by
 #: ``sequencer.between_targets``: "reacquire" goes back to the Sun and the star (Modes 1
-#: and 2); "recycle" flies every mode of the plan before 6-1 again (None: the plan's).
-BETWEEN_TARGETS = {"reacquire": ("reacquire", "1", "2"), "recycle": ("recycle", None)}
+#: and 2); "recycle" flies every mode of the plan before 6-1 again (None: the plan's);
+#: "direct" flies its own roll in place of Mode 6-1 (:data:`DIRECT_REPLACES`).
+BETWEEN_TARGETS = {"reacquire": ("reacquire", "1", "2"), "recycle": ("recycle", None),
+                   "direct": ("direct",)}
+#: The move to a next target that replaces Mode 6-1 (its roll flown on the gyros).
+DIRECT_REPLACES = {"direct": "6-1"}
 
 
 def with_hold(plan, cfg) -> tuple:
@@ -457,17 +546,21 @@ def with_hold(plan, cfg) -> tuple:
 def next_target_modes(plan, how) -> tuple:
     """Modes flown for each target after the first: ``how``, then 6-1 and 6-2.
 
-    ``how`` is "reacquire" or "recycle" (:data:`BETWEEN_TARGETS`).
+    ``how`` is "reacquire", "recycle" or "direct" (:data:`BETWEEN_TARGETS`).
 
     ``plan`` is the plan flown for the first target (without the hold); with
-    ``how = "recycle"`` its modes before 6-1 are flown again.
+    ``how = "recycle"`` its modes before 6-1 are flown again; with "direct"
+    the move's own roll takes 6-1's place.
     """
     plan = tuple(m for m in plan if m != HOLD_MODE)
     first_6 = plan.index(TARGET_MODES[0])
     before = []
     for name in BETWEEN_TARGETS[how]:
         before += plan[:first_6] if name is None else [name]
-    return (*before, *plan[first_6:])
+    after = plan[first_6:]
+    if how in DIRECT_REPLACES:
+        after = tuple(m for m in after if m != DIRECT_REPLACES[how])
+    return (*before, *after)
 
 
 def target_count(cfg) -> int:
@@ -540,15 +633,21 @@ def check(table=MODE_TABLE) -> None:
         if mode.timeout not in DURATIONS:
             fail(mode, f"unknown timeout {mode.timeout!r}")
         _check_steps(mode, mode.steps, fail)
-        for step in mode.steps:
+        for i, step in enumerate(mode.steps):
+            what = getattr(step, "what", None) or getattr(step, "action", "")
             for key in getattr(step, "retry", ()):
                 rule = RETRIES.get(key)
                 if rule is None:
-                    fail(mode, f"{step.what}: unknown recovery {key!r}")
+                    fail(mode, f"{what}: unknown recovery {key!r}")
                 if not rule.on or not set(rule.on) <= set(FAILURES) \
-                        or rule.extend not in DURATIONS \
+                        or rule.extend not in DURATIONS or (rule.needs and rule.needs
+                                                            not in GUARDS) \
                         or not (rule.resume is None or 0 <= rule.resume < len(mode.steps)):
-                    fail(mode, f"{step.what}: recovery {key!r} is not a valid rule")
+                    fail(mode, f"{what}: recovery {key!r} is not a valid rule")
+                if rule.resume is None and not isinstance(step, Wait):
+                    fail(mode, f"{what}: recovery {key!r} must name the step to go on from")
+                if rule.resume is not None and rule.resume > i:
+                    fail(mode, f"{what}: recovery {key!r} goes on from a later step")
                 if any(getattr(s, "retry", ()) for s in rule.steps):
                     fail(mode, f"recovery {key!r}: its steps must not recover again")
                 _check_steps(mode, rule.steps, fail)
@@ -590,6 +689,8 @@ def _check_steps(mode, steps, fail) -> None:
         elif isinstance(step, Do):
             if step.action not in ACTIONS:
                 fail(mode, f"unknown action {step.action!r}")
+            if step.when and step.when not in CONDITIONS:
+                fail(mode, f"{step.action}: unknown condition {step.when!r}")
         else:
             fail(mode, f"not a step: {step!r}")
 

@@ -13,9 +13,11 @@ only when the mission has faults (``FaultParams.n > 0``), so that the
 fault-free loop runs the same code as before:
 
 * :func:`fault_tracker` (before ``sense``): a wrong star joins the stars
-  star tracker 105's magnitude window passes;
+  star tracker 105's magnitude window passes; :func:`fault_release`: the
+  tracker forgets a glint once none acts;
 * :func:`fault_sense` (after ``sense``): gyros 1-3 stuck, dead, bias or
-  scale-factor step; sun sensor 104 blind; tracker 105 dropout or stray light;
+  scale-factor step; sun sensor 104 blind; tracker 105 dropout or stray light,
+  and its bright gate;
 * :func:`fault_upset` (after ``compute``): one bit of a counter 13-18 or a
   storage register 25-27 flips, once;
 * :func:`fault_actuate` (after ``actuate``): jets 39-41 stuck open or failed
@@ -34,6 +36,7 @@ import numpy as np
 
 from allsky import units
 from allsky.config.faults import MAX_FAULTS, describe
+from allsky.hardware import star_tracker as st
 from allsky.hardware.star_tracker import FALSE_TARGET, StarTrackerParams
 from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
@@ -78,6 +81,10 @@ class FaultParams(NamedTuple):
     word: np.ndarray  #: (MAX_FAULTS,) int64 upset word (WORD_INDEX)
     bit: np.ndarray  #: (MAX_FAULTS,) int64 upset bit
     width_bits: np.ndarray  #: (MAX_FAULTS,) int64 word length of the upset word [bit]
+    #: (MAX_FAULTS,) [mag] a glint's brightness; nan = none given (followed whatever it is)
+    magnitude: np.ndarray
+    jets: np.ndarray  #: (MAX_FAULTS,) int64 jets of a couple stuck open: 1 or 2
+    torque_n_m: np.ndarray  #: (MAX_FAULTS, 3) [N m] a leak's body torque
     #: star tracker 105 with the wrong stars added after the window's (as Params.tracker if none)
     tracker: StarTrackerParams
 
@@ -98,12 +105,14 @@ def wrong_stars(faults) -> list:
     return out
 
 
-def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction) -> FaultParams:
+def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction,
+                   star_magnitude) -> FaultParams:
     """:class:`FaultParams` from the scenario's faults.
 
     ``tracker`` is star tracker 105's parameters, ``window_names`` the names
-    of the stars its window passes and ``star_direction(name)`` a star's unit
-    vector: a wrong star not already in the window is added after them.
+    of the stars its window passes, ``star_direction(name)`` a star's unit
+    vector and ``star_magnitude(name)`` its visual magnitude: a wrong star
+    not already in the window is added after them.
     """
     faults = cfg.faults
     n = len(faults)
@@ -115,6 +124,9 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
     word = np.zeros(MAX_FAULTS, dtype=np.int64)
     bit = np.zeros(MAX_FAULTS, dtype=np.int64)
     width = np.ones(MAX_FAULTS, dtype=np.int64)
+    magnitude = np.full(MAX_FAULTS, np.nan)
+    jets = np.full(MAX_FAULTS, 2, dtype=np.int64)
+    torque = np.zeros((MAX_FAULTS, 3))
     el = cfg.electronics
     for i, f in enumerate(faults):
         kind[i] = KIND_CODE[f["kind"]]
@@ -129,13 +141,19 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
             word[i], bit[i] = WORD_INDEX[reg], f["bit"]
             width[i] = (el.drift_counter_bits if reg in ("13", "15", "17") else
                         el.counter_bits if reg in ("14", "16", "18") else el.register_bits)
+        magnitude[i] = f.get("magnitude", np.nan)
+        jets[i] = f.get("jets", 2)
+        torque[i] = f.get("torque_n_m", (0.0, 0.0, 0.0))
     extra = [s for s in wrong_stars(faults) if s not in window_names]
     if extra:
         stars = np.vstack([tracker.stars_inertial.reshape(-1, 3),
                            np.array([star_direction(s) for s in extra], dtype=float)])
-        tracker = StarTrackerParams(tracker.fov_long_half_rad, tracker.fov_narrow_half_rad,
-                                    tracker.noise_arcsec, np.ascontiguousarray(stars))
-    return FaultParams(n, kind, axis, sign, duration, size, word, bit, width, tracker)
+        mags = np.concatenate([tracker.magnitudes,
+                               np.array([star_magnitude(s) for s in extra], dtype=float)])
+        tracker = tracker._replace(stars_inertial=np.ascontiguousarray(stars),
+                                   magnitudes=np.ascontiguousarray(mags))
+    return FaultParams(n, kind, axis, sign, duration, size, word, bit, width, magnitude, jets,
+                       torque, tracker)
 
 
 def arm(fault_state, faults) -> None:
@@ -202,15 +220,55 @@ def fault_tracker(fp, tracker_p, fault_state, t_s):
 
 
 @njit_stage
-def fault_sense(fp, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, star):
+def fault_release(fp, fault_state, t_s, lock):
+    """Before ``sense``: a glint held or refused is forgotten once no glint acts.
+
+    ``lock`` is star tracker 105's memory (:mod:`allsky.hardware.star_tracker`):
+    the tracker searches again in the frame after the last glint ends.
+    """
+    for i in range(fp.n):
+        if fp.kind[i] == TRACKER_STRAY_LIGHT and _active(fp, fault_state, i, t_s):
+            return
+    if lock[st.HELD] == FALSE_TARGET:
+        lock[st.HELD] = st.NONE
+    for j in range(st.N_REFUSED):
+        if lock[st.REFUSED + j] == FALSE_TARGET:
+            lock[st.REFUSED + j] = st.NONE
+
+
+@njit_stage
+def _glint_refused(tracker_p, lock, cone_armed):
+    """Whether the cone-angle check refuses a glint (its cone angle, pitch output, is 0).
+
+    Only while the check is armed (``cone_armed``: the roll axis on the Sun).
+    The refusal is remembered and flagged once, as a star's is.
+    """
+    if not cone_armed or tracker_p.cone_check_rad <= 0.0 \
+            or abs(tracker_p.reference_cone_rad) <= tracker_p.cone_check_rad:
+        return False
+    if not st.refused(lock, FALSE_TARGET):
+        st.refuse_now(lock, FALSE_TARGET, 0.0)
+    return True
+
+
+@njit_stage
+def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, lock, star,
+                cone_armed):
     """Sensor faults on the outputs of ``sense``; returns the star the tracker holds.
 
     Gyros 1-3 (``gyro`` [arcsec/s]): stuck at the output of the onset frame,
     dead (zero), a bias step, a scale-factor step on the rate of the frame's
     increment ``dtheta_rad``. Sun sensor 104 blind: ``fine`` absent.
-    Tracker 105: dropout (``trk`` absent) or a body-fixed false target at
-    the fault's offset in its yaw output, which it tracks instead of a star.
+    Star tracker 105 (``tracker_p``, its memory ``lock``): a dropout loses
+    the lock (``trk`` absent); a glint, a body-fixed false target at the
+    fault's offset in the yaw output and at cone angle 0, takes the lock
+    (unless the cone-angle check refuses it) or, given a brightness, is
+    locked only when the tracker holds nothing and the glint is inside the
+    magnitude window. With a bright gate, a slit brighter than the gate
+    (the held star's light and the glints' together) loses the lock.
+    ``cone_armed`` says whether the cone-angle check is armed.
     """
+    glint_flux = 0.0  # the glints of known brightness acting in this frame
     for i in range(fp.n):
         if not _active(fp, fault_state, i, t_s):
             continue
@@ -236,11 +294,50 @@ def fault_sense(fp, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, star):
             trk[1] = 0.0
             trk[2] = 0.0
             star = -1
+            lock[st.HELD] = st.NONE
         elif k == TRACKER_STRAY_LIGHT:
-            trk[0] = fp.size[i]
-            trk[1] = 0.0
-            trk[2] = 1.0
-            star = FALSE_TARGET
+            m = fp.magnitude[i]
+            bright = not np.isnan(m)
+            if bright:
+                glint_flux += 10.0 ** (-0.4 * m)
+            take = (not bright or (star == -1 and tracker_p.window_bright_mag <= m
+                                   <= tracker_p.window_faint_mag))
+            if star == FALSE_TARGET or (take and not _glint_refused(tracker_p, lock,
+                                                                    cone_armed)):
+                trk[0] = fp.size[i]
+                trk[1] = 0.0
+                trk[2] = 1.0
+                star = FALSE_TARGET
+                lock[st.HELD] = FALSE_TARGET
+    if tracker_p.bright_gate_mag > -np.inf:
+        star = _bright_gate(tracker_p, lock, star, glint_flux, trk)
+    return star
+
+
+@njit_stage
+def _bright_gate(tracker_p, lock, star, glint_flux, trk):
+    """Star tracker 105's bright gate: the lock is lost while the slit is too bright.
+
+    The light is the held star's and the glints' of known brightness
+    (``glint_flux``, in units of a magnitude-0 star). A lock the gate takes
+    is flagged once in ``lock`` (for the journal), with the light seen.
+    Returns the star the tracker holds after the gate (-1 when it took it).
+    """
+    flux = glint_flux
+    if star >= 0:
+        flux += 10.0 ** (-0.4 * tracker_p.magnitudes[star])
+    over = flux > 0.0 and -2.5 * np.log10(flux) < tracker_p.bright_gate_mag
+    if over:
+        if star != -1 and (lock[st.GATE] == 0.0 or lock[st.DROPPED] != star):
+            lock[st.NEW_DROP] = star
+            lock[st.DROPPED] = star
+            lock[st.SEEN_MAG] = -2.5 * np.log10(flux)
+        trk[0] = 0.0
+        trk[1] = 0.0
+        trk[2] = 0.0
+        star = -1
+        lock[st.HELD] = st.NONE
+    lock[st.GATE] = 1.0 if over else 0.0
     return star
 
 
@@ -278,12 +375,20 @@ def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
 
 
 @njit_stage
-def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torque, tank_ok):
+def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torque, tank_ok,
+                  feed):
     """Jets 39-41 and the tank after ``actuate``; returns False once the tank is dry.
 
-    A jet stuck open fires whatever modulators 34-36 command (against its
-    opposite jet the couple's torques cancel, both use gas); a jet failed off
-    gives no torque and uses no gas when commanded; a leak drains the tank.
+    A couple stuck open (``jets`` 2) fires whatever modulators 34-36 command
+    (against the opposite couple the torques cancel, both use gas); one jet
+    of it stuck open (``jets`` 1) gives half the couple's torque and flow,
+    so that the opposite couple, commanded, still brakes at half its torque.
+    A couple failed off gives no torque and uses no gas when commanded. A
+    leak drains the tank and, if given, turns the vehicle. ``feed`` is the
+    jets' thrust over its full-pressure value in this frame
+    (:func:`allsky.hardware.jets.thrust_fraction` at the frame's start, 1 on
+    a regulated feed): a stuck or failed jet's thrust and flow are the
+    others'.
     """
     if not tank_ok:
         return False
@@ -293,13 +398,16 @@ def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torq
         k = fp.kind[i]
         a = fp.axis[i]
         if k == JET_STUCK_OPEN and valve[a] != fp.sign[i]:
-            torque[a] += fp.sign[i] * jets_p.torque_n_m[a]
-            propellant_kg[0] -= jets_p.flow_kg_s[a] * dt_s
+            share = 0.5 * fp.jets[i] * feed
+            torque[a] += fp.sign[i] * jets_p.torque_n_m[a] * share
+            propellant_kg[0] -= jets_p.flow_kg_s[a] * dt_s * share
         elif k == JET_FAILED_OFF and valve[a] == fp.sign[i]:
-            torque[a] -= fp.sign[i] * jets_p.torque_n_m[a]
-            propellant_kg[0] += jets_p.flow_kg_s[a] * dt_s
+            torque[a] -= fp.sign[i] * jets_p.torque_n_m[a] * feed
+            propellant_kg[0] += jets_p.flow_kg_s[a] * dt_s * feed
         elif k == PROPELLANT_LEAK:
             propellant_kg[0] -= fp.size[i] * dt_s
+            for j in range(3):
+                torque[j] += fp.torque_n_m[i, j]
     if propellant_kg[0] <= 0.0:
         propellant_kg[0] = 0.0
         return False

@@ -41,7 +41,7 @@ from allsky.gauss import seed as gauss_seed
 from allsky.hardware.control_amp import control_amp
 from allsky.hardware.dac import dac
 from allsky.hardware.gyro import RRW_STEP_S, gyro_output
-from allsky.hardware.jets import jets
+from allsky.hardware.jets import jets, thrust_fraction
 from allsky.hardware.pwpf import pwpf_step
 from allsky.hardware.rate_command import rate_command
 from allsky.hardware.star_tracker import star_tracker
@@ -78,7 +78,14 @@ from allsky.sequencer.legs import (
     PROGRAM_TARGET_ROLL,
 )
 from allsky.sequencer.watch import EXIT_NONE, sensors_in_use, watch
-from allsky.sim.faults import ONSET, fault_actuate, fault_sense, fault_tracker, fault_upset
+from allsky.sim.faults import (
+    ONSET,
+    fault_actuate,
+    fault_release,
+    fault_sense,
+    fault_tracker,
+    fault_upset,
+)
 from allsky.sim.journal import SEEN_WHEEL, note_clip, note_faults, note_frame, note_wheels
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_telemetry  # noqa: F401
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
@@ -191,6 +198,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     rrw_every = max(1, round(RRW_STEP_S / dt))
     wire_leg(p.routing, el, sw, s.rate_sign, gates, position_gain)
     sun_in_use, star_in_use = sensors_in_use(sw, p.routing)
+    cone_armed = sun_holds_pitch(p.routing.position_routes, position_gain)
     timer = s.leg_clock[CLOCK_SETTLE]
     sun_gone = s.leg_clock[CLOCK_SUN_GONE]
     star_gone = s.leg_clock[CLOCK_STAR_GONE]
@@ -214,12 +222,13 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         tracker_p = p.tracker
         if faults is not None:
             tracker_p = fault_tracker(faults, p.tracker, fault_state, t_frame)
+            fault_release(faults, fault_state, t_frame, s.tracker_lock)
         star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
-                     s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, sun_b, fine, trk,
-                     gyro)
+                     s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, s.tracker_lock,
+                     cone_armed, sun_b, fine, trk, gyro)
         if faults is not None:
-            star = fault_sense(faults, fault_state, t_frame, dt, s.dtheta_rad, fine, trk, gyro,
-                               star)
+            star = fault_sense(faults, tracker_p, fault_state, t_frame, dt, s.dtheta_rad, fine,
+                               trk, gyro, s.tracker_lock, star, cone_armed)
         if star_in_use and star >= 0:
             s.locked_star[0] = star  # the star the loop is closed on (S12/S13)
         sum_and_count(el, p.vfc, dt, gates, gyro, s.drift_counters, s.counters,
@@ -231,6 +240,9 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                            s.registers):
                 note_clip(s.journal, s.journal_n, s.journal_seen, t_frame, s.drift_counters,
                           gates[GATE_DRIFT], dac_hi, dac_lo)
+        feed = 1.0  # the jets' thrust over its full-pressure value (a blow-down feed)
+        if faults is not None:
+            feed = thrust_fraction(p.jets, s.propellant_kg[0])
         if program == PROGRAM_MODE1:
             acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
         else:
@@ -248,7 +260,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                                      wheel_hb, wheel_hdot)
         if faults is not None:
             tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
-                                    s.propellant_kg, torque, tank_ok)
+                                    s.propellant_kg, torque, tank_ok, feed)
         count_jet_time(s.pwpf_out, dt, s.jet_on_s)
         if wheels_p is None:
             advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame,
@@ -264,7 +276,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         record_telemetry(tlm, tlm_rows, p.telemetry_every, s, leg.mode_code, fine, trk, volts,
                          wheel_hb, wheel_hdot, s.wheel_unload[0])
         note_frame(s.journal, s.journal_n, s.journal_seen, t_frame, star, star_in_use, trk[1],
-                   s.overflow)
+                   s.overflow, s.tracker_lock)
         if clip_every_frame or frame_in_leg == done:
             note_clip(s.journal, s.journal_n, s.journal_seen, t_frame, s.drift_counters,
                       gates[GATE_DRIFT], dac_hi, dac_lo)
@@ -306,20 +318,35 @@ def sun_inertial(sun0_inertial, sun_rate_inertial, t_s, out):
 
 
 @njit_stage
+def sun_holds_pitch(routes, position_gain):
+    """Whether S14 switches in the sun sensor's pitch: the roll axis held on the Sun.
+
+    Read once a leg from the wiring table's position routes and their gains
+    (:func:`wire_leg`); star tracker 105's cone-angle check is armed then.
+    """
+    for r in range(routes.shape[0]):
+        if routes[r, 1] == SRC_SUN_PITCH and position_gain[r] != 0.0:
+            return True
+    return False
+
+
+@njit_stage
 def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias,
-          bias_rw_arcsec_s, rng, sun_b, fine, trk, gyro):
+          bias_rw_arcsec_s, rng, tracker_lock, cone_armed, sun_b, fine, trk, gyro):
     """Sun sensor 104 -> ``fine``, star tracker 105 -> ``trk``, gyros 1-3 -> ``gyro``.
 
     ``fine`` is (pitch, yaw [arcsec], present), ``trk`` (yaw, pitch [arcsec],
     present), ``gyro`` the measured rates [arcsec/s] over the last frame's
     body-angle increment ``dtheta_rad``; ``sun_b`` keeps the Sun's body
     direction for the Mode 1 controller. ``step_bias`` steps the gyros' rate
-    random walk ``bias_rw_arcsec_s``. Returns the index of the star the
-    tracker holds in ``tracker_p.stars_inertial`` (-1: none).
+    random walk ``bias_rw_arcsec_s``; ``tracker_lock`` is the tracker's
+    memory (the star it holds), ``cone_armed`` arms its cone-angle check.
+    Returns the index of the star the tracker holds in
+    ``tracker_p.stars_inertial`` (-1: none).
     """
     rotate_to_body(x, sun_inertial, sun_b)
     sun_sensor(sun_p, sun_b, fine, rng)
-    star = star_tracker(tracker_p, x, trk, rng)
+    star = star_tracker(tracker_p, x, tracker_lock, trk, rng, cone_armed)
     gyro_output(gyro_p, dtheta_rad, dt_s, bias_rw_arcsec_s, gyro, step_bias, rng)
     return star
 

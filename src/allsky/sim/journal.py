@@ -5,7 +5,8 @@ Master sequencer 20 and the mission driver write the entries they cause
 register or DAC write, the abort) through :meth:`Journal.note`. The frame
 loop writes, frame by frame, what only it sees happen (:func:`note_frame`,
 :func:`note_clip`, :func:`note_wheels`, :func:`note_faults`): the star in the tracker's slit
-changing, a counter overflowing, a drift DAC applying its full scale rather
+changing, a lock the tracker refused (the cone-angle check) or dropped (the bright gate),
+a counter overflowing, a drift DAC applying its full scale rather
 than the count, a wheel reaching its momentum limit, the jets unloading, a
 fault's onset and end. Those go into a small buffer of the mission state
 (``State.journal``, :data:`ROWS` rows of :data:`WIDTH` numbers), which the
@@ -25,6 +26,7 @@ import math
 
 import numpy as np
 
+from allsky.hardware import star_tracker as trk
 from allsky.hardware.star_tracker import FALSE_TARGET
 from allsky.jit import njit_stage
 from allsky.units import ARCSEC2DEG, RAD2DEG
@@ -38,6 +40,8 @@ WIDTH = 7
 T, KIND, WHAT, INDEX, A, B, C = range(WIDTH)
 
 STAR_LOCK = EVENT_KIND["star_lock"].code
+LOCK_REJECTED = EVENT_KIND["lock_rejected"].code
+LOCK_DROPPED = EVENT_KIND["lock_dropped"].code
 SATURATION = EVENT_KIND["saturation"].code
 FAULT = EVENT_KIND["fault"].code
 
@@ -98,15 +102,23 @@ def _write(journal, journal_n, t_s, kind, what, index, a, b, c):
 
 
 @njit_stage
-def note_frame(journal, journal_n, seen, t_s, star, star_in_use, cone_arcsec, overflow):
-    """What changed this frame: the star in the slit, a counter's overflow latch.
+def note_frame(journal, journal_n, seen, t_s, star, star_in_use, cone_arcsec, overflow, lock):
+    """What changed this frame: the star in the slit, a refusal, a drop, an overflow.
 
     ``star`` is the index of the target in star tracker 105's slit (-1
     none, :data:`FALSE_TARGET`) and ``cone_arcsec`` its pitch output;
-    ``overflow`` the latches of counters 14, 16, 18, 13, 15, 17. The
-    latches are compared as one bitmask, so that an ordinary frame costs two
-    comparisons.
+    ``lock`` the tracker's memory, which flags a lock the cone-angle check
+    refused or the bright gate dropped in this frame
+    (:mod:`allsky.hardware.star_tracker`); ``overflow`` the latches of
+    counters 14, 16, 18, 13, 15, 17. The latches are compared as one
+    bitmask, so that an ordinary frame costs four comparisons.
     """
+    if lock[trk.NEW_REFUSAL] != trk.NONE:
+        _write(journal, journal_n, t_s, LOCK_REJECTED, 0, lock[trk.NEW_REFUSAL],
+               lock[trk.REFUSED_CONE_ARCSEC], 0.0, star_in_use)
+    if lock[trk.NEW_DROP] != trk.NONE:
+        _write(journal, journal_n, t_s, LOCK_DROPPED, 0, lock[trk.NEW_DROP],
+               lock[trk.SEEN_MAG], 0.0, star_in_use)
     if star != seen[SEEN_STAR]:
         _write(journal, journal_n, t_s, STAR_LOCK, 0, star, seen[SEEN_STAR],
                cone_arcsec if star != -1 else 0.0, star_in_use)
@@ -184,13 +196,23 @@ class Decoder:
         A fault in words (:func:`allsky.config.faults.describe`).
     drift_lsb_deg_h : float
         [deg/h] per drift-counter pulse as the drift DACs apply it.
+    reference_cone_deg : float
+        [deg] cone angle of the planned reference star (refusals carry it).
+    cone_check_deg : float
+        [deg] ``star_tracker.cone_angle_check_deg``.
+    gate_magnitude : float or None
+        [mag] the tracker's bright gate (drops carry it); None without a gate.
     """
 
-    def __init__(self, star_names, faults, describe, drift_lsb_deg_h):
+    def __init__(self, star_names, faults, describe, drift_lsb_deg_h, reference_cone_deg=0.0,
+                 cone_check_deg=0.0, gate_magnitude=None):
         self.star_names = list(star_names)
         self.faults = list(faults)
         self.describe = describe
         self.drift_lsb_deg_h = float(drift_lsb_deg_h)
+        self.reference_cone_deg = float(reference_cone_deg)
+        self.cone_check_deg = float(cone_check_deg)
+        self.gate_magnitude = gate_magnitude
 
     def star(self, index):
         """A star's name; None for no star; "stray light" for a false target."""
@@ -207,6 +229,14 @@ class Decoder:
             return {"kind": "star_lock", "star": self.star(i), "previous": self.star(a),
                     "cone_angle_deg": (b * ARCSEC2DEG if i != -1 else None),
                     "in_use": bool(c)}
+        if kind == LOCK_REJECTED:
+            return {"kind": "lock_rejected", "star": self.star(i),
+                    "cone_angle_deg": a * ARCSEC2DEG,
+                    "reference_cone_angle_deg": self.reference_cone_deg,
+                    "check_deg": self.cone_check_deg, "in_use": bool(c)}
+        if kind == LOCK_DROPPED:
+            return {"kind": "lock_dropped", "star": self.star(i), "magnitude": a,
+                    "gate_magnitude": self.gate_magnitude, "in_use": bool(c)}
         if kind == FAULT:
             f = self.faults[i]
             return {"kind": "fault", "fault": i, "fault_kind": f["kind"],

@@ -112,10 +112,12 @@ def build_params(cfg) -> sim_state.Params:
     stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
     stars_inertial = np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars],
                               dtype=float).reshape(-1, 3)
-    tracker = star_tracker.StarTrackerParams(
-        cfg.star_tracker.fov_long_half_deg * units.DEG2RAD,
-        cfg.star_tracker.fov_narrow_half_deg * units.DEG2RAD,
-        float(cfg.star_tracker.noise_arcsec), stars_inertial)
+    st = cfg.star_tracker
+    tracker = star_tracker.make_params(
+        st.fov_long_half_deg * units.DEG2RAD, st.fov_narrow_half_deg * units.DEG2RAD,
+        float(st.noise_arcsec), stars_inertial, [s.magnitude for s in stars], (lo, hi),
+        reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
+        bool(st.bright_gate))
     el = cfg.electronics
     return sim_state.Params(
         frame_s=dt,
@@ -152,7 +154,9 @@ def build_params(cfg) -> sim_state.Params:
         pwpf=pwpf.make_params(cfg.pwpf.filter_gain, cfg.pwpf.time_constant_s,
                               cfg.pwpf.on_threshold_v, cfg.pwpf.off_threshold_v,
                               cfg.pwpf.full_on_v, cfg.jets.min_on_time_s, dt),
-        jets=jets.make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s),
+        jets=jets.make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s,
+                              cfg.jets.supply, cfg.jets.tank_pressure_initial_bar,
+                              cfg.jets.tank_pressure_final_bar, cfg.jets.propellant_kg),
         mode1=sun_acquisition.SunAcquisitionParams(
             float(cfg.sequencer.mode1_slew_gain_per_s),
             cfg.sequencer.mode1_slew_rate_deg_s * units.DEG2ARCSEC),
@@ -166,7 +170,8 @@ def build_params(cfg) -> sim_state.Params:
         wheels=wheel_params(cfg),
         faults=sim_faults.compile_faults(
             cfg, tracker, [s.name for s in stars],
-            lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc)),
+            lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc),
+            lambda name: sky.star(name).magnitude),
     )
 
 
@@ -266,7 +271,9 @@ def new_target_record(cfg, index, start_s) -> dict:
     computer's judgement: pointing_error_arcsec (true), body_rate_deg_s
     (true) and computed_error_arcsec (CPU 22's); hold (the hold's
     measurements) and hold_end_pointing_error_arcsec, locked_star; None until
-    known.
+    known. A target flown from the one before on the gyros
+    (``sequencer.between_targets = "direct"``) gains turn_roll_deg and
+    turn_yaw_deg, the turn CPU 22 formed (:meth:`Mission.targets`).
     """
     spec = target_specs(cfg)[index]
     return {"name": target_name(spec), **spec, "start_s": float(start_s), "end_s": None,
@@ -279,11 +286,25 @@ def new_target_record(cfg, index, start_s) -> dict:
 def reference_star_inertial(cfg) -> np.ndarray:
     """Unit vector to the planned reference star ``star_tracker.reference_star``.
 
-    The programmed angles are computed for it; the tracker locks whichever
-    star of its magnitude window it meets nearest its boresight, which is
-    this one only if the window and the date make it so.
+    The programmed angles are computed for it; the tracker locks the first
+    star of its magnitude window that it finds in its slit, which is this one
+    only if the window and the date make it so (or its cone-angle check,
+    ``star_tracker.cone_angle_check_deg``, refuses the others).
     """
     return sky.star_direction_inertial(cfg.star_tracker.reference_star, cfg.mission.date_utc)
+
+
+def reference_cone_deg(cfg) -> float:
+    """Cone angle [deg] of the planned reference star on the mission date.
+
+    Its place along the tracker's slit with the roll axis on the Sun: 90 deg
+    less its angle from the Sun at the mission's start
+    (:func:`allsky.hardware.star_tracker.cone_angle_deg`; the Sun moves about
+    1 deg a day, 0.02 deg in a mission of 30 minutes).
+    """
+    sun = sky.sun_direction_inertial(cfg.mission.date_utc)
+    cos = float(sun @ reference_star_inertial(cfg))
+    return star_tracker.cone_angle_deg(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
 
 
 def tracker_star_names(cfg) -> list:
@@ -332,6 +353,14 @@ class Mission:
         self.abort_reason = h.get("abort_reason")
         self.programmed_roll_deg = h.get("programmed_roll_deg")
         self.programmed_yaw_deg = h.get("programmed_yaw_deg")
+        #: [deg] the turn from the target held to the one flown (between_targets = "direct")
+        self.turn_roll_deg = h.get("turn_roll_deg")
+        self.turn_yaw_deg = h.get("turn_yaw_deg")
+        #: The Sun [inertial] the first target's angles were computed for: the reference
+        #: attitude every target's angles are measured from when flown one from the other
+        self.reference_sun_inertial = h.get("reference_sun_inertial")
+        #: The body axes CPU 22 holds after the turns from target to target ("direct")
+        self.held_axes = h.get("held_axes")
         #: Measurements of the hold on target (master_sequencer.measure_hold); None if not flown.
         self.hold = h.get("hold")
         #: One record per target begun (:func:`new_target_record`); the last is being flown.
@@ -348,9 +377,12 @@ class Mission:
         self._hooks = NO_HOOKS
         #: What happened, in order (:class:`allsky.sim.journal.Journal`).
         self.journal = journal.Journal(h.get("events"))
+        trk = self.params.tracker
         self._decoder = journal.Decoder(
             tracker_star_names(cfg), cfg.as_dict().get("faults", []), fault_config.describe,
-            self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S)
+            self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S,
+            trk.reference_cone_rad * units.RAD2DEG, float(cfg.star_tracker.cone_angle_check_deg),
+            trk.bright_gate_mag if math.isfinite(trk.bright_gate_mag) else None)
         self.state.target_inertial[:] = self.target_direction()
 
     # -- the seam: what master sequencer 20's steps use (sequencer.host.Host) -----
@@ -596,6 +628,14 @@ class Mission:
         (roll at the commanded rate plus a settle allowance), two passes.
         """
         star, target = reference_star_inertial(self.cfg), self.target_direction()
+        if self.cfg.sequencer.between_targets == "direct" \
+                and self.reference_sun_inertial is not None:
+            # Flown from target to target on the gyros: every target's angles from the
+            # reference attitude the first one was flown from.
+            sun = np.asarray(self.reference_sun_inertial, dtype=float)
+            self.programmed_roll_deg, self.programmed_yaw_deg = \
+                targeting.programmed_angles_deg(sun, star, target)
+            return
         t0 = float(self.state.time_s[0])
         rate_deg_s = float(self.cfg.electronics.rate_command_deg_s)
         roll = 0.0
@@ -604,6 +644,8 @@ class Mission:
             sun = self.params.sun0_inertial + self.params.sun_rate_inertial * t
             roll, yaw = targeting.programmed_angles_deg(sun, star, target)
         self.programmed_roll_deg, self.programmed_yaw_deg = roll, yaw
+        if self.cfg.sequencer.between_targets == "direct":
+            self.reference_sun_inertial = [float(x) for x in sun]
 
     # -- targets ---------------------------------------------------------------
     @property
@@ -625,6 +667,7 @@ class Mission:
         self.target_log[-1] = {**self.targets()[-1], "end_s": now}
         self.target_log.append(new_target_record(self.cfg, len(self.target_log), now))
         self.programmed_roll_deg = self.programmed_yaw_deg = None
+        self.turn_roll_deg = self.turn_yaw_deg = None
         self.hold = None
         self.state.target_inertial[:] = self.target_direction()
 
@@ -642,6 +685,8 @@ class Mission:
                    hold_end_pointing_error_arcsec=(hold["end_pointing_error_arcsec"]
                                                    if hold else None),
                    locked_star=self.locked_star())
+        if self.turn_roll_deg is not None:  # flown from the target before, on the gyros
+            cur.update(turn_roll_deg=self.turn_roll_deg, turn_yaw_deg=self.turn_yaw_deg)
         if self.finished:
             cur["end_s"] = float(self.state.time_s[0])
         return out
@@ -804,6 +849,9 @@ class Mission:
                    "events": [dict(e) for e in self.journal.events]}
         if self.hold is not None:
             history["hold"] = self.hold
+        for key in ("turn_roll_deg", "turn_yaw_deg", "reference_sun_inertial", "held_axes"):
+            if getattr(self, key) is not None:
+                history[key] = getattr(self, key)
         if len(self.target_log) > 1 or self.cfg.target.sequence is not None:
             history["targets"] = [dict(r) for r in self.target_log]
         arrays = {k: v.copy() for k, v in self.state._asdict().items()}
@@ -838,13 +886,15 @@ def newer_state_arrays() -> dict:
     """State arrays added since files of :data:`STATE_FORMAT` were first written.
 
     Each with the value a file saved before it stands for: ``locked_star``
-    -1 (which star the tracker held was not recorded); ``fault_state`` no
-    onset known (a mission of those days had no faults); the wheels' arrays
-    zero (it flew the jets).
+    -1 (which star the tracker held was not recorded); ``tracker_lock``
+    nothing held (the tracker searches at the next frame, and finds the star
+    it held if that is still in its slit); ``fault_state`` no onset known (a
+    mission of those days had no faults); the wheels' arrays zero (it flew
+    the jets).
     """
     blank = sim_state.new_state(np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), 0.0)
-    return {k: getattr(blank, k) for k in ("locked_star", "fault_state", "wheel_h",
-                                           "wheel_unload", "wheel_peak_fraction")}
+    return {k: getattr(blank, k) for k in ("locked_star", "tracker_lock", "fault_state",
+                                           "wheel_h", "wheel_unload", "wheel_peak_fraction")}
 
 
 def run_mission(cfg, telemetry=True) -> Mission:

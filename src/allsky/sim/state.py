@@ -18,7 +18,7 @@ from allsky.hardware.control_amp import ControlParams
 from allsky.hardware.gyro import GyroParams
 from allsky.hardware.jets import JetParams
 from allsky.hardware.pwpf import PwpfParams
-from allsky.hardware.star_tracker import StarTrackerParams
+from allsky.hardware.star_tracker import StarTrackerParams, new_lock
 from allsky.hardware.sun_acquisition import SunAcquisitionParams
 from allsky.hardware.sun_sensor import SunSensorParams
 from allsky.hardware.switch_bank import new_bank
@@ -115,6 +115,9 @@ class State(NamedTuple):
     #: (1,) int64 star tracker 105 last held while in use: index in
     #: ``Params.tracker.stars_inertial``; -1 = none yet
     locked_star: np.ndarray
+    #: (star_tracker.N_LOCK,) star tracker 105's memory: the target it holds, the stars its
+    #: cone-angle check refused, the bright gate (allsky.hardware.star_tracker)
+    tracker_lock: np.ndarray
     #: (3, MAX_FAULTS) onsets [s] and memories of the faults (allsky.sim.faults)
     fault_state: np.ndarray
     #: (WHEELS_MAX,) [N m s] momentum of each reaction wheel about its axis (the first
@@ -153,6 +156,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
         excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
         rng=np.ones(1, dtype=np.uint64), locked_star=np.full(1, -1, dtype=np.int64),
+        tracker_lock=new_lock(),
         fault_state=new_fault_state(),
         wheel_h=np.zeros(WHEELS_MAX), wheel_unload=np.zeros(4, dtype=np.int64),
         wheel_peak_fraction=np.zeros(1), target_inertial=np.array([1.0, 0.0, 0.0]),

@@ -44,7 +44,7 @@ def test_progress_is_reported_after_each_pair_in_seed_order():
 def test_one_run_reports_each_mission_it_flies():
     names = []
     compare(load_scenario(), runs=1, workers=1, on_flight=names.append)
-    assert names == ["legacy", "dither", "dither, legacy misalignment"]
+    assert names == ["legacy", "dither", "dither, legacy misalignment", "information limit"]
 
 
 def test_the_sweep_refuses_methods_it_would_ignore(capsys):

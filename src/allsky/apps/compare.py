@@ -13,8 +13,8 @@ from allsky.studies.compare import (
     AXES,
     CC_KEYS,
     DEFAULT_METHODS,
-    FLIGHTS,
     compare,
+    flights_per_seed,
     label_percentiles,
 )
 from allsky.units import FRACTION2PPM
@@ -204,7 +204,7 @@ def run_from_cli(cfg, args) -> int:
     # One run: a step per mission of the pair (each takes seconds, the filter's longer);
     # several: a step per pair. Shown on a terminal unless --quiet.
     one = runs == 1
-    total = FLIGHTS["three" if "kalman" in methods else "pair"] if one else runs
+    total = flights_per_seed(methods) if one else runs
     bar = tqdm(total=total, desc="missions", unit="mission" if one else "pair",
                file=sys.stderr, disable=True if args.quiet else None)
 
@@ -220,8 +220,9 @@ def run_from_cli(cfg, args) -> int:
     finally:
         bar.close()
     say(format_compare(result))
-    if "kalman" in result:
+    if "kalman" in result or "smoother" in result:
         say(format_kalman(result))
+    say(format_information(result))
     written = []
     if to_stdout:
         print(json.dumps(label_percentiles(result), indent=2))
@@ -232,7 +233,7 @@ def run_from_cli(cfg, args) -> int:
         say(f"wrote comparison {args.json}")
     if args.plot:
         pulse_weight = cfg.electronics.vfc_pulse_weight_arcsec
-        draw = plot_three_way if "kalman" in result else plot
+        draw = plot_three_way if "kalman" in result or "smoother" in result else plot
         write_atomic(args.plot, writer=lambda tmp: draw(result, tmp, pulse_weight),
                      option="--plot")
         written.append(args.plot)
@@ -244,11 +245,79 @@ def run_from_cli(cfg, args) -> int:
     return 0
 
 
+# -- the information limit and where the pointing error comes from ---------------------
+
+#: Rows of the information table: (label, group of the bound, key, unit format).
+INFORMATION_ROWS = (
+    [(f"scale factor {a} [ppm]", "scale_factor_error_ppm", a, ".2f") for a in AXES]
+    + [(f"{k} [arcsec]", "cross_coupling_error_arcsec", k, ".3f") for k in CC_KEYS]
+    + [(f"drift {a} [deg/h]", "drift_error_deg_h", a, ".4f") for a in ("roll", "pitch", "yaw")])
+#: Components of ``pointing_decomposition``, as printed.
+DECOMPOSITION = (("total_arcsec", "final pointing (as flown)"),
+                 ("targeting_arcsec", "  targeting (truth stored)"),
+                 ("drift_arcsec", "  drift counters' part"),
+                 ("scale_factor_arcsec", "  scale factors' part"),
+                 ("misalignment_arcsec", "  cross-couplings' part"),
+                 ("interaction_arcsec", "  not additive"))
+
+
+def _spread(v):
+    """(sample sigma, RMS) of a statistic, or of one run's value (sigma None)."""
+    if isinstance(v, dict):
+        return v["std"], float(np.hypot(v["mean"], v["std"]))
+    return None, (None if v is None else abs(v))
+
+
+def format_information(result) -> str:
+    """Each method's measured spread beside the Cramer-Rao bound of its manoeuvres.
+
+    Per method: the bound (RMS over the runs of each run's bound), the
+    measured sample sigma and RMS of the error, and RMS / bound: 1 is
+    information-limited, more leaves information on the table. Then each
+    method's final pointing taken apart (:mod:`allsky.studies.pointing`).
+    """
+    bounds = result.get("crlb")
+    if not bounds:
+        return ""
+    cols = [c for c in THREE_WAY if c in bounds]
+    rows = ["", ("The information limit: Cramer-Rao bound of each method's manoeuvres, "
+            "beside its error (bound / measured sigma / RMS, RMS over bound)"),
+            f"  {'quantity':<28}" + "".join(f"{THREE_WAY[c]:>36}" for c in cols)]
+    for label, group, key, spec in INFORMATION_ROWS:
+        cells = []
+        for c in cols:
+            b = bounds[c][group].get(key)
+            sig, rms = _spread(result[c].get(group, {}).get(key))
+            if b is None:
+                cells.append("not observable")
+                continue
+            ratio = "-" if rms is None else f"{rms / b:.2f}x"
+            cells.append(f"{b:{spec}} / {_fmt(sig, spec)} / {_fmt(rms, spec)} {ratio}")
+        rows.append(f"  {label:<28}" + "".join(f"{c:>36}" for c in cells))
+    have = [c for c in THREE_WAY if c in result and result[c].get("pointing_decomposition")]
+    if have:
+        rows += ["", ("Final pointing taken apart (Mode 6 flown again with the truth stored, "
+                 "and with the truth but one group) [arcsec]"),
+                 f"  {'part':<28}" + "".join(f"{THREE_WAY[c]:>22}" for c in have)]
+        for key, label in DECOMPOSITION:
+            rows.append(f"  {label:<28}" + "".join(
+                f"{_cell(result[c]['pointing_decomposition'][key]):>22}" for c in have))
+    apriori = result.get("predicted_scale_factor_sigma_a_priori_ppm", {}).get("legacy")
+    fitted = result["predicted_scale_factor_sigma_ppm"]["legacy"]
+    if apriori:
+        rows.append("")
+        rows.append("  legacy scale-factor 1-sigma predicted a priori (noise models, nominal "
+                    "times) / fitted (these runs' drift spread and times) [ppm]: "
+                    + ", ".join(f"{a} {apriori[a]:.2f} / {fitted[a]:.2f}" for a in apriori))
+    return "\n".join(rows)
+
+
 # -- three methods: the Kalman filter beside the legacy turns and the dither -----------
 
 #: Columns of the three-way table and figure: result section -> heading.
 THREE_WAY = {"legacy": "legacy (Modes 4-5)", "dither": "dither",
-             "kalman": "Kalman, Modes 3-5", "kalman_dither": "Kalman, dither hold"}
+             "kalman": "Kalman, Modes 3-5", "kalman_dither": "Kalman, dither hold",
+             "smoother": "smoother, Modes 3-5"}
 
 
 def _cell(v, spec=".2f"):
@@ -267,7 +336,7 @@ def format_kalman(result) -> str:
     cols = [c for c in THREE_WAY if c in result]
     pred = result["predicted_scale_factor_sigma_ppm"]
     n = result["runs"]
-    rows = ["", ("Three methods: the three-axis Kalman filter (counters 14/16/18, sun sensor "
+    rows = ["", ("The three-axis Kalman filter and smoother (counters 14/16/18, sun sensor "
                  "104, star tracker 105) beside the others"),
             f"  {'figure':<32}" + "".join(f"{THREE_WAY[c]:>22}" for c in cols)]
 
@@ -294,7 +363,9 @@ def format_kalman(result) -> str:
     line("largest excursion [arcsec]", [get(c, "max_excursion_arcsec") for c in cols], ".0f")
     line("calibration propellant [kg]", [get(c, "propellant_kg") for c in cols], ".3f")
     line("final pointing error [arcsec]", [get(c, "pointing_error_arcsec") for c in cols])
-    for c in ("kalman", "kalman_dither"):
+    for c in ("kalman", "kalman_dither", "smoother"):
+        if c not in result:
+            continue
         v = result[c].get("nees")
         if isinstance(v, dict):
             rows.append(f"  {THREE_WAY[c]}: mean NEES {v['mean']:.2f} over "

@@ -39,7 +39,7 @@ from allsky import units
 from allsky.jit import njit
 from allsky.studies import crlb
 from allsky.studies import kalman_mekf as km
-from allsky.studies.kalman_mekf import E_INDEX, N_STATE
+from allsky.studies.kalman_mekf import E_INDEX, N_STATE, rotation_error
 from allsky.studies.kalman_mekf import load as load_calibration
 
 #: Gauss-Newton passes at most; and when the nominal has stopped moving [sigma].
@@ -77,22 +77,6 @@ def rotation_quaternion(v):
     n = np.linalg.norm(v, axis=1)
     k = np.where(n > 1e-15, np.sin(0.5 * n) / np.where(n > 1e-15, n, 1.0), 0.5)
     return np.column_stack((np.cos(0.5 * n), v * k[:, None]))
-
-
-def rotation_error(a_est, a_true):
-    """Rotation vectors ``e`` with ``A_true = exp(-[e x]) A_est``, exactly (n, 3).
-
-    To first order ``A_true = (I - [e x]) A_est``, the filter's attitude
-    error; this is the whole rotation, right at any angle below 180 deg.
-    """
-    r = a_true @ np.swapaxes(a_est, -1, -2)
-    vee = 0.5 * np.stack([r[..., 1, 2] - r[..., 2, 1], r[..., 2, 0] - r[..., 0, 2],
-                          r[..., 0, 1] - r[..., 1, 0]], axis=-1)
-    s = np.linalg.norm(vee, axis=-1)
-    c = 0.5 * (np.trace(r, axis1=-2, axis2=-1) - 1.0)
-    ang = np.arctan2(s, c)
-    k = np.where(s > 1e-300, ang / np.where(s > 1e-300, s, 1.0), 1.0)
-    return vee * k[..., None]
 
 
 def _outputs(model, q, time_s, tracker):

@@ -34,7 +34,7 @@ EXPECTED = {
     "legacy-seed1": "ce4060111f2178c129c8ed1c203e5910",
     "legacy-seed23-vega": "fc3f4465b1849c05ba5df86b3e502296",
     "legacy-seed7": "08c44c688fc6a765434f6fa149437ed4",
-    "compare-runs5": "be884af5d42d1bdd89c38885def7ff8a",
+    "compare-runs5": "74a41bd424e5995606644d0cdbd042ee",
 }
 
 

@@ -306,8 +306,8 @@ def format_information(result) -> str:
     fitted = result["predicted_scale_factor_sigma_ppm"]["legacy"]
     if apriori:
         rows.append("")
-        rows.append("  legacy scale-factor 1-sigma predicted a priori (noise models, nominal "
-                    "times) / fitted (these runs' drift spread and times) [ppm]: "
+        rows.append("  legacy scale-factor 1-sigma predicted a priori (ARW and the dead band's "
+                    "0.3\" hold jitter) / fitted (these runs' drift spread) [ppm]: "
                     + ", ".join(f"{a} {apriori[a]:.2f} / {fitted[a]:.2f}" for a in apriori))
     return "\n".join(rows)
 

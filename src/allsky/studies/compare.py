@@ -424,9 +424,10 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
                                                                                      "dither")
     result["predicted_scale_factor_sigma_ppm"] = predicted(cfg, _legacy_times(rows),
                                                            _legacy_drift_spread(rows))
-    # The same formulas from the noise models and nominal durations alone, nothing
-    # taken from these runs.
-    result["predicted_scale_factor_sigma_a_priori_ppm"] = predicted(cfg)
+    # The same formulas a priori: the angle random walk and the hold jitter of the
+    # dead band (HOLD_JITTER_ARCSEC) for the drift count, nothing of these runs' spread;
+    # only the counts' durations are the flown ones (the manoeuvre, not its noise).
+    result["predicted_scale_factor_sigma_a_priori_ppm"] = predicted(cfg, _legacy_times(rows))
     # The dither's feed-forward torque against the actuators' envelopes (either vehicle).
     result["dither_torque_check"] = flown_dither_check(cfg)
     if "kalman" in methods:

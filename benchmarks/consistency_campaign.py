@@ -28,7 +28,7 @@ CONFIGS = {
 def main():
     runs = int(sys.argv[1]) if len(sys.argv) > 1 else 200
     out = {}
-    np.set_printoptions(precision=2, suppress=True, linewidth=200)
+    np.set_printoptions(precision=4, suppress=True, linewidth=200)
     for name, (plan, drawn, overrides) in CONFIGS.items():
         t0 = time.perf_counter()
         r = consistency.campaign(load_scenario(overrides=overrides), runs=runs, seed=2026,

@@ -620,7 +620,9 @@ class Estimate(NamedTuple):
     samples: Samples
     q: np.ndarray  #: (n, 4) attitude estimates
     params: np.ndarray  #: (n, 12) drift [rad/s], E's diagonal [-], E's off-diagonal [rad]
-    sigma: np.ndarray  #: (n, 15) 1-sigma of each error state
+    #: (n, 15) 1-sigma of each error state; the attitude's with the present counter
+    #: readout error (as :attr:`covariances`)
+    sigma: np.ndarray
     checkpoints: np.ndarray  #: sample indices where the covariance was kept (leg ends)
     covariances: np.ndarray  #: (c, 15, 15) the covariance at the checkpoints
     counts: np.ndarray  #: sun accepted, rejected; tracker accepted, rejected
@@ -701,6 +703,13 @@ def estimate(model: FilterModel, samples: Samples, prior: Prior = DEFAULT_PRIOR)
     run_filter(s.time_s, s.dt_s, s.gyro_rad, s.sun, s.tracker, model.sun0_inertial,
                model.sun_rate_inertial, model.stars_inertial, noise_vector(model), q, p, cov,
                out_q, out_p, out_var, ck, out_cov, counts, innov)
+    # The attitude the filter carries is the counters' angle less its drift estimate, so it
+    # holds the present counter's readout error, which the filter (the readout in the
+    # optics' noise, the rate-integrating form of docs/kalman.md) leaves out of its
+    # attitude covariance: P_att = P_dd + sigma_e^2 (Markley and Reynolds).
+    out_var[:, :3] += model.readout_rad ** 2
+    for i in range(3):
+        out_cov[:, i, i] += model.readout_rad ** 2
     return Estimate(s, out_q, out_p, np.sqrt(np.maximum(out_var, 0.0)), ck, out_cov, counts,
                     first, innov)
 

@@ -345,6 +345,9 @@ def smooth(model: km.FilterModel, samples: km.Samples, prior: km.Prior = km.DEFA
         if np.max(np.abs(xs[-1, 3:]) / sig[3:]) < CONVERGED_SIGMA and np.max(
                 np.abs(xs[:, 0:3])) < CONVERGED_SIGMA * sig[0:3].min() + 1e-9 * sig0[0]:
             break
+    cov = cov.copy()
+    for i in range(3):  # the present counter readout error, as the filter's (kalman_mekf)
+        cov[i, i] += model.readout_rad ** 2
     return Smoothed(s, qn, pn, cov, it, est)
 
 

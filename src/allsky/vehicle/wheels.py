@@ -232,6 +232,9 @@ def body_vector(axes, per_wheel_values, out):
 def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     """Motor torques ``u_n_m`` (n) for the body torque ``torque_body_n_m`` [N m].
 
+    The minimum-norm distribution (``wheels.allocation = "pseudo_inverse"``);
+    the frame loop calls :func:`distribute_direct` for ``"direct"``.
+
     ``-A u`` is the body torque. Each component of the command is first
     limited to ``axis_reach_n_m``; then ``u = -A+ tau``, scaled by the largest
     factor <= 1 that keeps each ``|u_i|`` within its torque limit and each
@@ -250,7 +253,38 @@ def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
         u_n_m[i] = ui
         if abs(ui) * scale > p.max_torque_n_m[i]:
             scale = p.max_torque_n_m[i] / abs(ui)
-    if scale < 1.0 and p.allocation == ALLOCATION_DIRECT:
+    for i in range(n):
+        ui = u_n_m[i] * scale
+        if ui * h_n_m_s[i] >= 0.0 and ui != 0.0:  # speeding the wheel up
+            room = max(p.max_momentum_n_m_s[i] - abs(h_n_m_s[i]), 0.0)
+            if abs(ui) * dt_s > room:
+                scale *= room / (abs(ui) * dt_s)
+    for i in range(n):
+        u_n_m[i] *= scale
+    return scale
+
+
+@njit
+def distribute_direct(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
+    """:func:`distribute` with ``wheels.allocation = "direct"``.
+
+    The same limits and scaling, but where the minimum-norm torques would
+    exceed a limit the command is allocated directly on the envelope
+    (:func:`direct_allocation`), and the null-space momentum is managed
+    (:func:`null_space_momentum`). Returns the scale.
+    """
+    n = p.axes.shape[0]
+    r = p.axis_reach_n_m
+    tx = min(max(torque_body_n_m[0], -r[0]), r[0])
+    ty = min(max(torque_body_n_m[1], -r[1]), r[1])
+    tz = min(max(torque_body_n_m[2], -r[2]), r[2])
+    scale = 1.0
+    for i in range(n):
+        ui = -(p.pinv[i, 0] * tx + p.pinv[i, 1] * ty + p.pinv[i, 2] * tz)
+        u_n_m[i] = ui
+        if abs(ui) * scale > p.max_torque_n_m[i]:
+            scale = p.max_torque_n_m[i] / abs(ui)
+    if scale < 1.0:
         scale = direct_allocation(p, tx, ty, tz, u_n_m)
     for i in range(n):
         ui = u_n_m[i] * scale
@@ -260,8 +294,7 @@ def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
                 scale *= room / (abs(ui) * dt_s)
     for i in range(n):
         u_n_m[i] *= scale
-    if p.allocation == ALLOCATION_DIRECT:
-        null_space_momentum(p, h_n_m_s, dt_s, u_n_m)
+    null_space_momentum(p, h_n_m_s, dt_s, u_n_m)
     return scale
 
 

@@ -17,7 +17,12 @@ import pytest
 
 from allsky import units
 from allsky.apps.cli import main
-from allsky.apps.compare import format_information, format_kalman, three_way_figure
+from allsky.apps.compare import (
+    format_information,
+    format_kalman,
+    information_figure,
+    three_way_figure,
+)
 from allsky.apps.kalman_plots import observability_figure
 from allsky.config import load_scenario
 from allsky.hardware import gyro
@@ -174,6 +179,7 @@ def test_compare_gives_the_filter_and_smoother_the_other_methods_keys(cfg):
     assert "not observable" not in info.split("Final pointing")[0].split("\n")[3]
     assert "drift counters' part" in info
     assert len(three_way_figure(r).axes) == 2
+    assert len(information_figure(r).axes) == 2
 
 
 def test_observability_figure(legacy):

@@ -312,6 +312,73 @@ def format_information(result) -> str:
     return "\n".join(rows)
 
 
+#: Manoeuvres of the information figure, as labelled there.
+MANOEUVRE_LABELS = {"mode3_hold": "Mode 3\nhold (40 s)", "mode4_roll_turn": "Mode 4\n360° roll",
+                    "mode5_yaw_turn": "Mode 5\n360° yaw", "dither_hold": "dither\nhold (881 s)",
+                    "modes3_5": "Modes 3-5\ntogether"}
+
+
+def information_figure(result):
+    """The information limit: what each manoeuvre allows, and how near each method comes.
+
+    Left: the Cramer-Rao bound of the roll and yaw scale factors and of a
+    cross-coupling factor per manoeuvre (``crlb_manoeuvres``; a quantity the
+    manoeuvre does not show is marked at the top). Right: each method's RMS
+    error over its bound, per quantity (1: information-limited).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11.5, 4.6), layout="constrained")
+    ax_b, ax_r = fig.subplots(1, 2, width_ratios=(1, 1.25))
+    per = result["crlb_manoeuvres"]
+    names = [n for n in MANOEUVRE_LABELS if n in per]
+    shown = (("scale_factor_ppm", "roll", "scale factor roll [ppm]"),
+             ("scale_factor_ppm", "yaw", "scale factor yaw [ppm]"),
+             ("cross_coupling_arcsec", "yaw_into_roll", "yaw into roll [arcsec]"))
+    top = 1e4
+    for j, (group, key, label) in enumerate(shown):
+        x = np.arange(len(names)) + (j - 1) * 0.26
+        v = [per[n][group][key] for n in names]
+        ax_b.bar(x[[i for i, b in enumerate(v) if b is not None]],
+                 [b for b in v if b is not None], width=0.24, label=label, color=f"C{j}")
+        for i, b in enumerate(v):
+            if b is None:
+                ax_b.text(x[i], top * 0.6, "n/o", ha="center", va="top", fontsize=7,
+                          color=f"C{j}", rotation=90)
+    ax_b.set_yscale("log")
+    ax_b.set_ylim(0.1, top)
+    ax_b.set_xticks(range(len(names)), [MANOEUVRE_LABELS[n] for n in names], fontsize=8)
+    ax_b.set_ylabel("Cramér-Rao bound, 1 sigma")
+    ax_b.set_title("What each manoeuvre allows (n/o: not observable)")
+    ax_b.legend(fontsize=7, loc="upper right")
+    ax_b.grid(True, which="major", axis="y", alpha=0.3)
+    cols = [c for c in THREE_WAY if c in result.get("crlb", {})]
+    quantities = [(g, k) for _, g, k, _ in INFORMATION_ROWS]
+    for i, c in enumerate(cols):
+        ratio = []
+        for g, k in quantities:
+            b = result["crlb"][c][g].get(k)
+            _, rms = _spread(result[c].get(g, {}).get(k))
+            ratio.append(np.nan if b is None or rms is None else rms / b)
+        ax_r.plot(np.arange(len(quantities)) + (i - len(cols) / 2) * 0.08, ratio, "o",
+                  label=THREE_WAY[c], color=f"C{i}", ms=5)
+    ax_r.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax_r.set_yscale("log")
+    ax_r.set_xticks(range(len(quantities)),
+                    [f"{'sf' if g.startswith('scale') else 'drift' if g.startswith('drift') else ''}"
+                     f" {k.replace('_into_', '→')}".strip() for g, k in quantities],
+                    fontsize=7, rotation=35)
+    ax_r.set_ylabel("RMS error / bound of its manoeuvres")
+    ax_r.set_title(f"How near each method comes ({result['runs']} runs; 1: information-limited)")
+    ax_r.legend(fontsize=7)
+    ax_r.grid(True, which="both", axis="y", alpha=0.3)
+    return fig
+
+
 # -- three methods: the Kalman filter beside the legacy turns and the dither -----------
 
 #: Columns of the three-way table and figure: result section -> heading.

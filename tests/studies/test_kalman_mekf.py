@@ -70,7 +70,13 @@ def test_counter_samples_carry_the_true_motion(legacy):
 
 
 def test_measurement_models_reproduce_the_sensors(legacy):
-    """Sensor outputs minus the models at the true attitude: white noise of the sensors."""
+    """Sensor outputs minus the models at the true attitude: white noise of the sensors.
+
+    To the statistics of N residuals, not to a tenth of a sigma: the mean within 4
+    standard errors (sigma/sqrt N: 0.02" for the tracker's ~15 000, below the 0.1-0.2"
+    the filter knows the attitude to), the sample sigma within 4/sqrt(2N) of the data
+    sheet's. A model wrong by a fraction of the attitude's uncertainty fails.
+    """
     s, m = legacy.estimate.samples, legacy.mission
     model = K.filter_model(m)
     res = {"sun": [], "tracker": []}
@@ -86,9 +92,10 @@ def test_measurement_models_reproduce_the_sensors(legacy):
                                                       np.arctan2(b[0], b[2])])
     for name, sigma in (("sun", model.sun_noise_rad), ("tracker", model.tracker_noise_rad)):
         r = np.array(res[name])
-        assert r.shape[0] > 1000
-        assert np.all(np.abs(r.std(axis=0) / sigma - 1.0) < 0.1), name
-        assert np.all(np.abs(r.mean(axis=0)) < 0.1 * sigma), name
+        n = r.shape[0]
+        assert n > 1000
+        assert np.all(np.abs(r.std(axis=0) / sigma - 1.0) < 4.0 / np.sqrt(2 * n)), name
+        assert np.all(np.abs(r.mean(axis=0)) < 4.0 * sigma / np.sqrt(n)), name
 
 
 def test_register_23_from_the_true_parameters_is_the_perfect_calibration(legacy):

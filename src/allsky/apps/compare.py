@@ -477,10 +477,10 @@ def three_way_figure(result):
                if r[c]["status"] == "complete"]
         ax_pt.scatter(i + rng.uniform(-0.25, 0.25, len(pts)), pts, s=8, alpha=0.45, color="C2")
     ax_sf.set_xticks([3 * i + 0.5 for i in range(len(cols))],
-                     [THREE_WAY[c] for c in cols], fontsize=8)
+                     [THREE_WAY[c] for c in cols], fontsize=8, rotation=20)
     ax_sf.set_yscale("log")
     ax_sf.set_ylabel("|scale-factor error| [ppm]")
-    ax_sf.set_title("Gyro scale factor: three methods")
+    ax_sf.set_title("Gyro scale factor: each method")
     ax_sf.legend(fontsize=8)
     ax_sf.grid(True, which="both", axis="y", alpha=0.3)
     ax_pt.set_xticks(range(len(cols)), [THREE_WAY[c] for c in cols], fontsize=8,

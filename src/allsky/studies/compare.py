@@ -374,8 +374,9 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
         the reaction wheels (:func:`on_vehicle`); None: the scenario's
         ``actuators.kind``.
     methods : sequence of str
-        :data:`METHODS` to fly: legacy and dither always, and ``"kalman"``
-        for the three-axis Kalman filter's two flights (:func:`fly_three`).
+        :data:`METHODS` to fly: legacy and dither always, ``"kalman"`` for
+        the three-axis Kalman filter's two flights (:func:`fly_three`) and
+        ``"smoother"`` for the smoother over Modes 3-5 (:func:`smoother_metrics`).
     on_flight : callable, optional
         ``on_flight(name)`` after each mission of a pair, when the pairs are
         flown in this process (``workers`` 1 or one run): progress inside a
@@ -390,9 +391,14 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
         ``predicted_scale_factor_sigma_ppm``, ``dither_torque_check`` (the
         dither's feed-forward torque in the wheels' and the jets' envelopes,
         :func:`allsky.studies.envelope_check.flown_dither_check`) and
-        ``rows`` (per seed); with
-        ``"kalman"``, ``kalman`` and ``kalman_dither`` too
-        (:func:`kalman_sections`). After a
+        ``predicted_scale_factor_sigma_a_priori_ppm`` (the same formulas
+        from the noise models alone), ``crlb`` and ``crlb_manoeuvres``
+        (:func:`crlb_sections`: the information limit of each method's and
+        each manoeuvre's data), in each method's section its
+        ``pointing_decomposition`` (:mod:`allsky.studies.pointing`), and
+        ``rows`` (per seed); with ``"kalman"``, ``kalman`` and
+        ``kalman_dither`` too (:func:`kalman_sections`), with
+        ``"smoother"``, ``smoother`` (:func:`smoother_section`). After a
         Ctrl-C (or SIGTERM) with pairs finished: those pairs, ``runs`` their
         number, ``interrupted`` True and ``runs_requested``; with none
         finished, the KeyboardInterrupt goes on.

@@ -319,7 +319,7 @@ MANOEUVRE_LABELS = {"mode3_hold": "Mode 3\nhold (40 s)", "mode4_roll_turn": "Mod
 
 
 def information_figure(result):
-    """The information limit: what each manoeuvre allows, and how near each method comes.
+    """The information limit: what each manoeuvre allows, how near each method comes.
 
     Left: the Cramer-Rao bound of the roll and yaw scale factors and of a
     cross-coupling factor per manoeuvre (``crlb_manoeuvres``; a quantity the

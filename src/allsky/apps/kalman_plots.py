@@ -111,6 +111,7 @@ def mismatch_figure(study: dict):
     ax_r.axhline(1.0, color="k", lw=0.8, ls="--", label="honest")
     for ax in (ax_n, ax_r):
         ax.set_xscale("log")
+        ax.minorticks_off()
         ax.set_xticks([0.5, 0.71, 1, 1.41, 2], ["0.5", "0.71", "1", "1.41", "2"])
         ax.set_xlabel("noise the filter assumes / true noise, k")
         ax.grid(True, which="both", alpha=0.3)

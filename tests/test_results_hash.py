@@ -35,7 +35,7 @@ EXPECTED = {
     "legacy-seed1": "cc01586624e80f1ab50836735e5a8f2b",
     "legacy-seed23-vega": "7afb5caf674e790a9f30b217a7f092cf",
     "legacy-seed7": "1a74979ebdc38566646daec3869ad458",
-    "compare-runs5": "9e92acf3d9685b3e687494361c32c13f",
+    "compare-runs5": "74a41bd424e5995606644d0cdbd042ee",
 }
 
 

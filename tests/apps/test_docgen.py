@@ -45,7 +45,7 @@ def test_units_are_known_for_every_key_with_a_unit_suffix():
                 "dither.inertia_estimate_scale", "dither.estimator", "dither.detector",
                 "dither.store_cross_coupling", "target.star", "star_tracker.reference_star",
                 "actuators.kind", "wheels.axes", "wheels.unload_fraction",
-                "wheels.unload_end_fraction", "sequencer.recovery",
+                "wheels.unload_end_fraction", "wheels.allocation", "sequencer.recovery",
                 "sequencer.between_targets", "target.sequence", "star_tracker.bright_gate",
                 "jets.supply"}
     for key in config.RULES:

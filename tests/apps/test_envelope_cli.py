@@ -117,8 +117,20 @@ def test_envelope_analysis_is_envelope_summary_plus_the_dither_check(default_cfg
     w = default_cfg.wheels
     truth = envelope_summary(w.axes, w.max_torque_n_m, w.max_momentum_n_m_s,
                              default_jets_n_m(default_cfg))
-    assert {k: default_envelopes[k] for k in truth} == truth
+    added = {"pseudo_inverse", "allocation"}
+    assert {k: default_envelopes[k] for k in truth if k != "wheels"} == \
+        {k: v for k, v in truth.items() if k != "wheels"}
+    assert {k: v for k, v in default_envelopes["wheels"].items() if k not in added} == \
+        truth["wheels"]
     assert set(default_envelopes) == {"wheels", "jets", "wheel_array", "dither_check"}
+    # What the minimum norm reaches on the equal-facet pyramid: 4L/3 against the
+    # zonotope's 2L sqrt(2/3) in torque (L = 0.5 N m), the same shape in momentum (20 N m s).
+    pinv = default_envelopes["wheels"]["pseudo_inverse"]
+    assert pinv["torque"]["min_radius_n_m"] == pytest.approx(4 * 0.5 / 3, rel=1e-12)
+    assert pinv["momentum"]["min_radius_n_m_s"] == pytest.approx(4 * 20.0 / 3, rel=1e-12)
+    assert pinv["torque"]["max_n_m"] == pytest.approx(truth["wheels"]["torque"]["max_n_m"],
+                                                      rel=1e-12)
+    assert default_envelopes["wheels"]["allocation"] == "pseudo_inverse"
     assert default_envelopes["dither_check"]["emulated_inertia_kg_m2"] == \
         [default_cfg.vehicle.inertia_kg_m2[k][k] for k in range(3)]
 
@@ -327,7 +339,10 @@ def test_command_json_layout_is_the_contract(tmp_path, capsys, default_envelopes
     reach_t = {"min_radius_n_m", "max_n_m"}
     reach_h = {"min_radius_n_m_s", "max_n_m_s"}
     assert set(data) == {"wheels", "jets", "wheel_array", "dither_check"}
-    assert set(data["wheels"]) == {"torque", "momentum", "one_failed"}
+    assert set(data["wheels"]) == {"torque", "momentum", "one_failed", "pseudo_inverse",
+                                   "allocation"}
+    assert set(data["wheels"]["pseudo_inverse"]["torque"]) == reach_t
+    assert set(data["wheels"]["pseudo_inverse"]["momentum"]) == reach_h
     assert set(data["wheels"]["torque"]) == reach_t
     assert set(data["wheels"]["momentum"]) == reach_h
     assert set(data["wheels"]["one_failed"]) == {"wheel", "torque", "momentum"}

@@ -243,15 +243,15 @@ def test_every_fault_kind_marks_a_box_holding_its_block():
 
 
 def test_the_page_carries_the_ending_faults_star_and_warnings_from_the_journal():
-    """Mariner 4: each fault's onset and end, the star in the slit, the abort and its reason."""
+    """Mariner 4's dust glints: each fault's onset and end, the star in the slit, the abort."""
     from allsky.config import load_scenario
     from allsky.sim.mission import Mission
 
-    cfg = load_scenario("mariner4-star-hopping")
+    cfg = load_scenario("mariner4-dust-glints")
     m = Mission(cfg)
     m.run()
     summary, table = m.summary(), m.telemetry()
-    d = replay.replay_data(table, summary, cfg, replay.describe_scenario("mariner4-star-hopping"))
+    d = replay.replay_data(table, summary, cfg, replay.describe_scenario("mariner4-dust-glints"))
     journal = summary["events"]
     onsets = [e for e in journal if e["kind"] == "fault" and e["active"]]
     assert [(f["start_s"], f["kind"]) for f in d["faults"]] == [
@@ -261,7 +261,7 @@ def test_the_page_carries_the_ending_faults_star_and_warnings_from_the_journal()
                 and e["fault"] == f["index"]]
         assert f["end_s"] == (ends[0] if ends else None)
         assert f["boxes"] == ["105"]
-    assert d["faults"][-1]["end_s"] is None  # the last dropout lasts past the abort
+    assert d["faults"][-1]["end_s"] is None  # the last glint lasts past the abort
     assert [(e["t_s"], e["star"]) for e in d["tracker"]] == [
         (e["t_s"], e["star"]) for e in journal if e["kind"] == "star_lock"]
     abort = next(e for e in journal if e["kind"] == "abort")
@@ -269,8 +269,8 @@ def test_the_page_carries_the_ending_faults_star_and_warnings_from_the_journal()
     assert end["status"] == "aborted" and end["reason"] == summary["abort_reason"]
     assert end["t_s"] == pytest.approx(min(abort["t_s"], table[-1, INDEX["time"]]))
     assert end["propellant_kg"] == summary["end"]["propellant_kg"]
-    assert d["mission"]["name"] == "mariner4-star-hopping"
-    assert d["mission"]["title"].startswith("Mariner 4-like")
+    assert d["mission"]["name"] == "mariner4-dust-glints"
+    assert d["mission"]["title"].startswith("Mariner 4")
     assert "ABORTED" in replay.page_title(d)
 
 

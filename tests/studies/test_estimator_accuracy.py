@@ -311,13 +311,39 @@ def test_discrete_tends_to_continuous_as_dt_shrinks(sv, su, density):
 # ---------------------------------------------------- (c) sigma_e -> 0
 
 
+def _farrenkopf_as_published(sv, su, sn, dt):
+    """Farrenkopf's steady state written out as his paper gives it, with no care for digits.
+
+    gamma = sqrt(4 + S_v^2 + S_u^2/12), xi = (gamma + S_u/2 + sqrt(S_u gamma + S_v^2 +
+    S_u^2/3)) / 2; post-update attitude variance sigma_n^2 (1 - xi^-2), bias variance
+    (sigma_n/dt)^2 (S_u (xi - 1/xi) - S_u^2/2) (docs/kalman.md, the table).
+    """
+    s_u, s_v = su * dt**1.5 / sn, sv * math.sqrt(dt) / sn
+    gamma = math.sqrt(4 + s_v**2 + s_u**2 / 12)
+    xi = 0.5 * (gamma + s_u / 2 + math.sqrt(s_u * gamma + s_v**2 + s_u**2 / 3))
+    return (math.sqrt(sn**2 * (1 - xi**-2)),
+            math.sqrt((sn / dt) ** 2 * (s_u * (xi - 1 / xi) - s_u**2 / 2)), xi)
+
+
+@settings(max_examples=100, deadline=None, derandomize=True)
+@given(sv=log_uniform(1e-7, 1e-4), su=log_uniform(1e-11, 1e-8), sn=log_uniform(1e-6, 1e-3),
+       dt=log_uniform(1e-1, 1e1))
+def test_rate_integrating_without_readout_is_farrenkopfs_published_form(sv, su, sn, dt):
+    """sigma_e = 0 against the paper's expressions evaluated naively, where they keep
+    their digits (S_u and S_v between ~1e-7 and ~10: no cancellation worse than 1e-8)."""
+    att, bias, xi = _farrenkopf_as_published(sv, su, sn, dt)
+    got = ea.rate_integrating(sv, su, sn, 0.0, dt)
+    assert float(got.xi) == pytest.approx(xi, rel=1e-12)
+    assert float(got.attitude_post_rad) == pytest.approx(att, rel=1e-6)
+    assert float(got.bias_post_rad_s) == pytest.approx(bias, rel=1e-5)
+
+
 @settings(max_examples=100, deadline=None, derandomize=True)
 @given(sv=SIGMA_V, su=SIGMA_U, sn=SIGMA_N, dt=DT)
-def test_rate_integrating_reduces_to_farrenkopf(sv, su, sn, dt):
-    f = ea.farrenkopf(sv, su, sn, dt)
-    assert ea.rate_integrating(sv, su, sn, 0.0, dt) == f
-    # sigma_e^2 enters as a fraction of R = sigma_n^2 + sigma_e^2 and of the
-    # attitude variance: 1e-14 of either here.
+def test_rate_integrating_is_continuous_in_the_readout_noise(sv, su, sn, dt):
+    """sigma_e -> 0: sigma_e^2 enters as a fraction of R = sigma_n^2 + sigma_e^2 and of
+    the attitude variance, 1e-14 of either here."""
+    f = ea.rate_integrating(sv, su, sn, 0.0, dt)
     small = ea.rate_integrating(sv, su, sn, 1e-7 * f.attitude_post_rad, dt)
     for got, want in zip(small, f):
         assert got == pytest.approx(want, rel=1e-12, abs=0)

@@ -182,17 +182,24 @@ def format_envelopes(result: dict, actuators_kind=None) -> str:
                 "not the emulated one, whose inertia is "
                 f"{', '.join(f'{j:g}' for j in emulated)} kg m^2 about x, y, z")
     lines = [format_wheel_array(result["wheel_array"], actuators_kind), "",
-             ("Envelopes: inscribed radius (available in every direction) and largest reach "
+             ("Envelopes: inscribed radius (reached in every direction) and largest reach "
               "along each body axis"),
              head, "  " + "-" * (len(head) - 2),
              _reach_row("wheels, torque [N m]", w["torque"], "n_m"),
              _reach_row("wheels, momentum [N m s]", w["momentum"], "n_m_s"),
+             _reach_row("  minimum norm, torque", w["pseudo_inverse"]["torque"], "n_m"),
+             _reach_row("  minimum norm, momentum", w["pseudo_inverse"]["momentum"], "n_m_s"),
              _reach_row(f"wheel {failed} failed, torque", w["one_failed"]["torque"], "n_m"),
              _reach_row(f"wheel {failed} failed, momentum", w["one_failed"]["momentum"],
                         "n_m_s"),
              _reach_row("jets 39-41, torque [N m]", result["jets"]["torque"], "n_m"),
              (f"  (wheel {failed}: the single failure leaving the least torque in every "
               "direction)"),
+             ("  (the wheels' rows are the zonotope, what an allocation to the whole envelope "
+              "reaches, wheels.allocation = \"direct\"; the minimum-norm rows what the "
+              "pseudo-inverse delivers before a wheel saturates"
+              + (f": this scenario flies \"{w['allocation']}\")" if "allocation" in w
+                 else ")")),
              "",
              f"Dither check on the dither document's example vehicle ({emulated}):",
              (f"  inertia {dc['inertia_kg_m2']:g} kg m^2 about each axis, amplitude "

@@ -203,10 +203,10 @@ def _parser() -> argparse.ArgumentParser:
                            "the reaction wheels unloaded by the jets (default: the scenario's "
                            "actuators.kind, jets unless set)")
     cmp_.add_argument("--methods", type=_methods, metavar="M1,M2,...",
-                      help="methods to compare: legacy,dither (default) or "
-                           "legacy,dither,kalman to add the three-axis Kalman filter through "
-                           "the legacy turns and through the dither hold (docs/kalman.md); "
-                           "not with --sweep")
+                      help="methods to compare: legacy,dither (default), adding kalman (the "
+                           "three-axis Kalman filter through the legacy turns and through the "
+                           "dither hold, docs/kalman.md) and/or smoother (the fixed-interval "
+                           "smoother over Modes 3-5, docs/comparison.md); not with --sweep")
 
     replay = sub.add_parser(
         "replay", help="write the replay page (HTML) of a flown mission from its telemetry file",

@@ -13,8 +13,8 @@ from allsky.studies.compare import (
     AXES,
     CC_KEYS,
     DEFAULT_METHODS,
-    FLIGHTS,
     compare,
+    flights_per_seed,
     label_percentiles,
 )
 from allsky.units import FRACTION2PPM
@@ -205,7 +205,7 @@ def run_from_cli(cfg, args) -> int:
     # One run: a step per mission of the pair (each takes seconds, the filter's longer);
     # several: a step per pair. Shown on a terminal unless --quiet.
     one = runs == 1
-    total = FLIGHTS["three" if "kalman" in methods else "pair"] if one else runs
+    total = flights_per_seed(methods) if one else runs
     bar = tqdm(total=total, desc="missions", unit="mission" if one else "pair",
                file=sys.stderr, disable=True if args.quiet else None)
 
@@ -221,8 +221,9 @@ def run_from_cli(cfg, args) -> int:
     finally:
         bar.close()
     say(format_compare(result))
-    if "kalman" in result:
+    if "kalman" in result or "smoother" in result:
         say(format_kalman(result))
+    say(format_information(result))
     written = []
     if to_stdout:
         print(json.dumps(label_percentiles(result), indent=2))
@@ -233,7 +234,7 @@ def run_from_cli(cfg, args) -> int:
         say(f"wrote comparison {args.json}")
     if args.plot:
         pulse_weight = cfg.electronics.vfc_pulse_weight_arcsec
-        draw = plot_three_way if "kalman" in result else plot
+        draw = plot_three_way if "kalman" in result or "smoother" in result else plot
         write_atomic(args.plot, writer=lambda tmp: draw(result, tmp, pulse_weight),
                      option="--plot")
         written.append(args.plot)
@@ -245,11 +246,146 @@ def run_from_cli(cfg, args) -> int:
     return 0
 
 
+# -- the information limit and where the pointing error comes from ---------------------
+
+#: Rows of the information table: (label, group of the bound, key, unit format).
+INFORMATION_ROWS = (
+    [(f"scale factor {a} [ppm]", "scale_factor_error_ppm", a, ".2f") for a in AXES]
+    + [(f"{k} [arcsec]", "cross_coupling_error_arcsec", k, ".3f") for k in CC_KEYS]
+    + [(f"drift {a} [deg/h]", "drift_error_deg_h", a, ".4f") for a in ("roll", "pitch", "yaw")])
+#: Components of ``pointing_decomposition``, as printed.
+DECOMPOSITION = (("total_arcsec", "final pointing (as flown)"),
+                 ("targeting_arcsec", "  targeting (truth stored)"),
+                 ("drift_arcsec", "  drift counters' part"),
+                 ("scale_factor_arcsec", "  scale factors' part"),
+                 ("misalignment_arcsec", "  cross-couplings' part"),
+                 ("interaction_arcsec", "  not additive"))
+
+
+def _spread(v):
+    """(sample sigma, RMS) of a statistic, or of one run's value (sigma None)."""
+    if isinstance(v, dict):
+        return v["std"], float(np.hypot(v["mean"], v["std"]))
+    return None, (None if v is None else abs(v))
+
+
+def format_information(result) -> str:
+    """Each method's measured spread beside the Cramer-Rao bound of its manoeuvres.
+
+    Per method: the bound (RMS over the runs of each run's bound), the
+    measured sample sigma and RMS of the error, and RMS / bound: 1 is
+    information-limited, more leaves information on the table. Then each
+    method's final pointing taken apart (:mod:`allsky.studies.pointing`).
+    """
+    bounds = result.get("crlb")
+    if not bounds:
+        return ""
+    cols = [c for c in THREE_WAY if c in bounds]
+    rows = ["", ("The information limit: Cramer-Rao bound of each method's manoeuvres, "
+            "beside its error (bound / measured sigma / RMS, RMS over bound)"),
+            f"  {'quantity':<28}" + "".join(f"{THREE_WAY[c]:>36}" for c in cols)]
+    for label, group, key, spec in INFORMATION_ROWS:
+        cells = []
+        for c in cols:
+            b = bounds[c][group].get(key)
+            sig, rms = _spread(result[c].get(group, {}).get(key))
+            if b is None:
+                cells.append("not observable")
+                continue
+            ratio = "-" if rms is None else f"{rms / b:.2f}x"
+            cells.append(f"{b:{spec}} / {_fmt(sig, spec)} / {_fmt(rms, spec)} {ratio}")
+        rows.append(f"  {label:<28}" + "".join(f"{c:>36}" for c in cells))
+    have = [c for c in THREE_WAY if c in result and result[c].get("pointing_decomposition")]
+    if have:
+        rows += ["", ("Final pointing taken apart (Mode 6 flown again with the truth stored, "
+                 "and with the truth but one group) [arcsec]"),
+                 f"  {'part':<28}" + "".join(f"{THREE_WAY[c]:>22}" for c in have)]
+        for key, label in DECOMPOSITION:
+            rows.append(f"  {label:<28}" + "".join(
+                f"{_cell(result[c]['pointing_decomposition'][key]):>22}" for c in have))
+    apriori = result.get("predicted_scale_factor_sigma_a_priori_ppm", {}).get("legacy")
+    fitted = result["predicted_scale_factor_sigma_ppm"]["legacy"]
+    if apriori:
+        rows.append("")
+        rows.append("  legacy scale-factor 1-sigma predicted a priori (ARW and the dead band's "
+                    "0.3\" hold jitter) / fitted (these runs' drift spread) [ppm]: "
+                    + ", ".join(f"{a} {apriori[a]:.2f} / {fitted[a]:.2f}" for a in apriori))
+    return "\n".join(rows)
+
+
+#: Manoeuvres of the information figure, as labelled there.
+MANOEUVRE_LABELS = {"mode3_hold": "Mode 3\nhold (40 s)", "mode4_roll_turn": "Mode 4\n360° roll",
+                    "mode5_yaw_turn": "Mode 5\n360° yaw", "dither_hold": "dither\nhold (881 s)",
+                    "modes3_5": "Modes 3-5\ntogether"}
+
+
+def information_figure(result):
+    """The information limit: what each manoeuvre allows, how near each method comes.
+
+    Left: the Cramer-Rao bound of the roll and yaw scale factors and of a
+    cross-coupling factor per manoeuvre (``crlb_manoeuvres``; a quantity the
+    manoeuvre does not show is marked at the top). Right: each method's RMS
+    error over its bound, per quantity (1: information-limited).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11.5, 4.6), layout="constrained")
+    ax_b, ax_r = fig.subplots(1, 2, width_ratios=(1, 1.25))
+    per = result["crlb_manoeuvres"]
+    names = [n for n in MANOEUVRE_LABELS if n in per]
+    shown = (("scale_factor_ppm", "roll", "scale factor roll [ppm]"),
+             ("scale_factor_ppm", "yaw", "scale factor yaw [ppm]"),
+             ("cross_coupling_arcsec", "yaw_into_roll", "yaw into roll [arcsec]"))
+    top = 1e4
+    for j, (group, key, label) in enumerate(shown):
+        x = np.arange(len(names)) + (j - 1) * 0.26
+        v = [per[n][group][key] for n in names]
+        ax_b.bar(x[[i for i, b in enumerate(v) if b is not None]],
+                 [b for b in v if b is not None], width=0.24, label=label, color=f"C{j}")
+        for i, b in enumerate(v):
+            if b is None:
+                ax_b.text(x[i], top * 0.6, "n/o", ha="center", va="top", fontsize=7,
+                          color=f"C{j}", rotation=90)
+    ax_b.set_yscale("log")
+    ax_b.set_ylim(0.1, top)
+    ax_b.set_xticks(range(len(names)), [MANOEUVRE_LABELS[n] for n in names], fontsize=8)
+    ax_b.set_ylabel("Cramér-Rao bound, 1 sigma")
+    ax_b.set_title("What each manoeuvre allows (n/o: not observable)")
+    ax_b.legend(fontsize=7, loc="upper right")
+    ax_b.grid(True, which="major", axis="y", alpha=0.3)
+    cols = [c for c in THREE_WAY if c in result.get("crlb", {})]
+    quantities = [(g, k) for _, g, k, _ in INFORMATION_ROWS]
+    for i, c in enumerate(cols):
+        ratio = []
+        for g, k in quantities:
+            b = result["crlb"][c][g].get(k)
+            _, rms = _spread(result[c].get(g, {}).get(k))
+            ratio.append(np.nan if b is None or rms is None else rms / b)
+        ax_r.plot(np.arange(len(quantities)) + (i - len(cols) / 2) * 0.08, ratio, "o",
+                  label=THREE_WAY[c], color=f"C{i}", ms=5)
+    ax_r.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax_r.set_yscale("log")
+    ax_r.set_xticks(range(len(quantities)),
+                    [f"{'sf' if g.startswith('scale') else 'drift' if g.startswith('drift') else ''}"
+                     f" {k.replace('_into_', '→')}".strip() for g, k in quantities],
+                    fontsize=7, rotation=35)
+    ax_r.set_ylabel("RMS error / bound of its manoeuvres")
+    ax_r.set_title(f"How near each method comes ({result['runs']} runs; 1: information-limited)")
+    ax_r.legend(fontsize=7)
+    ax_r.grid(True, which="both", axis="y", alpha=0.3)
+    return fig
+
+
 # -- three methods: the Kalman filter beside the legacy turns and the dither -----------
 
 #: Columns of the three-way table and figure: result section -> heading.
 THREE_WAY = {"legacy": "legacy (Modes 4-5)", "dither": "dither",
-             "kalman": "Kalman, Modes 3-5", "kalman_dither": "Kalman, dither hold"}
+             "kalman": "Kalman, Modes 3-5", "kalman_dither": "Kalman, dither hold",
+             "smoother": "smoother, Modes 3-5"}
 
 
 def _cell(v, spec=".2f"):
@@ -268,7 +404,7 @@ def format_kalman(result) -> str:
     cols = [c for c in THREE_WAY if c in result]
     pred = result["predicted_scale_factor_sigma_ppm"]
     n = result["runs"]
-    rows = ["", ("Three methods: the three-axis Kalman filter (counters 14/16/18, sun sensor "
+    rows = ["", ("The three-axis Kalman filter and smoother (counters 14/16/18, sun sensor "
                  "104, star tracker 105) beside the others"),
             f"  {'figure':<32}" + "".join(f"{THREE_WAY[c]:>22}" for c in cols)]
 
@@ -295,12 +431,15 @@ def format_kalman(result) -> str:
     line("largest excursion [arcsec]", [get(c, "max_excursion_arcsec") for c in cols], ".0f")
     line("calibration propellant [kg]", [get(c, "propellant_kg") for c in cols], ".3f")
     line("final pointing error [arcsec]", [get(c, "pointing_error_arcsec") for c in cols])
-    for c in ("kalman", "kalman_dither"):
+    for c in ("kalman", "kalman_dither", "smoother"):
+        if c not in result:
+            continue
         v = result[c].get("nees")
         if isinstance(v, dict):
             rows.append(f"  {THREE_WAY[c]}: mean NEES {v['mean']:.2f} over "
-                        f"{result[c]['complete']} runs, 95 % bounds {v['bounds_95'][0]:.2f}-"
-                        f"{v['bounds_95'][1]:.2f} ({v['states']} states)")
+                        f"{result[c]['complete']} runs ({v['states']} states; the scenario's "
+                        "fixed gyro errors, not a chi-square test: docs/kalman.md, "
+                        "Consistency)")
         elif v is not None:
             rows.append(f"  {THREE_WAY[c]}: NEES {v:.2f} (15 states)")
     return "\n".join(rows)
@@ -339,10 +478,10 @@ def three_way_figure(result):
                if r[c]["status"] == "complete"]
         ax_pt.scatter(i + rng.uniform(-0.25, 0.25, len(pts)), pts, s=8, alpha=0.45, color="C2")
     ax_sf.set_xticks([3 * i + 0.5 for i in range(len(cols))],
-                     [THREE_WAY[c] for c in cols], fontsize=8)
+                     [THREE_WAY[c] for c in cols], fontsize=8, rotation=20)
     ax_sf.set_yscale("log")
     ax_sf.set_ylabel("|scale-factor error| [ppm]")
-    ax_sf.set_title("Gyro scale factor: three methods")
+    ax_sf.set_title("Gyro scale factor: each method")
     ax_sf.legend(fontsize=8)
     ax_sf.grid(True, which="both", axis="y", alpha=0.3)
     ax_pt.set_xticks(range(len(cols)), [THREE_WAY[c] for c in cols], fontsize=8,

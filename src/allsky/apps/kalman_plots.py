@@ -77,6 +77,73 @@ def observability_figure(legacy: kalman_mekf.Observability,
     return fig
 
 
+def mismatch_figure(study: dict):
+    """The filter under a wrong model (:func:`allsky.studies.mismatch.study_dict`).
+
+    Left: the noise data sheet scaled by k (all noises, the gyro's, the
+    optics'): the mean NEES at the end of Mode 5 (15 expected) and the RMS
+    roll and yaw scale-factor errors over the filter's own sigma (1 for an
+    honest filter), against k. Right: a misaligned tracker, a biased sun
+    sensor, a catalog error, against the angle: the final pointing's RMS,
+    beside the filter with the right model and the legacy turns' own.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11, 4.4), layout="constrained")
+    ax_n, ax_r, ax_p = fig.subplots(1, 3, width_ratios=(1, 1, 1.3))
+    cases = study["cases"]
+    for group, colour in (("noise", "C0"), ("gyro noise", "C1"), ("optics noise", "C2")):
+        mine = sorted((c for c in cases if c["group"] == group or (
+            group != "noise" and c["group"] == "noise" and c["value"] == 1.0)),
+            key=lambda c: c["value"])
+        k = [c["value"] for c in mine]
+        ax_n.plot(k, [study["nees"][c["name"]] for c in mine], "o-", color=colour,
+                  label=f"{group} x k")
+        ratio = [np.mean([study["rms"][c["name"]]["scale_factor_ppm"][a]
+                          / study["sigma"][c["name"]]["scale_factor_ppm"][a]
+                          for a in ("roll", "yaw")]) for c in mine]
+        ax_r.plot(k, ratio, "o-", color=colour, label=f"{group} x k")
+    ax_n.axhline(15.0, color="k", lw=0.8, ls="--", label="15 states: consistent")
+    ax_r.axhline(1.0, color="k", lw=0.8, ls="--", label="honest")
+    for ax in (ax_n, ax_r):
+        ax.set_xscale("log")
+        ax.minorticks_off()
+        ax.set_xticks([0.5, 0.71, 1, 1.41, 2], ["0.5", "0.71", "1", "1.41", "2"])
+        ax.set_xlabel("noise the filter assumes / true noise, k")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    ax_n.set_yscale("log")
+    ax_n.set_ylabel("mean NEES at the end of Mode 5")
+    ax_n.set_title("What the filter claims")
+    ax_r.set_ylabel("RMS scale-factor error / filter sigma")
+    ax_r.set_title("Its honesty")
+    right = next(c for c in cases if c["group"] == "noise" and c["value"] == 1.0)["name"]
+    for group, marker in (("tracker about x", "o"), ("tracker about z", "s"),
+                          ("sun bias", "^"), ("catalog", "D")):
+        mine = sorted((c for c in cases if c["group"] == group), key=lambda c: c["value"])
+        ax_p.plot([c["value"] for c in mine],
+                  [study["pointing_arcsec"][c["name"]]["rms"] for c in mine],
+                  marker + "-", label=group)
+    ax_p.axhline(study["pointing_arcsec"][right]["rms"], color="C0", lw=0.8, ls="--",
+                 label="filter, right model")
+    ax_p.axhline(study["legacy_pointing_arcsec"]["rms"], color="k", lw=0.8, ls=":",
+                 label="legacy turns (use no model)")
+    ax_p.set_xscale("log")
+    ax_p.set_yscale("log")
+    ax_p.set_xlabel("misalignment, bias or catalog error [arcsec]")
+    ax_p.set_ylabel("final pointing, RMS over the seeds [arcsec]")
+    ax_p.set_title("What it costs the pointing")
+    ax_p.grid(True, which="both", alpha=0.3)
+    ax_p.legend(fontsize=7)
+    fig.suptitle(f"The three-axis filter through Modes 3-5 with a wrong model "
+                 f"({study['runs']} seeds of the default scenario)")
+    return fig
+
+
 def write_figures(out_dir, cfg=None) -> list:
     """Fly both plans, filter them, write ``kalman_observability.png`` in ``out_dir``."""
     from allsky.apps.output import write_atomic

@@ -289,6 +289,7 @@ RULES: dict[str, Callable] = {
     "wheels.inertia_kg_m2": per_wheel(POSITIVE),
     "wheels.unload_fraction": number(in_open(0, 1)),
     "wheels.unload_end_fraction": number(in_open(0, 1)),
+    "wheels.allocation": one_of("pseudo_inverse", "direct"),
     "electronics.vfc_pulse_weight_arcsec": number(in_open_closed(
         0, DEG2ARCSEC, "1 deg: a 360 deg calibration turn counts 360 pulses or more")),
     "electronics.vfc_max_rate_pps": number(POSITIVE),

@@ -93,9 +93,11 @@ from allsky.vehicle.quaternion import rotate_to_body
 from allsky.vehicle.wheels import (
     ACTUATOR_JETS,
     ACTUATOR_WHEELS,
+    ALLOCATION_DIRECT,
     advance_momentum,
     body_vector,
     distribute,
+    distribute_direct,
     unload_valves,
 )
 
@@ -547,7 +549,10 @@ def actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
     tank_ok = jets(jets_p, valve, dt_s, propellant_kg, torque)
     for a in range(3):
         wheel_hdot[a] = volts[a] * wheels_p.torque_per_volt_n_m_v[a] - torque[a]
-    distribute(wheels_p, wheel_hdot, wheel_h, dt_s, wheel_u)
+    if wheels_p.allocation == ALLOCATION_DIRECT:
+        distribute_direct(wheels_p, wheel_hdot, wheel_h, dt_s, wheel_u)
+    else:
+        distribute(wheels_p, wheel_hdot, wheel_h, dt_s, wheel_u)
     body_vector(wheels_p.axes, wheel_h, wheel_hb)
     body_vector(wheels_p.axes, wheel_u, wheel_hdot)
     return tank_ok

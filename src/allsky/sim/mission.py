@@ -203,7 +203,8 @@ def wheel_params(cfg) -> wheels.WheelParams:
     return wheels.make_params(
         w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.inertia_kg_m2,
         couple_n_m / float(cfg.pwpf.full_on_v), w.unload_fraction, w.unload_end_fraction,
-        couple_n_m, max(1, math.ceil(cfg.jets.min_on_time_s / float(cfg.mission.frame_s) - 1e-9)))
+        couple_n_m, max(1, math.ceil(cfg.jets.min_on_time_s / float(cfg.mission.frame_s) - 1e-9)),
+        allocation=w.allocation)
 
 
 def dither_params(cfg) -> dither.DitherParams:

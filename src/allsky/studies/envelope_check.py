@@ -196,6 +196,30 @@ def envelope_analysis(jet_torque_n_m, axes, torque_max_n_m, momentum_max_n_m_s,
     return result
 
 
+def pseudo_inverse_reach(axes, torque_max_n_m, momentum_max_n_m_s) -> dict:
+    """What the minimum-norm distribution reaches: radius and reach along each axis.
+
+    ``{"torque": {"min_radius_n_m", "max_n_m"}, "momentum": {"min_radius_n_m_s",
+    "max_n_m_s"}}``, the layout of the envelopes
+    (:func:`allsky.vehicle.envelopes.envelope_summary`), for the polytope
+    ``|(A+ v)_i| <= L_i`` (:func:`allsky.vehicle.wheels.pseudo_inverse_envelope`):
+    torques it delivers without scaling, momenta it holds with every wheel
+    within its limit (the wheels' momenta being ``A+`` of the body's).
+    """
+    from allsky.vehicle.wheels import pseudo_inverse_envelope
+
+    out = {}
+    for part, limit, unit in (("torque", torque_max_n_m, "n_m"),
+                              ("momentum", momentum_max_n_m_s, "n_m_s")):
+        normals, offsets = pseudo_inverse_envelope(axes, limit)
+        reach = []
+        for a in range(3):
+            cos = normals[:, a]
+            reach.append(float(np.min(offsets[cos > 0] / cos[cos > 0])))
+        out[part] = {f"min_radius_{unit}": float(offsets.min()), f"max_{unit}": reach}
+    return out
+
+
 def scenario_envelopes(cfg, beta_deg=None, torque_max_n_m=None,
                        momentum_max_n_m_s=None) -> dict:
     """The envelopes of the scenario's wheel array and jets, with the dither check.
@@ -210,8 +234,11 @@ def scenario_envelopes(cfg, beta_deg=None, torque_max_n_m=None,
     Returns
     -------
     dict
-        :func:`envelope_analysis` of that array, its ``wheel_array`` from
-        :func:`wheel_array` (so with ``beta_deg`` and ``source``), and in
+        :func:`envelope_analysis` of that array, with ``wheels.pseudo_inverse``
+        (:func:`pseudo_inverse_reach`, what the minimum-norm distribution
+        reaches) and ``wheels.allocation`` (the scenario's), its
+        ``wheel_array`` from :func:`wheel_array` (so with ``beta_deg`` and
+        ``source``), and in
         ``dither_check`` the diagonal of the emulated vehicle's inertia,
         ``emulated_inertia_kg_m2`` [kg m^2], beside the example's.
     """
@@ -221,6 +248,9 @@ def scenario_envelopes(cfg, beta_deg=None, torque_max_n_m=None,
     jets = make_params(cfg.jets.thrust_n, cfg.jets.moment_arm_m, cfg.jets.isp_s)
     result = envelope_analysis(jets.torque_n_m, array["axes"], array["torque_max_n_m"],
                                array["momentum_max_n_m_s"])
+    result["wheels"]["pseudo_inverse"] = pseudo_inverse_reach(
+        array["axes"], array["torque_max_n_m"], array["momentum_max_n_m_s"])
+    result["wheels"]["allocation"] = cfg.wheels.allocation
     result["wheel_array"] = array
     result["dither_check"]["emulated_inertia_kg_m2"] = [
         float(x) for x in np.diag(np.asarray(cfg.vehicle.inertia_kg_m2, dtype=float))]

@@ -354,11 +354,12 @@ def _compose(q, dw, dx, dy, dz):
 
 
 @njit
-def _update(P, q, p, ph, h0, h1, h2, nu, r, gate2):
+def _update(P, q, p, ph, h0, h1, h2, nu, r, gate2, last):
     """One scalar measurement: innovation ``nu``, attitude row ``h``, noise ``r``.
 
     Returns False (nothing changed) if the innovation fails the gate.
-    The attitude correction goes into ``q`` at once, the others into ``p``.
+    The attitude correction goes into ``q`` at once, the others into ``p``;
+    ``last`` (2,) gets the innovation and its predicted variance.
     """
     # Only the upper triangle of P is read and written here; the loop mirrors it
     # once a sample.
@@ -369,6 +370,8 @@ def _update(P, q, p, ph, h0, h1, h2, nu, r, gate2):
     for i in range(3, n):
         ph[i] = P[0, i] * h0 + P[1, i] * h1 + P[2, i] * h2
     s = h0 * ph[0] + h1 * ph[1] + h2 * ph[2] + r
+    last[0] = nu
+    last[1] = s
     if nu * nu > gate2 * s:
         return False
     g = nu / s
@@ -385,7 +388,7 @@ def _update(P, q, p, ph, h0, h1, h2, nu, r, gate2):
 
 
 @njit
-def _angle_update(P, q, p, ph, s, num, den_a, z, r, gate2):
+def _angle_update(P, q, p, ph, s, num, den_a, z, r, gate2, last):
     """An ``atan2(num . s, den . s)`` sensor output ``z`` [rad] against prediction.
 
     ``num`` = (index, sign) picks and signs the component of the body vector
@@ -422,12 +425,13 @@ def _angle_update(P, q, p, ph, s, num, den_a, z, r, gate2):
     sps = (s[0] * s[0] * P[0, 0] + s[1] * s[1] * P[1, 1] + s[2] * s[2] * P[2, 2]
            + 2.0 * (s[0] * s[1] * P[0, 1] + s[0] * s[2] * P[0, 2] + s[1] * s[2] * P[1, 2]))
     tr = P[0, 0] + P[1, 1] + P[2, 2] - sps
-    return _update(P, q, p, ph, h0, h1, h2, z - hz, r + 0.5 * tr * tr, gate2)
+    return _update(P, q, p, ph, h0, h1, h2, z - hz, r + 0.5 * tr * tr, gate2, last)
 
 
 @njit
 def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, p, P,
-                 out_q, out_p, out_var, checkpoints, out_P, counts, c, rot, tmat, ph, vec,
+                 out_q, out_p, out_var, checkpoints, out_P, counts, innov, last, c, rot, tmat,
+                 ph, vec,
                  uu, body):
     """The samples of :func:`run_filter`, with its scratch arrays handed in."""
     arw2, rrw2, r_sun, r_trk, gate2 = noise[0], noise[1], noise[2], noise[3], noise[4]
@@ -501,13 +505,15 @@ def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, 
             if body[0] > 0.0:
                 # pitch = atan2(-s_z, s_x)
                 ok = _angle_update(P, q, p, ph, body, (2, -1.0), 0, sun[k, 0], r_sun,
-                                   gate2)
+                                   gate2, last)
                 counts[0 if ok else 1] += 1
+                _keep_innovation(innov, k, 0, last, ok)
                 rotate_to_body(q, vec, body)
                 # yaw = atan2(s_y, s_x)
                 ok = _angle_update(P, q, p, ph, body, (1, 1.0), 0, sun[k, 1], r_sun,
-                                   gate2)
+                                   gate2, last)
                 counts[0 if ok else 1] += 1
+                _keep_innovation(innov, k, 1, last, ok)
         if trk[k, VALID] > 0.5:
             # The star of the window whose predicted outputs are nearest the measured.
             best, kb = 1e300, -1 if stars.shape[0] != 1 else 0
@@ -523,13 +529,15 @@ def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, 
                 rotate_to_body(q, stars[kb], body)
                 # yaw output = atan2(-s_y, s_z)
                 ok = _angle_update(P, q, p, ph, body, (1, -1.0), 2, trk[k, 0], r_trk,
-                                   gate2)
+                                   gate2, last)
                 counts[2 if ok else 3] += 1
+                _keep_innovation(innov, k, 2, last, ok)
                 rotate_to_body(q, stars[kb], body)
                 # pitch output = atan2(s_x, s_z)
                 ok = _angle_update(P, q, p, ph, body, (0, 1.0), 2, trk[k, 1], r_trk,
-                                   gate2)
+                                   gate2, last)
                 counts[2 if ok else 3] += 1
+                _keep_innovation(innov, k, 3, last, ok)
         # -- outputs (the updates kept the upper triangle: mirror it)
         for i in range(N_STATE):
             for j in range(i + 1, N_STATE):
@@ -547,9 +555,18 @@ def _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, 
             ci += 1
 
 
+@njit
+def _keep_innovation(innov, k, m, last, ok):
+    """Innovation, its variance and acceptance of output ``m`` at sample ``k`` (if kept)."""
+    if innov.shape[0] > k:
+        innov[k, m, 0] = last[0]
+        innov[k, m, 1] = last[1]
+        innov[k, m, 2] = 1.0 if ok else 0.0
+
+
 @njit_alloc
 def run_filter(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, p, P,
-               out_q, out_p, out_var, checkpoints, out_P, counts):
+               out_q, out_p, out_var, checkpoints, out_P, counts, innov):
     """Run the filter over the samples; state ``q``, ``p``, ``P`` updated in place.
 
     Parameters
@@ -580,10 +597,16 @@ def run_filter(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, p,
         Increasing sample indices at which ``P`` is copied into ``out_P`` (c, 15, 15).
     counts : ndarray of int64 (4,)
         Sun updates accepted, rejected; tracker updates accepted, rejected.
+    innov : ndarray (n, 4, 3) or (0, 4, 3)
+        Per sample and output (sun pitch, sun yaw, tracker yaw, tracker
+        pitch): the innovation [rad], its predicted variance [rad^2] and 1.0
+        if accepted; left as it is where the output was not used. Shape
+        (0, 4, 3): not kept.
     """
     # Scratch, allocated once per call; the per-sample loop allocates nothing.
     _filter_loop(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, p, P,
-                 out_q, out_p, out_var, checkpoints, out_P, counts, np.empty((3, 3)),
+                 out_q, out_p, out_var, checkpoints, out_P, counts, innov, np.empty(2),
+                 np.empty((3, 3)),
                  np.empty((3, 3)), np.empty((3, N_STATE)), np.empty(N_STATE), np.empty(3),
                  np.empty(3), np.empty(3))
 
@@ -597,11 +620,16 @@ class Estimate(NamedTuple):
     samples: Samples
     q: np.ndarray  #: (n, 4) attitude estimates
     params: np.ndarray  #: (n, 12) drift [rad/s], E's diagonal [-], E's off-diagonal [rad]
-    sigma: np.ndarray  #: (n, 15) 1-sigma of each error state
+    #: (n, 15) 1-sigma of each error state; the attitude's with the present counter
+    #: readout error (as :attr:`covariances`)
+    sigma: np.ndarray
     checkpoints: np.ndarray  #: sample indices where the covariance was kept (leg ends)
     covariances: np.ndarray  #: (c, 15, 15) the covariance at the checkpoints
     counts: np.ndarray  #: sun accepted, rejected; tracker accepted, rejected
     first: int  #: the sample the filter was initialised at (from Sun and star)
+    #: (n, 4, 3) innovation [rad], its variance [rad^2], accepted (1.0) per sample and
+    #: output (sun pitch, sun yaw, tracker yaw, tracker pitch); nan where not used
+    innovations: np.ndarray = None
 
 
 def _body_vectors(sun_row, trk_row):
@@ -671,11 +699,19 @@ def estimate(model: FilterModel, samples: Samples, prior: Prior = DEFAULT_PRIOR)
     ck = np.flatnonzero(s.leg_end).astype(np.int64)
     out_cov = np.empty((ck.size, N_STATE, N_STATE))
     counts = np.zeros(4, dtype=np.int64)
+    innov = np.full((n, 4, 3), np.nan)
     run_filter(s.time_s, s.dt_s, s.gyro_rad, s.sun, s.tracker, model.sun0_inertial,
                model.sun_rate_inertial, model.stars_inertial, noise_vector(model), q, p, cov,
-               out_q, out_p, out_var, ck, out_cov, counts)
+               out_q, out_p, out_var, ck, out_cov, counts, innov)
+    # The attitude the filter carries is the counters' angle less its drift estimate, so it
+    # holds the present counter's readout error, which the filter (the readout in the
+    # optics' noise, the rate-integrating form of docs/kalman.md) leaves out of its
+    # attitude covariance: P_att = P_dd + sigma_e^2 (Markley and Reynolds).
+    out_var[:, :3] += model.readout_rad ** 2
+    for i in range(3):
+        out_cov[:, i, i] += model.readout_rad ** 2
     return Estimate(s, out_q, out_p, np.sqrt(np.maximum(out_var, 0.0)), ck, out_cov, counts,
-                    first)
+                    first, innov)
 
 
 def sensitivity(params) -> np.ndarray:
@@ -773,16 +809,36 @@ def true_parameters(m: Mission, bias_rad_s) -> np.ndarray:
     return out
 
 
+def rotation_error(a_est, a_true):
+    """Rotation vectors ``e`` with ``A_true = exp(-[e x]) A_est``, exactly (n, 3).
+
+    To first order ``A_true = (I - [e x]) A_est``, the filter's attitude
+    error; this is the whole rotation, right at any angle below 180 deg.
+    """
+    r = a_true @ np.swapaxes(a_est, -1, -2)
+    vee = 0.5 * np.stack([r[..., 1, 2] - r[..., 2, 1], r[..., 2, 0] - r[..., 0, 2],
+                          r[..., 0, 1] - r[..., 1, 0]], axis=-1)
+    s = np.linalg.norm(vee, axis=-1)
+    c = 0.5 * (np.trace(r, axis1=-2, axis2=-1) - 1.0)
+    ang = np.arctan2(s, c)
+    k = np.where(s > 1e-300, ang / np.where(s > 1e-300, s, 1.0), 1.0)
+    return vee * k[..., None]
+
+
+
 def errors_at(m: Mission, est: Estimate, k: int):
     """The true error state (15) at checkpoint sample ``k`` (true minus estimated).
 
-    The attitude error is the small rotation of ``A_true A_est^T = I - [e x]``.
+    The attitude error is the whole rotation from the estimate to the truth,
+    ``A_true = exp(-[e x]) A_est`` (:func:`rotation_error`): the half skew
+    part of ``A_true A_est^T``, the small-angle form, is short of the angle
+    by its sine's curvature, which at a degree-sized error mid-turn is a
+    change of the NEES that no covariance explains.
     """
     s = est.samples
     a_true = quaternion.dcm_body_from_inertial(s.truth_q[k])
     a_est = quaternion.dcm_body_from_inertial(est.q[k])
-    e = a_true @ a_est.T
-    att = 0.5 * np.array([e[1, 2] - e[2, 1], e[2, 0] - e[0, 2], e[0, 1] - e[1, 0]])
+    att = rotation_error(a_est[None], a_true[None])[0]
     return np.concatenate([att, true_parameters(m, s.truth_bias_rad_s[k]) - est.params[k]])
 
 

@@ -36,7 +36,14 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky import units
+from allsky.gauss import seed
+from allsky.hardware.gyro import RRW_STEP_S, gyro_output
+from allsky.hardware.star_tracker import star_tracker
+from allsky.hardware.updown_counter import SATURATE, count
+from allsky.hardware.vfc import vfc
+from allsky.jit import njit
 from allsky.studies import estimator_accuracy
+from allsky.units import ARCSEC2RAD
 
 
 class AxisModel(NamedTuple):
@@ -545,3 +552,151 @@ def convergence(model: AxisModel, duration_s, attitude0_rad, bias0_rad_s,
     return Convergence(model.dt_s * np.arange(1, samples + 1),
                        covariance_history(model, samples, quantized, p0),
                        closed_form(model, quantized))
+
+
+# ------------------------------------------------------------------ on the emulator's blocks
+
+
+class EmulatedResult(NamedTuple):
+    """RMS errors of the filter on the emulator's own blocks, and the closed form."""
+
+    measured: Covariance  #: RMS errors over runs and the late window (gains nan)
+    predicted: estimator_accuracy.SteadyStateAccuracy  #: closed form
+    samples_used: int  #: [-] runs x window samples pooled in each RMS
+    duration_s: float  #: [s] length of each run
+
+
+@njit
+def _emulated_runs(gyro_p, vfc_p, trk_p, frame_s, fps, samples, late_from, rates, seeds,
+                   amplitude, gains, weight_rad, counter_bits, rng, dtheta, bias_rw, gyro_out, residue, counter,
+                   overflow, trk_out, q, sums):
+    """Runs of one axis through the emulator's gyro, converter, counter and tracker.
+
+    Per run: the body rolls (about x, the Sun line) back and forth at
+    ``+-rates[r]`` between ``+-amplitude`` (a triangle wave, reversing on frame
+    boundaries): the star stays in the tracker's slit while the converter's
+    fraction of a pulse sweeps its range. Every frame :func:`allsky.hardware.gyro.gyro_output` measures it (drift,
+    rate random walk stepped once a second as the frame loop steps it, angle
+    random walk), converter 8 (:func:`allsky.hardware.vfc.vfc`) turns it into
+    pulses for counter 14 (:func:`allsky.hardware.updown_counter.count`);
+    every ``fps`` frames the counter and the star tracker 105's yaw output
+    (:func:`allsky.hardware.star_tracker.star_tracker`; a star on inertial z,
+    whose yaw output is minus the roll) are filtered as :func:`filter_counter`
+    does. Counter 14 has the scenario's word length and saturates (a run that
+    reaches its end is refused). The estimates start at the truth (zero
+    error); the squared errors
+    from sample ``late_from`` on are summed into ``sums`` (runs, 6): attitude
+    before and after the update, bias before and after, and the two
+    attitude-bias products.
+    """
+    k_att, k_carry, k_bias = gains[0], gains[1], gains[2]
+    dt = frame_s * fps
+    rrw_every = max(1, round(RRW_STEP_S / frame_s))
+    for r in range(rates.shape[0]):
+        seed(rng, seeds[r])
+        for i in range(3):
+            bias_rw[i] = 0.0
+            residue[i] = 0.0
+            dtheta[i] = 0.0
+        counter[0] = 0
+        theta = 0.0
+        quarter = max(1, round(amplitude / (abs(rates[r]) * frame_s)))
+        drift_hat = 0.0  # counter angle - true angle at t = 0
+        bias_hat = gyro_p.drift_arcsec_s[0] * ARCSEC2RAD  # the truth: zero error
+        frame = 0
+        for k in range(samples):
+            for _ in range(fps):
+                c = frame % (4 * quarter)
+                dtheta[0] = rates[r] * frame_s * (1.0 if c < quarter or c >= 3 * quarter
+                                                  else -1.0)
+                gyro_output(gyro_p, dtheta, frame_s, bias_rw, gyro_out, frame % rrw_every == 0,
+                            rng)
+                count(counter, 0, vfc(vfc_p, 0, gyro_out[0], frame_s, residue), counter_bits,
+                      SATURATE, overflow, 0)
+                theta += dtheta[0]
+                frame += 1
+            h = 0.5 * theta
+            q[0], q[1], q[2], q[3] = math.cos(h), math.sin(h), 0.0, 0.0
+            star_tracker(trk_p, q, trk_out, rng)
+            y = -trk_out[0] * ARCSEC2RAD
+            z = counter[0] * weight_rad
+            bias_true = (gyro_p.drift_arcsec_s[0] + bias_rw[0]) * ARCSEC2RAD
+            drift_hat += bias_hat * dt
+            attitude = z - drift_hat
+            nu = y - attitude
+            post = attitude + k_att * nu
+            if k >= late_from:
+                e_pre, e_post = theta - attitude, theta - post
+                b_pre = bias_true - bias_hat
+                sums[r, 0] += e_pre * e_pre
+                sums[r, 1] += e_post * e_post
+                sums[r, 2] += b_pre * b_pre
+                sums[r, 4] += e_pre * b_pre
+            drift_hat -= k_carry * nu
+            bias_hat += k_bias * nu
+            if k >= late_from:
+                b_post = bias_true - bias_hat
+                sums[r, 3] += b_post * b_post
+                sums[r, 5] += (theta - post) * b_post
+
+
+#: [rad] Half the roll swing of :func:`emulated_monte_carlo` (inside the tracker's slit).
+SWING_RAD = math.radians(1.5)
+
+
+def emulated_monte_carlo(cfg, runs, duration_s, frames_per_sample, seed,
+                         rate_rad_s=(1e-3, 5e-3), window=0.5) -> EmulatedResult:
+    """The filter on the emulator's own gyro, converter, counter and star tracker.
+
+    Unlike :func:`monte_carlo`, nothing here shares the filter's noise
+    model: the data come from the blocks the frame loop flies
+    (:func:`_emulated_runs`; the scenario's gyro with its drift, angle and
+    rate random walks, the gyro's sensitivity taken as one), and the filter
+    starts at the truth, so that every error it shows is its own. Runs last
+    ``duration_s``, several of the bias's time constants (about 1800 s for
+    the default gyro), and the last ``window`` of each is pooled.
+
+    Parameters
+    ----------
+    cfg : allsky.config.Scenario
+    runs : int
+    duration_s : float
+        [s] Length of each run.
+    frames_per_sample : int
+        Frames between the filter's samples.
+    seed : int
+        Seeds the rates and each run's noise.
+    rate_rad_s : (float, float)
+        Range of the magnitude of the roll rate [rad/s] (random sign), swung
+        between +-:data:`SWING_RAD`.
+    window : float
+        Fraction of each run, at its end, pooled in the RMS.
+    """
+    from allsky.sim.mission import build_params
+
+    model = axis_model(cfg, "star_tracker", frames_per_sample)
+    p = build_params(cfg)
+    g = p.gyro._replace(sensitivity=np.eye(3))
+    trk = p.tracker._replace(stars_inertial=np.array([[0.0, 0.0, 1.0]]))
+    samples = math.ceil(duration_s / model.dt_s - 1e-9)
+    cov = covariance_history(model, 1, True)  # starts, and stays, at the steady state
+    gains = np.array([cov.gain_attitude[0], cov.gain_attitude_propagated[0],
+                      cov.gain_bias_per_s[0]])
+    rng = np.random.default_rng(seed)
+    rates = rng.uniform(*rate_rad_s, runs) * rng.choice((-1.0, 1.0), runs)
+    seeds = rng.integers(0, 2**62, runs)
+    late_from = round(samples * (1.0 - window))
+    sums = np.zeros((runs, 6))
+    overflow_flag = np.zeros(6, dtype=np.bool_)
+    _emulated_runs(g, p.vfc, trk, float(p.frame_s), int(frames_per_sample), samples, late_from,
+                   rates, seeds, SWING_RAD, gains, model.pulse_weight_arcsec * units.ARCSEC2RAD,
+                   int(p.electronics.counter_bits), np.zeros(1, dtype=np.uint64), np.zeros(3), np.zeros(3), np.zeros(3),
+                   np.zeros(3), np.zeros(3, dtype=np.int64), overflow_flag,
+                   np.zeros(3), np.zeros(4), sums)
+    if overflow_flag[0]:
+        raise ValueError("counter 14 saturated: a shorter run or a slower rate")
+    used = runs * (samples - late_from)
+    tot = sums.sum(axis=0) / used
+    measured = Covariance(*(float(np.sqrt(v)) for v in tot[0:4]), float(tot[4]), float(tot[5]),
+                          np.nan, np.nan, np.nan)
+    return EmulatedResult(measured, closed_form(model, True), used, samples * model.dt_s)

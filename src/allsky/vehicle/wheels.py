@@ -22,8 +22,29 @@ scaled down as a whole until every wheel can: the body torque keeps its
 direction and loses magnitude (Markley & Crassidis, *Fundamentals of
 Spacecraft Attitude Determination and Control*, section 7.7.1, on
 direction-preserving saturation). The minimum-norm solution does not reach
-every corner of the envelope (:mod:`allsky.vehicle.envelopes`); it reaches
-its inscribed part, which is what the attitude loops need.
+every corner of the envelope (:mod:`allsky.vehicle.envelopes`): it
+saturates where its most loaded wheel reaches its limit, which on the
+default pyramid leaves 0.667 N m of the envelope's 0.816 N m inscribed
+radius in the worst direction (its own polytope,
+:func:`pseudo_inverse_envelope`).
+
+``wheels.allocation = "direct"`` reaches the whole envelope. Whenever the
+minimum-norm torques would exceed a limit, the command is instead
+allocated where its ray leaves the zonotope (direct allocation, Durham,
+J. Guidance Control Dyn. 16(4), 1993; for three moments it is the
+l-infinity-optimal allocation): the facet ``f`` whose normal maximises the
+gauge ``g = n_f . tau / h(n_f)`` is pierced; the wheels off its plane run
+at ``sign(n_f . g_i) g L_i``, the two (or more) in its plane share the
+rest exactly, ``u = M_f tau + g w_f`` with ``M_f`` and ``w_f`` built per
+array by :func:`make_params` (no allocation in the loop). For ``g <= 1``
+the torque is delivered with no wheel beyond ``g`` of its limit (the least
+possible); beyond the envelope the command is scaled by ``1/g`` onto its
+boundary, keeping its direction. Such torques are not in the row space of
+``A``: the wheels then store momentum in the array's null space, which
+turns no body but uses the wheels' momentum room. *Null-space momentum
+management* returns it: every frame the wheels also get
+``-(I - A+ A) h / T`` (:data:`NULL_SPACE_TIME_S`), as much of it as the
+torque room left allows; it changes no body torque (``A (I - A+ A) = 0``).
 
 Unloading (:func:`unload_valves`). Momentum that the vehicle takes up
 (tip-off rates, a constant disturbance) accumulates in the wheels. Once a
@@ -56,6 +77,12 @@ ACTUATOR_JETS = 0
 ACTUATOR_WHEELS = 1
 #: ``actuators.kind`` -> code.
 ACTUATOR_CODE = {"jets": ACTUATOR_JETS, "wheels": ACTUATOR_WHEELS}
+#: ``wheels.allocation`` -> code (``WheelParams.allocation``).
+ALLOCATION_PSEUDO_INVERSE = 0
+ALLOCATION_DIRECT = 1
+ALLOCATION_CODE = {"pseudo_inverse": ALLOCATION_PSEUDO_INVERSE, "direct": ALLOCATION_DIRECT}
+#: [s] Time constant of the null-space momentum management of the direct allocation.
+NULL_SPACE_TIME_S = 20.0
 #: Mean torque of the unloading pulses about a body axis, as a share of the wheel array's
 #: torque reach along that axis: the wheels cancel the mean with half their authority
 #: left to the attitude loop.
@@ -78,6 +105,12 @@ class WheelParams(NamedTuple):
     unload_deadband_n_m_s: float  #: [N m s] a body axis stops unloading inside this
     unload_pulse_frames: int  #: [frames] length of one unloading pulse (the valve minimum)
     unload_period_frames: np.ndarray  #: (3,) int64 [frames] from pulse to pulse, per axis
+    allocation: int  #: :data:`ALLOCATION_CODE` of ``wheels.allocation``
+    facet_gauge: np.ndarray  #: (m, 3) [1/(N m)] facet normal / offset, every torque facet
+    facet_solve: np.ndarray  #: (m, n, 3) [-] M_f: the in-plane wheels' share of the command
+    facet_corner: np.ndarray  #: (m, n) [N m] w_f: the allocation per unit gauge on facet f
+    null_projector: np.ndarray  #: (n, n) [-] I - A+ A, onto the array's null space
+    null_rate_per_s: float  #: [1/s] 1 / NULL_SPACE_TIME_S
 
 
 def per_wheel(value, n: int) -> np.ndarray:
@@ -95,9 +128,53 @@ def pseudo_inverse(axes) -> np.ndarray:
     return at @ np.linalg.inv(at.T @ at)
 
 
+def direct_tables(axes, max_torque_n_m):
+    """The direct allocation's tables of an array: gauge rows, M_f and w_f per facet.
+
+    For facet ``f`` (normal ``n``, offset ``h``) of the torque envelope:
+    the gauge row ``n / h``; ``s_i = sign(n . g_i) L_i`` for the wheels off
+    its plane (0 in it); ``M_f`` (n, 3) the minimum-norm inverse of the
+    in-plane wheels' axes scaled by their limits, ``L_P pinv(A_P L_P)``,
+    on their rows (exact for the two in-plane wheels of a generic array);
+    ``w_f = s - M_f A s``. A torque ``tau`` whose ray leaves through
+    facet ``f`` at gauge ``g`` is ``A (M_f tau + g w_f)``.
+    """
+    env = make_envelope(axes, max_torque_n_m)
+    g = env.axes
+    lim = env.limits
+    m, n = len(env.offsets), len(lim)
+    gauge = env.normals / env.offsets[:, None]
+    solve = np.zeros((m, n, 3))
+    corner = np.zeros((m, n))
+    for f in range(m):
+        plane = list(env.facet_axes[f])
+        s = np.sign(g @ env.normals[f]) * lim
+        s[plane] = 0.0
+        ap = g[plane].T * lim[plane]  # (3, k) in-plane generators
+        solve[f, plane, :] = lim[plane][:, None] * np.linalg.pinv(ap)
+        corner[f] = s - solve[f] @ (g.T @ s)
+    return gauge, solve, corner
+
+
+def pseudo_inverse_envelope(axes, max_torque_n_m):
+    """The torques the minimum-norm distribution delivers unscaled: a polytope.
+
+    ``{tau : |(A+ tau)_i| <= L_i}``, the intersection of the slabs of every
+    wheel, as (normals (2n, 3), offsets (2n,)): facet ``i`` has the normal
+    of row ``i`` of ``A+`` and the offset ``L_i / |row i|``. Its inscribed
+    radius is the smallest offset; the reach along a direction ``u`` is
+    ``min_i L_i / |(A+ u)_i|``.
+    """
+    pinv = pseudo_inverse(np.asarray(axes, dtype=float))
+    lim = per_wheel(max_torque_n_m, pinv.shape[0])
+    norm = np.linalg.norm(pinv, axis=1)
+    normals = np.vstack((pinv / norm[:, None], -pinv / norm[:, None]))
+    return normals, np.concatenate((lim / norm, lim / norm))
+
+
 def make_params(axes, max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2,
                 torque_per_volt_n_m_v, unload_fraction, unload_end_fraction,
-                jet_torque_n_m, pulse_frames) -> WheelParams:
+                jet_torque_n_m, pulse_frames, allocation="pseudo_inverse") -> WheelParams:
     """Build :class:`WheelParams`.
 
     Parameters
@@ -115,6 +192,9 @@ def make_params(axes, max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2,
         [N m] Couple torque of the roll, pitch and yaw jets that unload.
     pulse_frames : int
         [frames] Length of one unloading pulse (the valves' minimum on-time).
+    allocation : {"pseudo_inverse", "direct"}
+        Minimum-norm distribution, or direct allocation to the whole
+        envelope when it saturates (module notes).
     """
     g = np.array(axes, dtype=float).reshape(-1, 3)
     n = g.shape[0]
@@ -130,10 +210,12 @@ def make_params(axes, max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2,
     period = np.array([max(pulses + 1, math.ceil(jet[a] * pulses
                                                   / (UNLOAD_TORQUE_SHARE * reach[a])))
                        for a in range(3)], dtype=np.int64)
+    gauge, solve, corner = direct_tables(g, torque)
     return WheelParams(g, pinv, torque, momentum, per_wheel(inertia_kg_m2, n),
                        np.asarray(torque_per_volt_n_m_v, dtype=float).copy(),
                        np.array(reach, dtype=float), float(unload_fraction), deadband, pulses,
-                       period)
+                       period, ALLOCATION_CODE[allocation], gauge, solve, corner,
+                       np.eye(n) - pinv @ g.T, 1.0 / NULL_SPACE_TIME_S)
 
 
 @njit
@@ -149,6 +231,9 @@ def body_vector(axes, per_wheel_values, out):
 @njit
 def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     """Motor torques ``u_n_m`` (n) for the body torque ``torque_body_n_m`` [N m].
+
+    The minimum-norm distribution (``wheels.allocation = "pseudo_inverse"``);
+    the frame loop calls :func:`distribute_direct` for ``"direct"``.
 
     ``-A u`` is the body torque. Each component of the command is first
     limited to ``axis_reach_n_m``; then ``u = -A+ tau``, scaled by the largest
@@ -177,6 +262,94 @@ def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     for i in range(n):
         u_n_m[i] *= scale
     return scale
+
+
+@njit
+def distribute_direct(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
+    """:func:`distribute` with ``wheels.allocation = "direct"``.
+
+    The same limits and scaling, but where the minimum-norm torques would
+    exceed a limit the command is allocated directly on the envelope
+    (:func:`direct_allocation`), and the null-space momentum is managed
+    (:func:`null_space_momentum`). Returns the scale.
+    """
+    n = p.axes.shape[0]
+    r = p.axis_reach_n_m
+    tx = min(max(torque_body_n_m[0], -r[0]), r[0])
+    ty = min(max(torque_body_n_m[1], -r[1]), r[1])
+    tz = min(max(torque_body_n_m[2], -r[2]), r[2])
+    scale = 1.0
+    for i in range(n):
+        ui = -(p.pinv[i, 0] * tx + p.pinv[i, 1] * ty + p.pinv[i, 2] * tz)
+        u_n_m[i] = ui
+        if abs(ui) * scale > p.max_torque_n_m[i]:
+            scale = p.max_torque_n_m[i] / abs(ui)
+    if scale < 1.0:
+        scale = direct_allocation(p, tx, ty, tz, u_n_m)
+    for i in range(n):
+        ui = u_n_m[i] * scale
+        if ui * h_n_m_s[i] >= 0.0 and ui != 0.0:  # speeding the wheel up
+            room = max(p.max_momentum_n_m_s[i] - abs(h_n_m_s[i]), 0.0)
+            if abs(ui) * dt_s > room:
+                scale *= room / (abs(ui) * dt_s)
+    for i in range(n):
+        u_n_m[i] *= scale
+    null_space_momentum(p, h_n_m_s, dt_s, u_n_m)
+    return scale
+
+
+@njit
+def direct_allocation(p, tx, ty, tz, u_n_m):
+    """Direct allocation of the body torque ``(tx, ty, tz)``; returns the scale.
+
+    The motor torques go into ``u_n_m``.
+
+    The facet the torque's ray leaves through is the one of the largest
+    gauge ``g``; ``u = -(M_f tau + g w_f)`` delivers ``tau`` exactly (``-A u``).
+    Returns 1 inside the envelope, ``1/g`` beyond it (``u`` then exceeds
+    the limits by ``g``, and the caller's scaling puts it on the boundary).
+    """
+    best, f = -1.0, 0
+    for k in range(p.facet_gauge.shape[0]):
+        v = p.facet_gauge[k, 0] * tx + p.facet_gauge[k, 1] * ty + p.facet_gauge[k, 2] * tz
+        if v > best:
+            best, f = v, k
+    g = max(best, 0.0)
+    for i in range(p.axes.shape[0]):
+        m = p.facet_solve[f, i]
+        u_n_m[i] = -(m[0] * tx + m[1] * ty + m[2] * tz + g * p.facet_corner[f, i])
+    return 1.0 / g if g > 1.0 else 1.0
+
+
+@njit
+def null_space_momentum(p, h_n_m_s, dt_s, u_n_m):
+    """Add ``-(I - A+ A) h / T`` to the motor torques, within the torque room.
+
+    It turns no body (``A (I - A+ A) = 0``) and returns the momentum the
+    direct allocation stored in the array's null space. The share ``a`` in
+    [0, 1] is the largest that keeps every ``|u_i|`` within its limit and
+    spins no wheel past its momentum limit over the frame.
+    """
+    n = p.axes.shape[0]
+    a = 1.0
+    for i in range(n):
+        v = 0.0
+        for j in range(n):
+            v -= p.null_projector[i, j] * h_n_m_s[j]
+        v *= p.null_rate_per_s
+        if v != 0.0:
+            room = p.max_torque_n_m[i] - abs(u_n_m[i])
+            a = min(a, max(room, 0.0) / abs(v))
+            if v * h_n_m_s[i] > 0.0:
+                spare = max(p.max_momentum_n_m_s[i] - abs(h_n_m_s[i] + u_n_m[i] * dt_s), 0.0)
+                a = min(a, spare / (abs(v) * dt_s))
+    if a <= 0.0:
+        return
+    for i in range(n):
+        v = 0.0
+        for j in range(n):
+            v -= p.null_projector[i, j] * h_n_m_s[j]
+        u_n_m[i] += a * v * p.null_rate_per_s
 
 
 @njit

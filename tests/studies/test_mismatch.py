@@ -48,7 +48,7 @@ def test_a_sun_bias_and_a_catalog_error_are_what_they_say():
     got = MM.wrong_samples(_samples([0.0], [0.0], sun=(1e-4, -2e-4)), bias).sun[0]
     assert got[:2] == pytest.approx(np.array([1e-4, -2e-4]) + 20.0 * units.ARCSEC2RAD,
                                     abs=1e-15)
-    m = K.filter_model(K.RecordingMission(load_scenario(), modes=()))
+    m = K.filter_model(K.recording(load_scenario(), modes=()).mission)
     wrong = MM.wrong_model(m, MM.Case("c", "catalog", 60.0, catalog_error_arcsec=60.0))
     ang = np.arccos(np.clip(np.sum(wrong.stars_inertial * m.stars_inertial, axis=1), -1, 1))
     assert ang * units.RAD2ARCSEC == pytest.approx(np.full(len(ang), 60.0), rel=1e-6)
@@ -60,11 +60,11 @@ def test_a_common_noise_scale_changes_the_sigmas_not_the_estimate():
     last digit: the output's second-order term the filter adds to the noise grows as the
     covariance squared (k^4, not k^2); it moves the estimate by 1e-4 of itself."""
     cfg = load_scenario()
-    m = K.RecordingMission(cfg, modes=K.FILTER_MODES["legacy"])
+    m, rec = K.recording(cfg, modes=K.FILTER_MODES["legacy"])
     from allsky.sim.results import fly_calibrating
 
-    fly_calibrating(m, K.CALIBRATION_MODES["legacy"], on_end=lambda mm: False)
-    s = K.samples_from_legs(m, K.FILTER_MODES["legacy"])
+    fly_calibrating(m, K.CALIBRATION_MODES["legacy"], on_end=lambda mm: False, hooks=rec.hooks)
+    s = K.samples_from_legs(m, rec.legs_flown, K.FILTER_MODES["legacy"])
     model = K.filter_model(m)
     base = K.estimate(model, s)
     case = MM.Case("n", "noise", 2.0, 2.0, 2.0)

@@ -42,13 +42,14 @@ def calibration_errors(calibration: dict, truth: dict) -> dict:
     }
 
 
-def fly_calibrating(m, cal_modes, on_start=None, on_end=None):
+def fly_calibrating(m, cal_modes, on_start=None, on_end=None, hooks=None):
     """Fly ``m`` to its end, measuring its calibration modes ``cal_modes`` on the way.
 
     The excursion is measured from the attitude at the start of the first
     calibration mode to the end of the last. ``on_start(m)`` runs as the
     first begins; ``on_end(m)`` after the last, and the flight stops there
-    if it returns False.
+    if it returns False. ``hooks`` (:class:`allsky.sim.mission.Hooks`) are
+    passed to each mode flown (a study recording the legs).
 
     Returns
     -------
@@ -64,7 +65,7 @@ def fly_calibrating(m, cal_modes, on_start=None, on_end=None):
             if on_start is not None:
                 on_start(m)
         p0 = m.state.propellant_kg[0]
-        rec = m.run_mode()
+        rec = m.run_mode(hooks)
         if name in cal_modes:
             t_cal += rec.end_s - rec.start_s
             durations[name] = rec.end_s - rec.start_s

@@ -32,7 +32,7 @@ None (:data:`UNOBSERVABLE_FRACTION`).
 
 :func:`bound` computes it for :class:`~allsky.studies.kalman_mekf.Samples`
 (any data with the truth beside it); :func:`mission_bounds` for the legs
-of a :class:`~allsky.studies.kalman_mekf.RecordingMission`. Equations and
+of a :class:`~allsky.studies.kalman_mekf.LegRecorder`. Equations and
 checks: ``docs/comparison.md``, "The information limit".
 """
 
@@ -282,7 +282,7 @@ def bound(model: km.FilterModel, samples: km.Samples, params_true,
     return out
 
 
-def truth_of(m: km.RecordingMission, samples: km.Samples) -> np.ndarray:
+def truth_of(m, samples: km.Samples) -> np.ndarray:
     """The true parameter vector (12): constant gyro and integrator drift, and E.
 
     The drift's random walk is left out of the linearisation point: over a
@@ -293,17 +293,19 @@ def truth_of(m: km.RecordingMission, samples: km.Samples) -> np.ndarray:
     return km.true_parameters(m, drift * units.ARCSEC2RAD)
 
 
-def mission_bounds(m: km.RecordingMission, manoeuvres, prior: km.Prior | None = None) -> dict:
+def mission_bounds(m, legs_flown, manoeuvres, prior: km.Prior | None = None) -> dict:
     """:func:`bound` for each manoeuvre ``name -> modes`` the mission recorded.
 
-    A manoeuvre whose modes were not flown (an aborted mission) is left out.
+    ``legs_flown`` are the legs a :class:`~allsky.studies.kalman_mekf.LegRecorder`
+    kept of mission ``m``'s flight. A manoeuvre whose modes were not flown
+    (an aborted mission) is left out.
     """
     model = km.filter_model(m)
     out = {}
     for name, modes in manoeuvres.items():
-        if not any(leg.mode in modes for leg in m.legs_flown):
+        if not any(leg.mode in modes for leg in legs_flown):
             continue
-        s = km.samples_from_legs(m, modes)
+        s = km.samples_from_legs(m, legs_flown, modes)
         out[name] = bound(model, s, truth_of(m, s), prior)
     return out
 
@@ -323,16 +325,17 @@ def recording_config(cfg):
 def fly_recording(cfg, plan_name, modes):
     """Fly ``plan_name`` through its calibration, recording every frame of ``modes``.
 
-    Returns the :class:`~allsky.studies.kalman_mekf.RecordingMission`, stopped
-    after the plan's calibration modes (Mode 6 not flown).
+    Returns the :class:`~allsky.studies.kalman_mekf.Recorded` mission and
+    legs, stopped after the plan's calibration modes (Mode 6 not flown).
     """
     from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN
     from allsky.sim.results import fly_calibrating
 
     plan = LEGACY_PLAN if plan_name == "legacy" else DITHER_PLAN
-    m = km.RecordingMission(recording_config(cfg), plan=plan, modes=modes)
-    fly_calibrating(m, km.CALIBRATION_MODES[plan_name], on_end=lambda mm: False)
-    return m
+    recorded = km.recording(recording_config(cfg), plan=plan, modes=modes)
+    fly_calibrating(recorded.mission, km.CALIBRATION_MODES[plan_name], on_end=lambda mm: False,
+                    hooks=recorded.recorder.hooks)
+    return recorded
 
 
 def flown_bounds(cfg, manoeuvres=None) -> dict:
@@ -348,8 +351,8 @@ def flown_bounds(cfg, manoeuvres=None) -> dict:
         if not mine:
             continue
         modes = tuple(sorted({mode for ms in mine.values() for mode in ms}))
-        m = fly_recording(cfg, plan_name, modes)
-        out.update(mission_bounds(m, mine))
+        m, rec = fly_recording(cfg, plan_name, modes)
+        out.update(mission_bounds(m, rec.legs_flown, mine))
     return {k: out[k] for k in wanted if k in out}
 
 

@@ -25,10 +25,11 @@ It needs no model of the vehicle's dynamics or actuators: the gyros carry
 the attitude from sample to sample. The per-sample loop is compiled
 (:func:`run_filter`, allocation-free; scratch allocated once per call).
 
-:class:`RecordingMission` is a :class:`~allsky.sim.mission.Mission` that
-keeps each leg's telemetry together with the counters at the leg's ends, so
-that counters cleared or preset between legs do not break the differences;
-:func:`samples_from_legs` turns that into the filter's input;
+A :class:`LegRecorder` attaches to a flight through the mission's hooks
+(:class:`allsky.sim.mission.Hooks`, a callback before and after each leg)
+and keeps each leg's telemetry together with the counters at the leg's ends,
+so that counters cleared or preset between legs do not break the
+differences; :func:`samples_from_legs` turns that into the filter's input;
 :func:`estimate` runs the filter; :func:`fly` flies a plan, runs the filter
 on the calibration modes' data, loads its results into register 23 and the
 drift counters (as Modes 3-5 would) and flies Mode 6 with them;
@@ -48,7 +49,7 @@ from allsky.hardware.dac import dac
 from allsky.jit import njit, njit_alloc
 from allsky.sequencer.modes import MODE_CODE
 from allsky.sim.frame_loop import sun_inertial
-from allsky.sim.mission import LEGACY_PLAN, Mission
+from allsky.sim.mission import LEGACY_PLAN, Hooks, Mission
 from allsky.sim.recorder import INDEX
 from allsky.sim.results import fly_calibrating
 from allsky.vehicle import quaternion
@@ -152,36 +153,58 @@ def _leg_end(m) -> LegEnd:
                   s.dtheta_rad.copy(), s.gyro_rw_arcsec_s.copy())
 
 
-class RecordingMission(Mission):
-    """A mission that keeps its legs' telemetry and the counters at their ends.
+class LegRecorder:
+    """Hooks that keep the legs' telemetry and the counters at their ends.
 
     Actions between legs clear or preset counters 14/16/18; the state kept at
     each leg's start and end lets the filter difference the counters within
     legs only. Only the legs of ``modes`` (None: all) record telemetry, so
     the others cost what they cost without the filter. Recording does not
-    change the flight.
+    change the flight. Fly with ``m.run_mode(recorder.hooks)`` (or
+    :func:`allsky.sim.results.fly_calibrating` with ``hooks=recorder.hooks``).
+
+    Parameters
+    ----------
+    modes : sequence of str, optional
+        The modes whose legs are recorded; None records every leg.
     """
 
-    def __init__(self, cfg, plan=LEGACY_PLAN, modes=None):
-        super().__init__(cfg, telemetry=True, plan=plan)
-        self._every = self.params.telemetry_every
-        self.record_modes = modes
+    def __init__(self, modes=None):
+        self.record_modes = None if modes is None else tuple(modes)
         #: :class:`LegData` of the recorded legs, in order.
         self.legs_flown = []
+        self._start = None
+        #: The hooks to fly with (:class:`allsky.sim.mission.Hooks`).
+        self.hooks = Hooks(before_leg=self._before, after_leg=self._after)
 
-    def leg(self, what, *args, **kwargs):
-        """:meth:`Mission.leg`, keeping the leg's data in :attr:`legs_flown`."""
-        if self.record_modes is not None and self._mode not in self.record_modes:
-            self.params = self.params._replace(telemetry_every=0)
-            return super().leg(what, *args, **kwargs)
-        self.params = self.params._replace(telemetry_every=self._every)
-        start = _leg_end(self)
-        chunks = len(self._tlm)
-        try:
-            return super().leg(what, *args, **kwargs)
-        finally:
-            rows = self._tlm[-1] if len(self._tlm) > chunks else np.empty((0, len(INDEX)))
-            self.legs_flown.append(LegData(self._mode, start, _leg_end(self), rows))
+    def _before(self, m, mode, what):
+        if self.record_modes is not None and mode not in self.record_modes:
+            self._start = None
+            return False
+        self._start = _leg_end(m)
+        return True
+
+    def _after(self, m, mode, what, rows):
+        if self._start is not None:
+            self.legs_flown.append(LegData(mode, self._start, _leg_end(m), rows))
+            self._start = None
+
+
+class Recorded(NamedTuple):
+    """A mission and the legs a :class:`LegRecorder` kept of its flight."""
+
+    mission: Mission
+    recorder: LegRecorder
+
+    @property
+    def legs_flown(self) -> list:
+        """The :class:`LegData` kept, in flight order."""
+        return self.recorder.legs_flown
+
+
+def recording(cfg, plan=LEGACY_PLAN, modes=None) -> Recorded:
+    """A mission of ``cfg`` flying ``plan``, and a recorder of the legs of ``modes``."""
+    return Recorded(Mission(cfg, telemetry=True, plan=plan), LegRecorder(modes))
 
 
 class Samples(NamedTuple):
@@ -211,8 +234,10 @@ def _back_one_frame(q, dtheta):
     return out / np.linalg.norm(out, axis=1)[:, None]
 
 
-def samples_from_legs(m: RecordingMission, modes, truth=True) -> Samples:
-    """The filter's input from the legs of ``modes`` a :class:`RecordingMission` flew.
+def samples_from_legs(m: Mission, legs_flown, modes, truth=True) -> Samples:
+    """The filter's input from the legs of ``modes`` that mission ``m`` flew.
+
+    ``legs_flown`` are the :class:`LegData` a :class:`LegRecorder` kept.
 
     Per leg: the counters at its start, at each telemetry row and at its end
     are differenced (the counters wrap at ``electronics.counter_bits``);
@@ -226,7 +251,7 @@ def samples_from_legs(m: RecordingMission, modes, truth=True) -> Samples:
     """
     el = m.params.electronics
     frame = float(m.params.frame_s)
-    legs = [leg for leg in m.legs_flown if leg.mode in modes]
+    legs = [leg for leg in legs_flown if leg.mode in modes]
     if not legs:
         raise ValueError(f"no legs of modes {modes} were flown")
     rows = np.concatenate([leg.rows for leg in legs])
@@ -854,7 +879,7 @@ def nees(m: Mission, est: Estimate) -> np.ndarray:
 class Flight(NamedTuple):
     """A mission whose calibration is the filter's, and what it measured."""
 
-    mission: RecordingMission
+    mission: Mission
     estimate: Estimate  #: None when the mission aborted before the calibration ended
     time_s: float  #: [s] duration of the plan's calibration modes
     durations: dict  #: [s] each calibration mode's duration
@@ -881,7 +906,7 @@ def fly(cfg, plan_name="legacy", prior: Prior = DEFAULT_PRIOR, through_mode6=Tru
 
     plan = LEGACY_PLAN if plan_name == "legacy" else DITHER_PLAN
     cal_modes = CALIBRATION_MODES[plan_name]
-    m = RecordingMission(cfg, plan=plan, modes=FILTER_MODES[plan_name])
+    m, rec = recording(cfg, plan=plan, modes=FILTER_MODES[plan_name])
     found = {"est": None, "wall": 0.0}
 
     def calibrate(mm):
@@ -889,12 +914,12 @@ def fly(cfg, plan_name="legacy", prior: Prior = DEFAULT_PRIOR, through_mode6=Tru
         if not mm.finished:
             t0 = time.perf_counter()
             found["est"] = estimate(filter_model(mm), samples_from_legs(
-                mm, FILTER_MODES[plan_name], truth), prior)
+                mm, rec.legs_flown, FILTER_MODES[plan_name], truth), prior)
             load(mm, found["est"].params[-1])
             found["wall"] = time.perf_counter() - t0
         return through_mode6
 
-    t_cal, prop, durations = fly_calibrating(m, cal_modes, on_end=calibrate)
+    t_cal, prop, durations = fly_calibrating(m, cal_modes, on_end=calibrate, hooks=rec.hooks)
     est, wall = found["est"], found["wall"]
     return Flight(m, est, t_cal, durations, float(m.state.max_excursion_rad[0]
                                                  * units.RAD2ARCSEC), prop, wall)

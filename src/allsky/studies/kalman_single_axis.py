@@ -38,7 +38,7 @@ import numpy as np
 from allsky import units
 from allsky.gauss import seed
 from allsky.hardware.gyro import RRW_STEP_S, gyro_output
-from allsky.hardware.star_tracker import star_tracker
+from allsky.hardware.star_tracker import new_lock, star_tracker
 from allsky.hardware.updown_counter import SATURATE, count
 from allsky.hardware.vfc import vfc
 from allsky.jit import njit
@@ -569,7 +569,7 @@ class EmulatedResult(NamedTuple):
 @njit
 def _emulated_runs(gyro_p, vfc_p, trk_p, frame_s, fps, samples, late_from, rates, seeds,
                    amplitude, gains, weight_rad, counter_bits, rng, dtheta, bias_rw, gyro_out, residue, counter,
-                   overflow, trk_out, q, sums):
+                   overflow, trk_out, lock, q, sums):
     """Runs of one axis through the emulator's gyro, converter, counter and tracker.
 
     Per run: the body rolls (about x, the Sun line) back and forth at
@@ -582,8 +582,9 @@ def _emulated_runs(gyro_p, vfc_p, trk_p, frame_s, fps, samples, late_from, rates
     every ``fps`` frames the counter and the star tracker 105's yaw output
     (:func:`allsky.hardware.star_tracker.star_tracker`; a star on inertial z,
     whose yaw output is minus the roll) are filtered as :func:`filter_counter`
-    does. Counter 14 has the scenario's word length and saturates (a run that
-    reaches its end is refused). The estimates start at the truth (zero
+    does (``lock`` is the tracker's memory, :func:`allsky.hardware.star_tracker.new_lock`:
+    the one star never leaves the slit). Counter 14 has the scenario's word length and
+    saturates (a run that reaches its end is refused). The estimates start at the truth (zero
     error); the squared errors
     from sample ``late_from`` on are summed into ``sums`` (runs, 6): attitude
     before and after the update, bias before and after, and the two
@@ -617,7 +618,7 @@ def _emulated_runs(gyro_p, vfc_p, trk_p, frame_s, fps, samples, late_from, rates
                 frame += 1
             h = 0.5 * theta
             q[0], q[1], q[2], q[3] = math.cos(h), math.sin(h), 0.0, 0.0
-            star_tracker(trk_p, q, trk_out, rng)
+            star_tracker(trk_p, q, lock, trk_out, rng)
             y = -trk_out[0] * ARCSEC2RAD
             z = counter[0] * weight_rad
             bias_true = (gyro_p.drift_arcsec_s[0] + bias_rw[0]) * ARCSEC2RAD
@@ -692,7 +693,7 @@ def emulated_monte_carlo(cfg, runs, duration_s, frames_per_sample, seed,
                    rates, seeds, SWING_RAD, gains, model.pulse_weight_arcsec * units.ARCSEC2RAD,
                    int(p.electronics.counter_bits), np.zeros(1, dtype=np.uint64), np.zeros(3), np.zeros(3), np.zeros(3),
                    np.zeros(3), np.zeros(3, dtype=np.int64), overflow_flag,
-                   np.zeros(3), np.zeros(4), sums)
+                   np.zeros(3), new_lock(), np.zeros(4), sums)
     if overflow_flag[0]:
         raise ValueError("counter 14 saturated: a shorter run or a slower rate")
     used = runs * (samples - late_from)

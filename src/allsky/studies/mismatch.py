@@ -153,13 +153,13 @@ def run_seed(job) -> dict | None:
 
     data, seed, cases = job
     cfg = scenario_from_dict(data, [f"mission.seed={seed}"])
-    m = km.RecordingMission(cfg, modes=km.FILTER_MODES["legacy"])
+    m, rec = km.recording(cfg, modes=km.FILTER_MODES["legacy"])
     snaps = []
     fly_calibrating(m, km.CALIBRATION_MODES["legacy"],
-                    on_end=lambda mm: snaps.append(mm.snapshot()) or False)
+                    on_end=lambda mm: snaps.append(mm.snapshot()) or False, hooks=rec.hooks)
     if m.finished or not snaps:
         return None
-    samples = km.samples_from_legs(m, km.FILTER_MODES["legacy"])
+    samples = km.samples_from_legs(m, rec.legs_flown, km.FILTER_MODES["legacy"])
     model = km.filter_model(m)
     truth = m.summary()["truth"]
     out = {"legacy_pointing_arcsec": _pointing(*snaps[0])}

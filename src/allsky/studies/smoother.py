@@ -37,6 +37,7 @@ import numpy as np
 
 from allsky import units
 from allsky.jit import njit
+from allsky.sim.mission import Mission
 from allsky.studies import crlb
 from allsky.studies import kalman_mekf as km
 from allsky.studies.kalman_mekf import E_INDEX, N_STATE, rotation_error
@@ -357,7 +358,7 @@ def smooth(model: km.FilterModel, samples: km.Samples, prior: km.Prior = km.DEFA
 class Flight(NamedTuple):
     """A legacy mission whose calibration is the smoother's."""
 
-    mission: km.RecordingMission
+    mission: Mission
     smoothed: Smoothed  #: None when the mission aborted before the end of Mode 5
     time_s: float  #: [s] calibration time (Modes 4-5)
     durations: dict  #: [s] per calibration mode
@@ -379,21 +380,22 @@ def fly(cfg, prior: km.Prior = km.DEFAULT_PRIOR, through_mode6=True, bounds=None
     from allsky.sim.results import fly_calibrating
 
     modes = km.FILTER_MODES["legacy"]
-    m = km.RecordingMission(crlb.recording_config(cfg), plan=LEGACY_PLAN, modes=modes)
+    m, rec = km.recording(crlb.recording_config(cfg), plan=LEGACY_PLAN, modes=modes)
     found = {"sm": None, "wall": 0.0, "bounds": {}}
 
     def calibrate(mm):
         if not mm.finished:
             t0 = time.perf_counter()
-            samples = km.samples_from_legs(mm, modes)
+            samples = km.samples_from_legs(mm, rec.legs_flown, modes)
             found["sm"] = smooth(km.filter_model(mm), samples, prior)
             load_calibration(mm, found["sm"].params[-1])
             found["wall"] = time.perf_counter() - t0
             if bounds:
-                found["bounds"] = crlb.mission_bounds(mm, bounds)
+                found["bounds"] = crlb.mission_bounds(mm, rec.legs_flown, bounds)
         return through_mode6
 
-    t_cal, prop, durations = fly_calibrating(m, km.CALIBRATION_MODES["legacy"], on_end=calibrate)
+    t_cal, prop, durations = fly_calibrating(m, km.CALIBRATION_MODES["legacy"], on_end=calibrate,
+                                             hooks=rec.hooks)
     return Flight(m, found["sm"], t_cal, durations,
                   float(m.state.max_excursion_rad[0] * units.RAD2ARCSEC), prop, found["wall"],
                   found["bounds"])

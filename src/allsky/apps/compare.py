@@ -252,7 +252,7 @@ def run_from_cli(cfg, args) -> int:
 INFORMATION_ROWS = (
     [(f"scale factor {a} [ppm]", "scale_factor_error_ppm", a, ".2f") for a in AXES]
     + [(f"{k} [arcsec]", "cross_coupling_error_arcsec", k, ".3f") for k in CC_KEYS]
-    + [(f"drift {a} [deg/h]", "drift_error_deg_h", a, ".4f") for a in ("roll", "pitch", "yaw")])
+    + [(f"drift {a} [deg/h]", "drift_error_deg_h", a, ".4f") for a in BODY_AXES])
 #: Components of ``pointing_decomposition``, as printed.
 DECOMPOSITION = (("total_arcsec", "final pointing (as flown)"),
                  ("targeting_arcsec", "  targeting (truth stored)"),

@@ -33,6 +33,9 @@ LOOK_FOR = {
     "6-2": "3-D view and sky map: the vehicle yaws by the programmed yaw onto the target; "
            "the Sun and star leave the sensors and the gyros alone hold the attitude.",
     "hold": "CPU 22 errors: the gyros alone hold the target; any drift left shows here.",
+    "direct": "3-D view and CPU 22 errors: from the target it holds, the vehicle rolls by the "
+              "programmed turn on the gyros alone (no optics), then Mode 6-2 yaws onto the "
+              "next target.",
     "dither": "Sensor traces: small sinusoidal turns in roll and yaw; the gyro counts are "
               "compared with the optics to measure the scale factors.",
 }

@@ -37,7 +37,7 @@ from matplotlib.figure import Figure
 from allsky.apps.telemetry_files import TelemetryError, read
 from allsky.config import ConfigError
 from allsky.hardware import switch_bank, wiring
-from allsky.sequencer.modes import MODE_CODE
+from allsky.sequencer.modes import MODE_CODE, cpu_modes
 from allsky.sim.telemetry import INDEX, switch_closed
 from allsky.vehicle import quaternion
 from allsky.vocabulary import AXES
@@ -120,8 +120,8 @@ def _masked(values, keep):
 
 
 def _cpu_modes(code):
-    """True where CPU 22 computes attitude errors: Modes 6-1, 6-2 and the hold on target."""
-    return np.isin(np.round(code, 6), [MODE_CODE[m] for m in ("6-1", "6-2", "hold")])
+    """True where CPU 22 computes attitude errors (:func:`allsky.sequencer.modes.cpu_modes`)."""
+    return np.isin(np.round(code, 6), [MODE_CODE[m] for m in cpu_modes()])
 
 
 def _sensor_signals(table):

@@ -455,7 +455,8 @@ def _config(cfg, table) -> dict:
             "handover_arcsec": float(cfg.sequencer.handover_arcsec),
             "frame_s": float(cfg.mission.frame_s), "interval_s": round(interval, 6),
             "min_on_time_s": float(cfg.jets.min_on_time_s),
-            "propellant_kg": float(cfg.jets.propellant_kg)}
+            "propellant_kg": float(cfg.jets.propellant_kg),
+            "cpu_modes": list(modes.cpu_modes())}
 
 
 def replay_data(table, summary=None, cfg=None, scenario=None) -> dict:

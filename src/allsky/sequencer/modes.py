@@ -584,6 +584,16 @@ def mission_plan(plan, cfg) -> tuple:
     return first + further * (n - 1)
 
 
+#: The programs in which CPU 22 forms attitude errors (registers 25-27 in use).
+CPU_PROGRAMS = ("target roll", "target", "target dither")
+
+
+def cpu_modes(table=MODE_TABLE) -> tuple:
+    """Names of the modes in which CPU 22 forms attitude errors (its program runs)."""
+    return tuple(m.name for m in table if any(
+        isinstance(s, Wait) and s.program in CPU_PROGRAMS for s in m.steps))
+
+
 def signal_mask(signals) -> int:
     """Settle mask of the frame loop: bit ``SIG_*`` set for each named signal."""
     mask = 0

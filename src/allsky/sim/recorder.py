@@ -153,9 +153,10 @@ INDEX = {c.name: i for i, c in enumerate(COLUMNS)}
 N_TLM = len(COLUMNS)
 #: The schema's number, written in every file (CSV header comment, Parquet metadata).
 FORMAT = 2
-#: Each format's columns, by number: a later format only appends columns.
-FORMATS = {1: tuple(c.name for c in COLUMNS[:INDEX["intermediate_pitch"] + 1]),
-           2: tuple(c.name for c in COLUMNS)}
+#: Each format's columns, by number, frozen by its last column: a later format only appends
+#: columns, and a column appended without a new format fails the check below.
+FORMATS = {number: tuple(c.name for c in COLUMNS[:INDEX[last] + 1])
+           for number, last in ((1, "intermediate_pitch"), (2, "jet_on_yaw"))}
 
 # Where the row writer puts each group of columns: their names, read from the schema.
 _TIME, _MODE, _Q_W, _RATE_X = INDEX["time"], INDEX["mode"], INDEX["q_w"], INDEX["rate_x"]
@@ -190,6 +191,9 @@ def _check_groups() -> None:
     for old in FORMATS.values():
         if tuple(c.name for c in COLUMNS[:len(old)]) != old:
             raise ValueError("telemetry formats may only append columns")
+    if FORMATS[FORMAT] != tuple(c.name for c in COLUMNS):
+        raise ValueError(f"the columns after format {FORMAT}'s need a new format: add it to "
+                         "FORMATS (its last column) and raise FORMAT")
 
 
 _check_groups()

@@ -31,6 +31,7 @@ from allsky.sim.results import (
 )
 from allsky.studies import crlb
 from allsky.units import FRACTION2PPM
+from allsky.vocabulary import AXES as BODY_AXES
 
 AXES = SCALE_FACTOR_AXES
 CC_KEYS = CROSS_COUPLING_KEYS
@@ -647,7 +648,7 @@ def crlb_sections(result, rows) -> None:
             result["crlb"][section] = {key: {k: per[name][group][k] for k in
                                              (AXES if group == "scale_factor_ppm" else
                                               CC_KEYS if group == "cross_coupling_arcsec"
-                                              else ("roll", "pitch", "yaw"))}
+                                              else BODY_AXES)}
                                        for group, key in CRLB_KEYS.items()}
 
 

@@ -99,8 +99,8 @@ def dcm_many(q) -> np.ndarray:
     ], axis=1)
 
 
-def _atan2_rows(s, num, num_sign, den):
-    """Attitude rows ``J x s`` of ``atan2(num_sign s[num], s[den])`` for body vectors (n, 3)."""
+def atan2_rows(s, num, num_sign, den):
+    """Rows ``J x s`` of ``atan2(num_sign s[num], s[den])`` for body vectors (n, 3)."""
     u = num_sign * s[:, num]
     v = s[:, den]
     d2 = u * u + v * v
@@ -149,8 +149,8 @@ def linearise(model: km.FilterModel, samples: km.Samples, params_true) -> Linear
     h = np.zeros((q.shape[0], 4, 3))
     valid = np.zeros((q.shape[0], 4))
     sun_ok = (samples.sun[:, km.VALID] > 0.5) & (s_sun[:, 0] > 0.0)
-    h[:, 0] = _atan2_rows(s_sun, 2, -1.0, 0)  # pitch = atan2(-s_z, s_x)
-    h[:, 1] = _atan2_rows(s_sun, 1, 1.0, 0)  # yaw = atan2(s_y, s_x)
+    h[:, 0] = atan2_rows(s_sun, 2, -1.0, 0)  # pitch = atan2(-s_z, s_x)
+    h[:, 1] = atan2_rows(s_sun, 1, 1.0, 0)  # yaw = atan2(s_y, s_x)
     valid[:, 0] = valid[:, 1] = sun_ok
     trk_ok = samples.tracker[:, km.VALID] > 0.5
     stars = np.asarray(model.stars_inertial, dtype=float)
@@ -162,8 +162,8 @@ def linearise(model: km.FilterModel, samples: km.Samples, params_true) -> Linear
     star = np.argmin(miss, axis=1)
     s_trk = s_all[np.arange(q.shape[0]), star]
     trk_ok &= np.isfinite(miss[np.arange(q.shape[0]), star])
-    h[:, 2] = _atan2_rows(s_trk, 1, -1.0, 2)  # yaw = atan2(-s_y, s_z)
-    h[:, 3] = _atan2_rows(s_trk, 0, 1.0, 2)  # pitch = atan2(s_x, s_z)
+    h[:, 2] = atan2_rows(s_trk, 1, -1.0, 2)  # yaw = atan2(-s_y, s_z)
+    h[:, 3] = atan2_rows(s_trk, 0, 1.0, 2)  # pitch = atan2(s_x, s_z)
     valid[:, 2] = valid[:, 3] = trk_ok
     h[valid == 0.0] = 0.0
     return Linearisation(dt, u, c, rot, h, valid)

@@ -26,6 +26,7 @@ import numpy as np
 
 from allsky import units
 from allsky.computer import word_registers as wr
+from allsky.vocabulary import AXES
 
 #: Groups of stored quantities, in the order reported.
 GROUPS = ("drift", "scale_factor", "misalignment")
@@ -46,7 +47,7 @@ def true_storage(m):
     el = m.params.electronics
     hi = (1 << (el.drift_dac_bits - 1)) - 1
     counts = np.array([min(max(round(truth["drift_deg_h"][a] / el.drift_lsb_arcsec_s), -hi - 1),
-                           hi) for a in ("roll", "pitch", "yaw")], dtype=m.state.drift_counters.dtype)
+                           hi) for a in AXES], dtype=m.state.drift_counters.dtype)
     return w, counts
 
 

@@ -102,8 +102,8 @@ def _outputs(model, q, time_s, tracker):
     z = np.column_stack((np.arctan2(-s_sun[:, 2], s_sun[:, 0]), np.arctan2(s_sun[:, 1], s_sun[:, 0]),
                          np.arctan2(-s_trk[:, 1], s_trk[:, 2]),
                          np.arctan2(s_trk[:, 0], s_trk[:, 2])))
-    h = np.stack([crlb._atan2_rows(s_sun, 2, -1.0, 0), crlb._atan2_rows(s_sun, 1, 1.0, 0),
-                  crlb._atan2_rows(s_trk, 1, -1.0, 2), crlb._atan2_rows(s_trk, 0, 1.0, 2)],
+    h = np.stack([crlb.atan2_rows(s_sun, 2, -1.0, 0), crlb.atan2_rows(s_sun, 1, 1.0, 0),
+                  crlb.atan2_rows(s_trk, 1, -1.0, 2), crlb.atan2_rows(s_trk, 0, 1.0, 2)],
                  axis=1)
     ok = np.column_stack((s_sun[:, 0] > 0.0, s_sun[:, 0] > 0.0,
                           np.isfinite(miss[rows, star]), np.isfinite(miss[rows, star])))

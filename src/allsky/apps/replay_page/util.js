@@ -6,10 +6,10 @@ const N = C.n;
 const MODE_NAMES = Object.keys(D.modes);
 // Mode colours (strip, shading, badge); the badge's text colour is chosen for contrast.
 const MODE_COLOURS = ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#76b7b2",
-  "#edc948", "#9c755f", "#bab0ac", "#ff9da7", "#86bcb6"];
+  "#edc948", "#9c755f", "#bab0ac", "#ff9da7", "#86bcb6", "#8cd17d"];
 const AXIS_COLOURS = ["#1f5fa0", "#b34700", "#1e7b1e"];
 const AXIS_NAMES = ["roll", "pitch", "yaw"];
-const CPU_MODES = ["6-1", "6-2", "hold"];
+const CPU_MODES = D.config.cpu_modes;  // the modes whose legs run CPU 22 (the mode table)
 const RAD = Math.PI / 180;
 const ARCSEC_PER_RAD = 180 * 3600 / Math.PI;
 /** Smallest text the page draws [CSS px]. */

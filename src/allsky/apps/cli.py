@@ -21,10 +21,12 @@ Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
 line ``allsky: error: ...`` on stderr; 3 an internal error, reported as one
 line with a crash report file holding the traceback; 130 interrupted
 (Ctrl-C or SIGTERM), after writing what the finished work promised, in one
-line ``allsky: interrupted; ...``. Never a bare traceback.
+line ``allsky: interrupted; ...``; 141 stdout's reader went away (``| head``) after
+every file asked for was written. Never a bare traceback.
 """
 
 import argparse
+import errno
 import os
 import signal
 import sys
@@ -44,8 +46,12 @@ EXIT_CODES = {
     2: "usage, input or output error (one line 'allsky: error: ...'), or the Dask cluster lost",
     3: "internal error (one line, the traceback in a crash report file)",
     130: "interrupted by Ctrl-C or SIGTERM (what finished is written; one line says what)",
+    141: "stdout's reader went away (allsky ... | head): every file asked for was still "
+         "written (a closed or full stdout: exit 2 and one line)",
 }
 EXIT_ABORTED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 130
+#: 128 + SIGPIPE, what a shell reports for a writer whose pipe closed.
+EXIT_STDOUT_GONE = 141
 #: The options that mean the same on every command that has them.
 COMMON_FLAGS = {
     "--json PATH": "write the result as JSON; '-' writes it to stdout and nothing else goes "
@@ -335,6 +341,7 @@ def _parser() -> argparse.ArgumentParser:
     mc.add_argument("--quiet", action="store_true", help="no progress bar")
 
     cfg = sub.add_parser("config", help="show or check a scenario")
+    cfg.add_argument("--version", action="version", version=f"allsky {__version__}")
     csub = cfg.add_subparsers(dest="config_command", required=True, metavar="ACTION")
     show = csub.add_parser(
         "show", help="print the fully resolved configuration as TOML",
@@ -622,11 +629,157 @@ def crash_report(exc) -> str:
     return path
 
 
+#: Per command, the options that name files it writes: (dest, option, kind), kind "file"
+#: or the names a directory option writes into its directory (checked before the work).
+OUTPUTS = {
+    "run": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
+            ("plots", "--plots", "plots"), ("html", "--html", "file")),
+    "step": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
+             ("save_dir", "--save-dir", "states")),
+    "compare": (("json", "--json", "file"), ("plot", "--plot", "file")),
+    "replay": (("html", "--html", "file"),),
+    "plot": (("out", "--out", "plots"),),
+    "analyze": (("json", "--json", "file"), ("plot", "--plot", "file")),
+    "montecarlo": (("json", "--json", "file"), ("out", "--out", "campaign")),
+    "stars": (("json", "--json", "file"),),
+    "faults": (("json", "--json", "file"),),
+    "scenarios": (("json", "--json", "file"),),
+}
+#: Per command, the options that name files it reads: (dest, option).
+INPUTS = {
+    "replay": (("telemetry", "TELEMETRY"), ("summary", "--summary"), ("scenario",
+                                                                      "--scenario")),
+    "plot": (("telemetry", "TELEMETRY"), ("summary", "--summary")),
+    "step": (("scenario", "SCENARIO"), ("from_state", "--from")),
+}
+
+
+def _directory_names(kind) -> tuple:
+    """The file names a directory output of ``kind`` writes (imported only when given)."""
+    if kind == "plots":
+        from allsky.apps.plots import CALIBRATION_FILE, HOLD_FILE, TELEMETRY_FIGURES
+
+        return (*(name for name, _ in TELEMETRY_FIGURES.values()), CALIBRATION_FILE,
+                HOLD_FILE)
+    if kind == "campaign":
+        from allsky.apps.campaign import FILES
+
+        return FILES
+    if kind == "states":
+        from allsky.sequencer.modes import MODE_TABLE
+
+        return tuple(f"after_mode_{m.name}.npz" for m in MODE_TABLE)
+    return None
+
+
+def check_paths(args):
+    """Refuse, before any work, outputs that cannot be written or that are one file.
+
+    Every output option of the command is checked (:func:`allsky.apps.output.check_output`),
+    then no two outputs, and no output and input, may be the same file
+    (:func:`allsky.apps.output.check_distinct`).
+    """
+    from allsky.apps.output import check_distinct, check_output
+
+    outputs = []
+    for dest, option, kind in OUTPUTS.get(args.command, ()):
+        path = getattr(args, dest, None)
+        if path is None:
+            continue
+        check_output(option, path, directory=kind != "file")
+        outputs.append((option, path, _directory_names(kind)))
+    inputs = [(option, getattr(args, dest, None)) for dest, option in
+              INPUTS.get(args.command, (("scenario", "SCENARIO"),))]
+    inputs.append(("--disperse", getattr(args, "disperse", None)))
+    check_distinct(outputs, [(o, p) for o, p in inputs if p is not None])
+
+
+def _take_signals() -> bool:
+    """Ctrl-C and SIGTERM raise KeyboardInterrupt from here on; False where they cannot.
+
+    Outside the main thread signals cannot be set, and nothing changes.
+    """
+    try:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, _raise_interrupt)
+    except ValueError:
+        return False
+    return True
+
+
+def _after(code):
+    """The signal handler once the command is over: its exit code, no traceback."""
+    def done(signum, frame):
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError, AttributeError):
+                pass
+        os._exit(code)
+
+    return done
+
+
 def main(argv=None) -> int:
     """Run the command line on ``argv`` (default ``sys.argv[1:]``); return exit code.
 
-    See :data:`EXIT_CODES`.
+    See :data:`EXIT_CODES`. In the ``allsky`` command (not when called from
+    Python), a signal after the command is over ends the process with the
+    command's exit code at once.
     """
+    import allsky
+    from allsky.apps.console import guarded
+
+    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    code, took = None, False
+    try:
+        took = _take_signals()
+        with guarded() as (out, _):
+            code = _main(argv)
+            code = _stdout_verdict(code, out)
+    except KeyboardInterrupt:  # in the instants around the command itself
+        if code is None:
+            try:
+                os.write(2, (_interrupted_line() + "\n").encode())
+            except OSError:
+                pass
+            code = EXIT_INTERRUPTED
+    finally:
+        if took:
+            for sig, handler in old.items():
+                signal.signal(sig, _after(code if code is not None else EXIT_INTERRUPTED)
+                              if allsky._COMMAND else handler)
+    return code
+
+
+def _stdout_verdict(code, out) -> int:
+    """The exit code once stdout is known lost or not (:data:`EXIT_STDOUT_GONE`)."""
+    if not out.dropped:
+        return code
+    if out.lost == errno.EPIPE:  # | head: the reader had what it wanted
+        return EXIT_STDOUT_GONE if code in (0, EXIT_ABORTED) else code
+    from allsky.apps.output import write_reason
+
+    why = ("it is closed" if out.lost == errno.EBADF else
+           write_reason(OSError(out.lost, os.strerror(out.lost))))
+    files = ("; what was meant for it is lost, every file asked for is written"
+             if code in (0, EXIT_ABORTED) else "")
+    print(f"allsky: error: stdout: cannot write: {why}{files}", file=sys.stderr)
+    return EXIT_USAGE if code in (0, EXIT_ABORTED) else code
+
+
+def _interrupted_line() -> str:
+    from allsky.apps.output import torn_writes
+
+    torn = torn_writes()
+    if torn:
+        return (f"allsky: interrupted; {', '.join(torn)} cut short (written in place, not a "
+                "regular file); every regular file is whole or untouched")
+    return ("allsky: interrupted; nothing half-written (files are written whole or not at "
+            "all)")
+
+
+def _main(argv) -> int:
     try:
         parser = _parser()
         args = parser.parse_args(argv)
@@ -635,12 +788,11 @@ def main(argv=None) -> int:
             parser.error("config check: give a scenario FILE, --set KEY=VALUE, or both")
     except SystemExit as e:  # --help, --version, or a usage error (printed as one line)
         return 0 if e.code is None else e.code if isinstance(e.code, int) else EXIT_USAGE
-    restore = None
+    except KeyboardInterrupt:
+        print(_interrupted_line(), file=sys.stderr)
+        return EXIT_INTERRUPTED
     try:
-        restore = signal.signal(signal.SIGTERM, _raise_interrupt)
-    except ValueError:  # not the main thread: leave SIGTERM alone
-        pass
-    try:
+        check_paths(args)
         # `allsky plot` reads a telemetry file, `allsky scenarios` lists files,
         # `allsky warm-up` compiles: no scenario.
         if args.command in ("plot", "scenarios", "warm-up"):
@@ -652,27 +804,29 @@ def main(argv=None) -> int:
         if args.command == "config":
             return _config(cfg, args)
         return _run(cfg, args)
-    except _usage_errors() as e:
-        print(f"allsky: error: {e}", file=sys.stderr)
-        return EXIT_USAGE
-    except _interrupted() as e:
-        print(f"allsky: interrupted; {e}", file=sys.stderr)
-        return EXIT_INTERRUPTED
     except KeyboardInterrupt:
-        print("allsky: interrupted; nothing half-written (files are written whole or not "
-              "at all)", file=sys.stderr)
+        print(_interrupted_line(), file=sys.stderr)
         return EXIT_INTERRUPTED
-    except BrokenPipeError:  # the reader went away (allsky ... | head): not an error
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
-    except OSError as e:  # an output path that cannot be written
-        name = f" {e.filename}" if e.filename else ""
-        print(f"allsky: error: cannot write{name}: {e.strerror or e}", file=sys.stderr)
-        return EXIT_USAGE
-    except Exception as e:  # noqa: BLE001 - one line and a crash report, never a traceback
+    except Exception as e:  # noqa: BLE001 - sorted below; never a traceback
+        return _report(e)
+
+
+def _report(e) -> int:
+    """One line for an exception that ended the command; its exit code."""
+    try:
+        if isinstance(e, _usage_errors()):
+            print(f"allsky: error: {e}", file=sys.stderr)
+            return EXIT_USAGE
+        if isinstance(e, _interrupted()):
+            print(f"allsky: interrupted; {e}", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        if isinstance(e, OSError):  # an output path that cannot be written
+            name = f" {e.filename}" if e.filename else ""
+            print(f"allsky: error: cannot write{name}: {e.strerror or e}", file=sys.stderr)
+            return EXIT_USAGE
         print(f"allsky: internal error: {type(e).__name__}: {e} (details in "
               f"{crash_report(e)})", file=sys.stderr)
         return EXIT_INTERNAL
-    finally:
-        if restore is not None:
-            signal.signal(signal.SIGTERM, restore)
+    except KeyboardInterrupt:  # a second Ctrl-C while the line was being made
+        print(_interrupted_line(), file=sys.stderr)
+        return EXIT_INTERRUPTED

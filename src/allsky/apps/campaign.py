@@ -45,6 +45,8 @@ RESULTS = "runs.csv"
 SUMMARY_TEXT = "summary.txt"
 SUMMARY_JSON = "summary.json"
 HISTOGRAMS = "histograms.png"
+#: Every file a campaign directory holds.
+FILES = (MANIFEST, RESULTS, SUMMARY_TEXT, SUMMARY_JSON, HISTOGRAMS)
 MANIFEST_FORMAT = 1
 
 
@@ -61,7 +63,7 @@ def _encode(row, cols) -> bytes:
 
 
 #: Statuses a campaign row can have (:func:`allsky.studies.montecarlo.fly_one`).
-STATUSES = ("complete", "aborted", "invalid", "error")
+STATUSES = ("complete", "aborted", "invalid", "error", "worker_died")
 
 
 def _decode(record, cols) -> dict:
@@ -440,8 +442,9 @@ def format_summary(s: dict, outcomes=False) -> str:
     seeds = ("" if s["base_seed"] is None else
              f", seeds {s['base_seed']}..{s['base_seed'] + s['runs'] - 1}")
     head = f"Monte Carlo campaign: {s['recorded']} of {s['runs']} runs recorded{seeds}"
-    counts = ", ".join(f"{s[k]} {k}" for k in ("complete", "aborted", "invalid", "error")
-                       if s[k] or k == "complete")
+    counts = ", ".join(f"{s.get(k, 0)} {k}" for k in ("complete", "aborted", "invalid",
+                                                       "error", "worker_died")
+                       if s.get(k) or k == "complete")
     lines = [head, f"  {counts}"]
     if s["metrics"]:
         lines += ["", f"Over the {s['complete']} complete missions",

@@ -26,7 +26,6 @@ hold.png               each hold on target: the attitude's drift per body axis
 =====================  ==========================================================
 """
 
-import json
 import math
 from pathlib import Path
 from typing import NamedTuple
@@ -35,7 +34,6 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from allsky.apps.telemetry_files import TelemetryError, read
-from allsky.config import ConfigError
 from allsky.hardware import switch_bank, wiring
 from allsky.sequencer.modes import MODE_CODE
 from allsky.sim.telemetry import INDEX, switch_closed
@@ -719,13 +717,9 @@ def run_from_cli(cfg, args) -> int:
         raise TelemetryError(f"telemetry file {args.telemetry!r} has no rows: nothing to plot")
     summary = None
     if args.summary:
-        try:
-            summary = json.loads(Path(args.summary).read_text())
-        except json.JSONDecodeError as e:
-            raise ConfigError(None, rule=f"summary {args.summary!r} is not JSON ({e})") from None
-        if not isinstance(summary, dict) or not {"calibration", "truth"} <= set(summary):
-            raise ConfigError(None, rule=f"summary {args.summary!r} is not an allsky mission "
-                                         "summary (allsky run --json)")
+        from allsky.apps.summaries import read_summary
+
+        summary = read_summary(args.summary)
     print(format_written(write_plots(table, args.out, summary,
                                      progress=not getattr(args, "quiet", False))))
     return 0

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from allsky.config import ConfigError, scenario_from_dict
-from allsky.config.toml_io import os_reason
+from allsky.config.toml_io import os_reason, read_bounded
 from allsky.hardware.wiring import SELECTORS
 from allsky.sequencer.modes import PLANS, mission_plan
 from allsky.sim import faults as sim_faults
@@ -65,6 +65,8 @@ class StateError(ValueError):
 #: Largest member of a state archive [bytes]: the history JSON is a few kB, the state
 #: arrays a few hundred bytes; a bigger member is not a state (and is not unpacked).
 MEMBER_MAX_BYTES = 16 * 2**20
+#: Largest state file read, and the most its members may unpack to [bytes].
+STATE_MAX_BYTES = 64 * 2**20
 #: Largest departure of the saved quaternion from unit norm (the plant keeps 1e-15).
 QUATERNION_NORM_TOLERANCE = 1e-6
 #: State arrays added since files of this format were first written, with the value an
@@ -101,7 +103,7 @@ def load(path, telemetry=True) -> Mission:
 def _read_archive(path):
     """The state arrays and the history of the ``.npz`` archive at ``path``."""
     try:
-        data = path.read_bytes()
+        data = read_bounded(path, STATE_MAX_BYTES, "mission state")
     except (OSError, ValueError) as e:  # missing, a directory, no permission, NUL in the name
         raise StateError(f"cannot read it: {os_reason(e) if isinstance(e, OSError) else e}"
                          ) from None
@@ -114,6 +116,8 @@ def _read_archive(path):
             big = [i.filename for i in zf.infolist() if i.file_size > MEMBER_MAX_BYTES]
             if big:
                 raise StateError(f"member {big[0]!r} is over {MEMBER_MAX_BYTES >> 20} MB")
+            if sum(i.file_size for i in zf.infolist()) > STATE_MAX_BYTES:
+                raise StateError(f"its members unpack to over {STATE_MAX_BYTES >> 20} MB")
         with np.load(io.BytesIO(data), allow_pickle=False) as z:
             members = {name: z[name] for name in z.files}
     except StateError:

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from allsky.config.toml_io import os_reason
+from allsky.config.toml_io import os_reason, read_bounded
 from allsky.hardware.wiring import N_SWITCHES
 from allsky.sequencer.modes import MODE_CODE
 from allsky.sim.telemetry import COLUMNS, INDEX, header
@@ -113,6 +113,9 @@ def _checked_order(path, names) -> list:
     return [names.index(n) for n in expected]
 
 
+#: [bytes] Largest telemetry file read: the longest mission records at most 1e6 rows
+#: (config.schema.TELEMETRY_MAX_ROWS), under 1 kB each as CSV.
+FILE_MAX_BYTES = 2**30
 #: Parquet files begin (and end) with these four bytes.
 PARQUET_MAGIC = b"PAR1"
 #: Largest departure of a row's quaternion from unit norm: the plant keeps it within
@@ -161,7 +164,7 @@ def read(path, check=True):
     path = Path(path)
     fmt = file_format(path)
     try:
-        data = path.read_bytes()
+        data = read_bounded(path, FILE_MAX_BYTES, "telemetry file")
     except (OSError, ValueError) as e:  # missing, a directory, no permission, NUL in the name
         raise _refuse(path, f"cannot read it: {os_reason(e) if isinstance(e, OSError) else e}"
                       ) from None

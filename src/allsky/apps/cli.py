@@ -189,8 +189,9 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky compare --vehicle wheels --runs 20\n"
                "  allsky compare --methods legacy,dither,kalman --runs 200")
     scenario_args(cmp_)
-    cmp_.add_argument("--runs", type=_positive_int, default=1, metavar="N",
-                      help="repeat over N seeds (from mission.seed on) and give statistics")
+    cmp_.add_argument("--runs", type=_runs, default=1, metavar="N",
+                      help="repeat over N seeds (from mission.seed on) and give statistics "
+                           "(at most 10^7)")
     cmp_.add_argument("--workers", type=_positive_int, metavar="N",
                       help="worker processes for --runs (default: one per core; at most "
                            "one per run and per core)")
@@ -321,9 +322,9 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky montecarlo --runs 5000 --scheduler tcp://10.0.0.5:8786 --out mc/\n"
                "  allsky montecarlo --runs 100 --set target.star=Vega --json - --quiet")
     scenario_args(mc)
-    mc.add_argument("--runs", type=_positive_int, metavar="N",
-                    help="number of runs (needed for a new campaign; with --resume, a larger "
-                         "N extends it)")
+    mc.add_argument("--runs", type=_runs, metavar="N",
+                    help="number of runs, at most 10^7 (needed for a new campaign; with "
+                         "--resume, a larger N extends it)")
     mc.add_argument("--disperse", metavar="SPEC",
                     help="TOML file with a [dispersions] table, merged over the scenario's")
     where = mc.add_mutually_exclusive_group()
@@ -487,7 +488,11 @@ class _NameList(argparse.Action):
                                  f"{namespace.scenario!r} was given already")
                 namespace.scenario = word
                 continue
-            names += [n.strip() for n in word.split(",") if n.strip()]
+            given = [n.strip() for n in word.split(",") if n.strip()]
+            if not given:  # "," or "": nothing named, not "all"
+                parser.error(f"{option_string}: {word!r} names nothing; give names separated "
+                             "by commas, or leave the option out for all")
+            names += given
         setattr(namespace, self.dest, names)
 
 
@@ -536,6 +541,17 @@ def _positive_int(text):
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
     if v < 1:
         raise argparse.ArgumentTypeError(f"{v} must be >= 1")
+    return v
+
+
+def _runs(text):
+    """A number of runs: 1 to :data:`allsky.config.rules.RUNS_MAX`."""
+    from allsky.config.rules import RUNS_MAX
+
+    v = _positive_int(text)
+    if v > RUNS_MAX:
+        raise argparse.ArgumentTypeError(f"{v} is more than {RUNS_MAX} runs (a campaign keeps "
+                                         "each finished run's row in memory, about 2 kB)")
     return v
 
 

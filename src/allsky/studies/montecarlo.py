@@ -460,10 +460,14 @@ DASK_LOGGERS = ("distributed", "tornado", "asyncio")
 def _dask_logs_quiet():
     """Silence :data:`DASK_LOGGERS`; returns the function that restores them."""
     saved = {}
-    for name in DASK_LOGGERS:
+    names = [n for n in list(logging.root.manager.loggerDict)
+             if any(n == d or n.startswith(d + ".") for d in DASK_LOGGERS)]
+    for name in {*DASK_LOGGERS, *names}:
         log = logging.getLogger(name)
         saved[name] = (log.level, log.propagate, log.disabled)
         log.disabled = True
+        if name in DASK_LOGGERS:  # loggers made later inherit it
+            log.setLevel(logging.CRITICAL + 1)
 
     def restore():
         for name, (level, propagate, disabled) in saved.items():
@@ -613,9 +617,10 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
     except Exception as e:
         if scheduler is None or isinstance(e, CampaignError) or not _cluster_lost(e):
             raise
-        raise ClusterLost(f"lost the Dask cluster at {scheduler} ({type(e).__name__}"
-                            f"{': ' + str(e) if str(e) else ''}) after {len(flown)} runs of "
-                            "this session") from None
+        first = (str(e).strip().splitlines() or [""])[0].rstrip(":")
+        why = f"{type(e).__name__}{': ' + first[:120] if first else ''}"
+        raise ClusterLost(f"lost the Dask cluster at {scheduler} ({why}) after {len(flown)} "
+                          "runs of this session") from None
     finally:
         if close is not None:
             with interrupts_held():

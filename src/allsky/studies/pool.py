@@ -105,8 +105,13 @@ def _unblock():
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
 
 
+#: A worker's messages: it took the job (so a death from now on is the job's), its result,
+#: the exception it raised.
+_TOOK, _DONE, _FAILED = 0, 1, 2
+
+
 def _serve(conn, parent_pid, fn, initializer, initargs):
-    """A worker's life: set up, then answer each job with ``(ok, result)`` until None."""
+    """A worker's life: set up, then answer each job (:data:`_TOOK`, then its result)."""
     worker_process_setup(parent_pid)
     broken = None
     if initializer is not None:
@@ -122,12 +127,16 @@ def _serve(conn, parent_pid, fn, initializer, initargs):
         if job is None:
             return
         if broken is not None:
-            reply = (False, broken)
+            reply = (_FAILED, broken)
         else:
             try:
-                reply = (True, fn(job))
+                conn.send((_TOOK, None))
+            except (OSError, ValueError):  # the parent is gone
+                return
+            try:
+                reply = (_DONE, fn(job))
             except Exception as e:  # noqa: BLE001 - handed to the parent, raised there
-                reply = (False, e)
+                reply = (_FAILED, e)
         try:
             conn.send(reply)
         except (OSError, ValueError):
@@ -149,9 +158,10 @@ class _Worker:
                 signal.pthread_sigmask(signal.SIG_SETMASK, old)
             child.close()
         self.key = self.job = None
+        self.took = False  # the worker said it took its job (a death then is the job's)
 
     def give(self, key, job):
-        self.key, self.job = key, job
+        self.key, self.job, self.took = key, job, False
         self.conn.send(job)
 
     def end(self, at_once=False):
@@ -210,8 +220,7 @@ class WorkerPool:
             w = self._idle.pop()
             try:
                 w.give(*item)
-            except (OSError, ValueError):  # it died before taking the job
-                self._queue.insert(0, item)
+            except (OSError, ValueError):  # it died before taking the job (which is requeued)
                 self._lost(w, job_started=False)
                 continue
             self._busy[w.conn] = w
@@ -231,6 +240,8 @@ class WorkerPool:
             else:
                 self._queue.insert(0, (w.key, w.job))
         else:
+            if w.key is not None:  # a job it never took goes to the next worker as it is
+                self._queue.insert(0, (w.key, w.job))
             self._starts_lost += 1
             if self._starts_lost >= MAX_DEATHS_AT_START:
                 raise PoolError(f"{self._starts_lost} worker processes died before their "
@@ -242,23 +253,35 @@ class WorkerPool:
         """Results of the ``ready`` connections and sentinels: [(key, result)]."""
         out = []
         for w in list(self._busy.values()):
-            if w.conn in ready or w.process.sentinel in ready:
-                try:
-                    message = w.conn.recv() if w.conn.poll() else None
-                except (EOFError, OSError):
-                    message = None
-                if message is None:  # no answer: the worker died with its job
-                    died = self._lost(w)
-                    if died is not None:
-                        out.append(died)
+            if w.conn not in ready and w.process.sentinel not in ready:
+                continue
+            message = None
+            try:
+                while w.conn.poll():
+                    message = w.conn.recv()
+                    if message[0] != _TOOK:
+                        break
+                    w.took, message = True, None
+            except (EOFError, OSError):
+                message = None
+            if message is None:
+                if w.process.is_alive():  # it took the job and is flying it
                     continue
-                ok, result = message
-                del self._busy[w.conn]
-                self._idle.append(w)
-                self._deaths.pop(w.key, None)
-                if not ok:
-                    raise result
-                out.append((w.key, result))
+                # No answer: the worker died, with its job if it had taken it.
+                died = self._lost(w, job_started=w.took)
+                if died is not None:
+                    out.append(died)
+                continue
+            kind, result = message
+            key = w.key
+            del self._busy[w.conn]
+            w.key = w.job = None
+            self._idle.append(w)
+            self._deaths.pop(key, None)
+            if kind == _FAILED:
+                raise result
+            self._starts_lost = 0
+            out.append((key, result))
         for w in list(self._idle):  # an idle worker that died (before its first job)
             if w.process.sentinel in ready or not w.process.is_alive():
                 self._idle.remove(w)

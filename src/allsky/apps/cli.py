@@ -421,7 +421,7 @@ def _parser() -> argparse.ArgumentParser:
         "warm-up", help="compile the frame loop once, so that no later command waits for it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Compile the frame loop, both its forms (the patent's vehicle without "
-                    "faults; wheels and faults), into numba's cache (about 30 s, once per "
+                    "faults; wheels and faults), into numba's cache (about 25 s, once per "
                     "install and machine; every later command loads it). 'pip install' does "
                     "this already when it builds allsky; this command is for editable "
                     "installs, a cache under NUMBA_CACHE_DIR, or a wheel built on another "
@@ -710,6 +710,45 @@ def check_paths(args):
     check_distinct(outputs, [(o, p) for o, p in inputs if p is not None])
 
 
+#: Commands that fly missions (and so load the compiled loop).
+FLYING = ("run", "step", "compare", "montecarlo", "faults", "warm-up")
+
+
+def build_note_once():
+    """Say once, on stderr, what the install could not compile (:func:`aot.build_note`).
+
+    ``pip install`` shows the build's own lines only with ``-v``; the first
+    command that flies says it where the user sees it. A marker beside the
+    note (or, where the package cannot be written, in the user's cache
+    directory) keeps it to once.
+    """
+    import hashlib
+
+    from allsky import aot
+
+    note = aot.build_note()
+    if note is None:
+        return
+    key = hashlib.sha256(repr(sorted(note.items())).encode()).hexdigest()[:16]
+    cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"),
+                                                              ".cache")
+    markers = [aot.NOTE.replace(".json", ".shown"),
+               os.path.join(cache, "allsky", f"build-note-{key}.shown")]
+    if any(os.path.exists(m) for m in markers):
+        return
+    effect = note.get("effect") or "commands use numba instead"
+    print(f"allsky: note: this install has no {note['missing']} ({note['reason']}): "
+          f"{effect}; to build it, {note['hint']}", file=sys.stderr)
+    for marker in markers:
+        try:
+            os.makedirs(os.path.dirname(marker), exist_ok=True)
+            with open(marker, "w", encoding="utf-8") as f:
+                f.write(key + "\n")
+            return
+        except OSError:
+            continue
+
+
 def _take_signals() -> bool:
     """Ctrl-C and SIGTERM raise KeyboardInterrupt from here on; False where they cannot.
 
@@ -808,6 +847,8 @@ def _main(argv) -> int:
         print(_interrupted_line(), file=sys.stderr)
         return EXIT_INTERRUPTED
     try:
+        if args.command in FLYING:
+            build_note_once()
         check_paths(args)
         # `allsky plot` reads a telemetry file, `allsky scenarios` lists files,
         # `allsky warm-up` compiles: no scenario.

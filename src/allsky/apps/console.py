@@ -17,6 +17,7 @@ import errno
 import os
 import sys
 import unicodedata
+import warnings
 
 #: Characters the reports use, and their ASCII forms.
 ASCII_FORMS = {"±": "+/-", "″": '"', "′": "'", "°": " deg", "→": "->", "←": "<-",
@@ -156,9 +157,20 @@ def guarded():
     out = ConsoleStream(None if 1 in closed else old_out, 1)
     err = ConsoleStream(None if 2 in closed else old_err, 2)
     sys.stdout, sys.stderr = out, err
+    old_show = warnings.showwarning
+    warnings.showwarning = _one_line_warning
     try:
         yield out, err
     finally:
+        warnings.showwarning = old_show
         out.flush()
         err.flush()
         sys.stdout, sys.stderr = old_out, old_err
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    """A warning as one line on stderr: ``allsky: warning: ...`` (no source line)."""
+    text = " ".join(str(message).split())
+    text = text[len("allsky: "):] if text.startswith("allsky: ") else (
+        f"{category.__name__}: {text}")
+    print(f"allsky: warning: {text}", file=file or sys.stderr)

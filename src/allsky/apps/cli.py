@@ -715,7 +715,7 @@ FLYING = ("run", "step", "compare", "montecarlo", "faults", "warm-up")
 
 
 def build_note_once():
-    """Say once, on stderr, what the install could not compile (:func:`aot.build_note`).
+    """Say once, on stderr, what the install did not compile (:func:`aot.build_note`).
 
     ``pip install`` shows the build's own lines only with ``-v``; the first
     command that flies says it where the user sees it. A marker beside the

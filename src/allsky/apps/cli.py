@@ -762,25 +762,12 @@ def _take_signals() -> bool:
     return True
 
 
-def _after(code):
-    """The signal handler once the command is over: its exit code, no traceback."""
-    def done(signum, frame):
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (OSError, ValueError, AttributeError):
-                pass
-        os._exit(code)
-
-    return done
-
-
 def main(argv=None) -> int:
     """Run the command line on ``argv`` (default ``sys.argv[1:]``); return exit code.
 
     See :data:`EXIT_CODES`. In the ``allsky`` command (not when called from
-    Python), a signal after the command is over ends the process with the
-    command's exit code at once.
+    Python), a signal after the command is over changes nothing: the process
+    exits with the command's code.
     """
     import allsky
     from allsky.apps.console import guarded
@@ -793,6 +780,7 @@ def main(argv=None) -> int:
             code = _main(argv)
             code = _stdout_verdict(code, out)
     except KeyboardInterrupt:  # in the instants around the command itself
+        _hold_signals()
         if code is None:
             try:
                 os.write(2, (_interrupted_line() + "\n").encode())
@@ -801,10 +789,41 @@ def main(argv=None) -> int:
             code = EXIT_INTERRUPTED
     finally:
         if took:
+            # In the allsky command the code is decided: a signal from here to the exit
+            # changes nothing (ignored; Python's shutdown leaves an ignored signal ignored,
+            # where it would give a handled one its default action, death).
             for sig, handler in old.items():
-                signal.signal(sig, _after(code if code is not None else EXIT_INTERRUPTED)
-                              if allsky._COMMAND else handler)
+                signal.signal(sig, signal.SIG_IGN if allsky._COMMAND else handler)
+    if allsky._COMMAND and code == EXIT_INTERRUPTED:
+        _exit_now(code)
     return code
+
+
+def _exit_now(code):
+    """End the allsky command with ``code`` now, everything written and flushed.
+
+    After a Ctrl-C that reached code run by ``PyRun_*`` (as some extension
+    modules' imports do), CPython 3.11 keeps a flag that makes the interpreter,
+    at its very end, reset SIGINT and kill itself with it: the command would
+    die by SIGINT after saying it exited 130. Every file is closed by now and
+    the workers are ended; only the console's buffers remain to flush.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
+
+
+def _hold_signals():
+    """Ignore further Ctrl-C and SIGTERM: the command is ending, its line being said."""
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+    except ValueError:  # not the main thread
+        pass
 
 
 def _stdout_verdict(code, out) -> int:
@@ -844,6 +863,7 @@ def _main(argv) -> int:
     except SystemExit as e:  # --help, --version, or a usage error (printed as one line)
         return 0 if e.code is None else e.code if isinstance(e.code, int) else EXIT_USAGE
     except KeyboardInterrupt:
+        _hold_signals()
         print(_interrupted_line(), file=sys.stderr)
         return EXIT_INTERRUPTED
     try:
@@ -862,6 +882,7 @@ def _main(argv) -> int:
             return _config(cfg, args)
         return _run(cfg, args)
     except KeyboardInterrupt:
+        _hold_signals()
         print(_interrupted_line(), file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as e:  # noqa: BLE001 - sorted below; never a traceback
@@ -875,15 +896,17 @@ def _report(e) -> int:
             print(f"allsky: error: {e}", file=sys.stderr)
             return EXIT_USAGE
         if isinstance(e, _interrupted()):
+            _hold_signals()
             print(f"allsky: interrupted; {e}", file=sys.stderr)
             return EXIT_INTERRUPTED
-        if isinstance(e, OSError):  # an output path that cannot be written
-            name = f" {e.filename}" if e.filename else ""
-            print(f"allsky: error: cannot write{name}: {e.strerror or e}", file=sys.stderr)
+        if isinstance(e, OSError):  # a file that the command's own checks did not name
+            name = f"{e.filename}: " if e.filename else ""
+            print(f"allsky: error: {name}{(e.strerror or str(e)).lower()}", file=sys.stderr)
             return EXIT_USAGE
         print(f"allsky: internal error: {type(e).__name__}: {e} (details in "
               f"{crash_report(e)})", file=sys.stderr)
         return EXIT_INTERNAL
     except KeyboardInterrupt:  # a second Ctrl-C while the line was being made
+        _hold_signals()
         print(_interrupted_line(), file=sys.stderr)
         return EXIT_INTERRUPTED

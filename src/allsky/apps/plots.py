@@ -720,6 +720,12 @@ def run_from_cli(cfg, args) -> int:
         from allsky.apps.summaries import read_summary
 
         summary = read_summary(args.summary)
-    print(format_written(write_plots(table, args.out, summary,
-                                     progress=not getattr(args, "quiet", False))))
+    from allsky.apps.output import OutputError, write_reason
+
+    try:
+        written = write_plots(table, args.out, summary,
+                              progress=not getattr(args, "quiet", False))
+    except OSError as e:  # the directory could not be made
+        raise OutputError("--out", e.filename or args.out, write_reason(e)) from None
+    print(format_written(written))
     return 0

@@ -31,23 +31,30 @@ from allsky.sim.mission import STATE_FORMAT, Mission, newer_state_arrays
 ARRAY_PREFIX = "state_"
 
 
-def save(m: Mission, path) -> Path:
+def save(m: Mission, path, option="--save-dir") -> Path:
     """Save mission ``m`` at its current mode boundary to ``path`` (``.npz``).
 
     The archive is written under a temporary name beside ``path`` and then
     renamed over it, so ``path`` holds the old file or the new one, never
-    half of one.
+    half of one. A file that cannot be written is an
+    :class:`~allsky.apps.output.OutputError` naming ``option``.
     """
+    from allsky.apps.output import OutputError, write_reason
+
     path = Path(path)
     history, arrays = m.snapshot()
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
         with tmp.open("wb") as f:  # a file object: numpy adds no ".npz" to the name
             np.savez(f, history=np.array(json.dumps(history)),
                      **{ARRAY_PREFIX + k: v for k, v in arrays.items()})
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(option, path, write_reason(e)) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

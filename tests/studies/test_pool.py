@@ -123,7 +123,10 @@ def test_finish_lets_the_jobs_under_way_end():
 
 def test_no_worker_outlives_the_pool():
     pool = WorkerPool(_square, 2)
-    _fly(pool, ((k, k) for k in range(4)))
-    assert not [c for c in os.listdir(f"/proc/{os.getpid()}/task/{os.getpid()}")
-                if c == "children"] or not Path(
-        f"/proc/{os.getpid()}/task/{os.getpid()}/children").read_text().split()
+    it = pool.results((k, k) for k in range(4))
+    next(it)
+    processes = [w.process for w in [*pool._idle, *pool._busy.values()]]
+    assert len(processes) == 2 and all(p.is_alive() for p in processes)
+    list(it)
+    pool.close()
+    assert not any(p.is_alive() for p in processes)

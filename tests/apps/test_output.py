@@ -310,6 +310,21 @@ def test_closed_stdout_still_writes_every_file_then_one_line(tmp_path):
     assert json.loads(js.read_text())["status"] == "complete"
 
 
+def test_closed_stdin_and_stderr_are_no_error(tmp_path):
+    """Started with stdin closed (step then does not pause) or stderr closed: it just runs."""
+    js = tmp_path / "step.json"
+    proc = subprocess.run([sys.executable, "-m", "allsky", "step", "--until", "2", "--json",
+                           str(js)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          env=_env(), timeout=300, preexec_fn=lambda: os.close(0), check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert [s["mode"] for s in json.loads(js.read_text())["stops"]][-1] == "2"
+    proc = subprocess.run([sys.executable, "-m", "allsky", "run", "--json", str(js)],
+                          stdout=subprocess.DEVNULL, env=_env(), timeout=300,
+                          preexec_fn=lambda: os.close(2), check=False)
+    assert proc.returncode == 0
+    assert json.loads(js.read_text())["status"] == "complete"
+
+
 def _closed_early(argv, tmp_path):
     """Run ``allsky argv`` with a stdout pipe whose reader closes it at once (``| head -0``)."""
     read_end, write_end = os.pipe()

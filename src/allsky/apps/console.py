@@ -150,13 +150,17 @@ def guarded():
     """``sys.stdout`` and ``sys.stderr`` as :class:`ConsoleStream` inside the block.
 
     Yields ``(stdout, stderr)``; a descriptor closed when the command started
-    counts as lost from the start.
+    counts as lost from the start. A command started without stdin reads an
+    empty one (the null device).
     """
     closed = _descriptors_open()
-    old_out, old_err = sys.stdout, sys.stderr
+    old_in, old_out, old_err = sys.stdin, sys.stdout, sys.stderr
     out = ConsoleStream(None if 1 in closed else old_out, 1)
     err = ConsoleStream(None if 2 in closed else old_err, 2)
     sys.stdout, sys.stderr = out, err
+    no_input = None
+    if old_in is None:  # started with stdin closed: an empty input, never a prompt
+        no_input = sys.stdin = open(os.devnull, encoding="utf-8")  # noqa: SIM115
     old_show = warnings.showwarning
     warnings.showwarning = _one_line_warning
     try:
@@ -165,7 +169,9 @@ def guarded():
         warnings.showwarning = old_show
         out.flush()
         err.flush()
-        sys.stdout, sys.stderr = old_out, old_err
+        sys.stdin, sys.stdout, sys.stderr = old_in, old_out, old_err
+        if no_input is not None:
+            no_input.close()
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):

@@ -303,7 +303,9 @@ class WorkerPool:
                 return
             waits = [*self._busy, *(w.process.sentinel for w in self._busy.values()),
                      *(w.process.sentinel for w in self._idle)]
-            yield from self._collect(connection.wait(waits))
+            done = self._collect(connection.wait(waits))
+            self._hand_out()  # the free workers fly on while the caller records these
+            yield from done
 
     def finish(self) -> list:
         """After a Ctrl-C: hand out nothing more; the jobs under way, finished.

@@ -282,12 +282,14 @@ def main(argv=None) -> int:
             ok = code is not None and clean(code, err)
             accepted = code in (0, 1) and "Traceback" not in err
             leftovers = [p for p in Path(cwd).rglob("*") if ".tmp" in p.name]
-            g = groups.setdefault(group, {"tried": 0, "clean": 0, "accepted": 0, "not": []})
+            g = groups.setdefault(group, {"tried": 0, "clean": 0, "accepted": 0, "not": [],
+                                          "which": []})
             g["tried"] += 1
             if ok and not leftovers:
                 g["clean"] += 1
             elif accepted and not leftovers:
                 g["accepted"] += 1
+                g["which"].append(name)
             else:
                 g["not"].append((name, code, err.strip()[-300:], leftovers))
     total = {k: sum(g[k] if k != "not" else len(g[k]) for g in groups.values())
@@ -296,6 +298,9 @@ def main(argv=None) -> int:
         print(f"{group:<14} tried {g['tried']:>4}, refused cleanly {g['clean']:>4}, accepted "
               f"{g['accepted']:>4}, not clean {len(g['not']):>3}")
         if args.verbose:
+            if group != "values":
+                for name in g["which"]:
+                    print(f"    accepted: {name}")
             for name, code, err, left in g["not"]:
                 print(f"    {name}: exit {code}: {err!r}{' leftovers' if left else ''}")
     print(f"{'all':<14} tried {total['tried']:>4}, refused cleanly {total['clean']:>4}, "

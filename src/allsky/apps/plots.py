@@ -651,14 +651,15 @@ class PlotSet(NamedTuple):
     skipped: dict  #: file name -> why it was not drawn
 
 
-def save(fig: Figure, path) -> Path:
-    """Write a figure as PNG at :data:`DPI`."""
+def save(fig: Figure, path, option=None) -> Path:
+    """Write a figure at :data:`DPI` (its format by the suffix); ``option`` names the path."""
     from allsky.apps.output import write_atomic  # whole or not at all
 
-    return write_atomic(path, writer=lambda tmp: fig.savefig(tmp, dpi=DPI))
+    return write_atomic(path, writer=lambda tmp: fig.savefig(tmp, dpi=DPI), option=option)
 
 
-def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> PlotSet:
+def write_plots(table: np.ndarray, out_dir, summary=None, progress=False,
+                option="--plots") -> PlotSet:
     """Write the mission figures as PNG files into ``out_dir`` (created if needed).
 
     Parameters
@@ -673,6 +674,9 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
         final pointing error.
     progress : bool
         Show a progress line on stderr while drawing (when it is a terminal).
+    option : str
+        The command-line option that named ``out_dir``, for a file that cannot
+        be written (:class:`~allsky.apps.output.OutputError`).
 
     Returns
     -------
@@ -699,7 +703,7 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
               disable=None if progress else True) as bar:
         for file_name, draw in bar:
             bar.set_postfix_str(file_name)
-            files.append(save(draw(), out / file_name))
+            files.append(save(draw(), out / file_name, option))
     return PlotSet(files, skipped)
 
 
@@ -724,7 +728,7 @@ def run_from_cli(cfg, args) -> int:
 
     try:
         written = write_plots(table, args.out, summary,
-                              progress=not getattr(args, "quiet", False))
+                              progress=not getattr(args, "quiet", False), option="--out")
     except OSError as e:  # the directory could not be made
         raise OutputError("--out", e.filename or args.out, write_reason(e)) from None
     print(format_written(written))

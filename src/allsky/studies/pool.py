@@ -49,6 +49,8 @@ RETRIES = 1
 #: Workers that may die in a row before a job reached them (their start-up
 #: failing: an environment that cannot run a mission) before the pool gives up.
 MAX_DEATHS_AT_START = 3
+#: [s] Longest an idle worker asked to stop is waited for before it is terminated.
+END_WAIT_S = 2.0
 #: [s] How often a worker checks that its parent is still there (where the
 #: kernel cannot be asked to signal it, or was asked too late).
 PARENT_CHECK_S = 0.5
@@ -172,7 +174,10 @@ class _Worker:
                 self.conn.send(None)
         except (OSError, ValueError):
             self.process.terminate()
-        self.process.join()
+        self.process.join(timeout=END_WAIT_S)
+        if self.process.is_alive():  # still in its start-up (a compile): no need to wait
+            self.process.terminate()
+            self.process.join()
         self.conn.close()
 
 

@@ -652,7 +652,7 @@ class PlotSet(NamedTuple):
 
 
 def save(fig: Figure, path, option=None) -> Path:
-    """Write a figure at :data:`DPI` (its format by the suffix); ``option`` names the path."""
+    """Write a figure at :data:`DPI`; ``option`` names the path in an error."""
     from allsky.apps.output import write_atomic  # whole or not at all
 
     return write_atomic(path, writer=lambda tmp: fig.savefig(tmp, dpi=DPI), option=option)
@@ -728,8 +728,10 @@ def run_from_cli(cfg, args) -> int:
 
     try:
         written = write_plots(table, args.out, summary,
-                              progress=not getattr(args, "quiet", False), option="--out")
+                              progress=not getattr(args, "quiet", False))
     except OSError as e:  # the directory could not be made
         raise OutputError("--out", e.filename or args.out, write_reason(e)) from None
+    except OutputError as e:  # a figure could not be written: named by this command's option
+        raise OutputError("--out", e.path, e.reason) from None
     print(format_written(written))
     return 0

@@ -81,6 +81,18 @@ def compiler_missing() -> str:
     return ""
 
 
+def forget_earlier_builds(build_lib: str) -> None:
+    """Remove what an earlier build left in ``build_lib`` (its module, manifest, note).
+
+    A build directory can be reused (``pip wheel`` of a source tree); what
+    this build does not make must not ship beside its note.
+    """
+    package = os.path.join(build_lib, "allsky")
+    for name in os.listdir(package) if os.path.isdir(package) else ():
+        if name.startswith("_aot.") or name.startswith("_build_note."):
+            os.remove(os.path.join(package, name))
+
+
 def compile_frame_loop(build_lib: str) -> None:
     """Compile the frame loop into ``build_lib``'s package; never fails the build."""
     build_lib = os.path.abspath(build_lib)
@@ -136,9 +148,11 @@ class BuildPyCompiled(build_py):
 
     def run(self):
         super().run()
-        if self.dry_run or getattr(self, "editable_mode", False) or not compiles():
+        if self.dry_run or getattr(self, "editable_mode", False):
             return
-        compile_frame_loop(self.build_lib)
+        forget_earlier_builds(self.build_lib)
+        if compiles():
+            compile_frame_loop(self.build_lib)
 
 
 class CompiledDistribution(Distribution):

@@ -626,8 +626,49 @@ def _config(cfg, args) -> int:
     return 0
 
 
-def _raise_interrupt(signum, frame):
-    """SIGTERM handled as Ctrl-C: the command writes what finished and exits 130."""
+#: Signals the command received (Ctrl-C, SIGTERM), in order; empty while none came.
+_signalled = []
+#: Whether a command is under way in this process (main is running).
+_running = []
+#: [s] How soon a signal that arrived during an import is raised again.
+IMPORT_RETRY_S = 0.05
+
+
+def _in_import(frame) -> bool:
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _resend(signum):
+    if _running:
+        os.kill(os.getpid(), signum)
+
+
+def _deliver_again(signum=None):
+    """Send the last signal again shortly (one swallowed, or caught inside an import)."""
+    import threading
+
+    signum = signum or (_signalled[-1] if _signalled else signal.SIGINT)
+    timer = threading.Timer(IMPORT_RETRY_S, _resend, (signum,))
+    timer.daemon = True
+    timer.start()
+
+
+def _interrupt(signum, frame):
+    """Ctrl-C and SIGTERM during a command: KeyboardInterrupt, but never inside an import.
+
+    A compiled extension being imported (numba's) turns a KeyboardInterrupt
+    raised under it into an ImportError and prints it; so a signal that
+    arrives during an import is sent again a moment later, until the import
+    is done, and raised there.
+    """
+    _signalled.append(signum)
+    if _in_import(frame):
+        _deliver_again(signum)
+        return
     raise KeyboardInterrupt
 
 
@@ -755,8 +796,8 @@ def _take_signals() -> bool:
     Outside the main thread signals cannot be set, and nothing changes.
     """
     try:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-        signal.signal(signal.SIGTERM, _raise_interrupt)
+        signal.signal(signal.SIGINT, _interrupt)
+        signal.signal(signal.SIGTERM, _interrupt)
     except ValueError:
         return False
     return True
@@ -774,9 +815,11 @@ def main(argv=None) -> int:
 
     old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
     code, took = None, False
+    _signalled.clear()
+    _running.append(True)
     try:
         took = _take_signals()
-        with guarded() as (out, _):
+        with guarded(on_lost_interrupt=_deliver_again) as (out, _):
             code = _main(argv)
             code = _stdout_verdict(code, out)
     except KeyboardInterrupt:  # in the instants around the command itself
@@ -788,6 +831,7 @@ def main(argv=None) -> int:
                 pass
             code = EXIT_INTERRUPTED
     finally:
+        _running.clear()
         if took:
             # In the allsky command the code is decided: a signal from here to the exit
             # changes nothing (ignored; Python's shutdown leaves an ignored signal ignored,
@@ -898,6 +942,10 @@ def _report(e) -> int:
         if isinstance(e, _interrupted()):
             _hold_signals()
             print(f"allsky: interrupted; {e}", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        if _signalled:  # what failed after a Ctrl-C or SIGTERM failed because of it
+            _hold_signals()
+            print(_interrupted_line(), file=sys.stderr)
             return EXIT_INTERRUPTED
         if isinstance(e, OSError):  # a file that the command's own checks did not name
             name = f"{e.filename}: " if e.filename else ""

@@ -146,12 +146,15 @@ def _descriptors_open():
 
 
 @contextlib.contextmanager
-def guarded():
+def guarded(on_lost_interrupt=None):
     """``sys.stdout`` and ``sys.stderr`` as :class:`ConsoleStream` inside the block.
 
     Yields ``(stdout, stderr)``; a descriptor closed when the command started
     counts as lost from the start. A command started without stdin reads an
-    empty one (the null device).
+    empty one (the null device). An exception Python can only ignore (raised
+    in a callback from compiled code) is one line, not a traceback; a
+    KeyboardInterrupt lost that way calls ``on_lost_interrupt()``, which
+    delivers it again.
     """
     closed = _descriptors_open()
     old_in, old_out, old_err = sys.stdin, sys.stdout, sys.stderr
@@ -161,12 +164,23 @@ def guarded():
     no_input = None
     if old_in is None:  # started with stdin closed: an empty input, never a prompt
         no_input = sys.stdin = open(os.devnull, encoding="utf-8")  # noqa: SIM115
-    old_show = warnings.showwarning
+    old_show, old_hook = warnings.showwarning, sys.unraisablehook
     warnings.showwarning = _one_line_warning
+
+    def unraisable(args):
+        if isinstance(args.exc_value, KeyboardInterrupt):
+            if on_lost_interrupt is not None:
+                on_lost_interrupt()
+            return
+        where = f" in {args.object!r}" if args.object is not None else ""
+        print(f"allsky: warning: ignored{where}: {type(args.exc_value).__name__}: "
+              f"{' '.join(str(args.exc_value).split())[:200]}", file=sys.stderr)
+
+    sys.unraisablehook = unraisable
     try:
         yield out, err
     finally:
-        warnings.showwarning = old_show
+        warnings.showwarning, sys.unraisablehook = old_show, old_hook
         out.flush()
         err.flush()
         sys.stdin, sys.stdout, sys.stderr = old_in, old_out, old_err

@@ -409,3 +409,26 @@ def test_a_stream_lost_mid_command_drops_the_rest_quietly():
     assert stream.write("y\n") == 2
     os.close(read_end)
     os.close(write_end)
+
+
+def test_an_exception_python_can_only_ignore_is_one_line_and_an_interrupt_comes_back(capsys):
+    """Raised in a callback from compiled code: one line; a Ctrl-C there is delivered again."""
+    import ctypes
+
+    from allsky.apps.console import guarded
+
+    lost = []
+
+    @ctypes.CFUNCTYPE(None)
+    def callback():
+        raise lost_kind[0]("in the callback")
+
+    with guarded(on_lost_interrupt=lambda: lost.append(1)):
+        lost_kind = [ValueError]
+        callback()
+        lost_kind[0] = KeyboardInterrupt
+        callback()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("allsky: warning: ignored in ")
+    assert "ValueError: in the callback" in err and "Traceback" not in err
+    assert lost == [1]

@@ -182,3 +182,16 @@ def test_pip_install_built_them_where_it_could():
     assert any(name.startswith("allsky/_aot.") and name.endswith(
         sysconfig.get_config_var("EXT_SUFFIX")) for name in files)
     assert aot.available()
+
+
+@needs_jit
+def test_a_manifest_without_its_module_goes_to_numba(built, tmp_path):
+    """The extension module missing (a partial copy, a removed file): numba flies, the same."""
+    shutil.copytree(os.path.join(built, "allsky"), tmp_path / "allsky",
+                    ignore=shutil.ignore_patterns("*.pyc", "_aot.*.so", "_aot.*.pyd"))
+    assert os.path.isfile(tmp_path / "allsky" / "_aot.json")
+    without = _fly(str(tmp_path))
+    ahead = _fly(built)
+    assert without["where"].startswith(str(tmp_path)) and without["numba"] is True
+    for key in ("summary", "telemetry", "row"):
+        assert without[key] == ahead[key], key

@@ -16,7 +16,42 @@ The names most scripts need are importable from here; they are loaded on
 first use, so ``import allsky`` stays cheap.
 """
 
+import os as _os
+import signal as _signal
+import sys as _sys
+
 __version__ = "0.1.0"
+
+
+def _started_as_the_command() -> bool:
+    """Whether this process is the ``allsky`` command (its script, or ``python -m allsky``)."""
+    argv0 = _sys.argv[0] if _sys.argv else ""
+    orig = getattr(_sys, "orig_argv", [])
+    return _os.path.basename(argv0) == "allsky" or (
+        argv0 == "-m" and any(orig[i:i + 2] == ["-m", "allsky"] for i in range(len(orig))))
+
+
+def _interrupted_while_starting(signum, frame):
+    """Ctrl-C or SIGTERM before the command line is parsed: one line, exit 130."""
+    try:
+        _os.write(2, b"allsky: interrupted while starting; nothing written\n")
+    except OSError:
+        pass
+    _os._exit(130)
+
+
+#: True in the ``allsky`` command, whose signals are handled from here on (the first line
+#: of allsky that runs): a Ctrl-C while its modules load ends it with one line, never a
+#: traceback. :func:`allsky.apps.cli.main` takes over once it runs. A library user's
+#: signals are left alone.
+_COMMAND = _started_as_the_command()
+if _COMMAND:
+    for _sig in (_signal.SIGINT, _signal.SIGTERM):
+        if _signal.getsignal(_sig) in (_signal.default_int_handler, _signal.SIG_DFL):
+            _signal.signal(_sig, _interrupted_while_starting)
+    # A launcher that blocked them while Python started gets them now, handled.
+    if hasattr(_signal, "pthread_sigmask"):
+        _signal.pthread_sigmask(_signal.SIG_UNBLOCK, {_signal.SIGINT, _signal.SIGTERM})
 
 #: Public name -> module that defines it (imported on first access).
 _EXPORTS = {

@@ -29,6 +29,14 @@ from allsky.sources import PACKAGE_DIR, source_stamp
 #: The extension module and its manifest.
 MODULE = "allsky._aot"
 MANIFEST = os.path.join(PACKAGE_DIR, "_aot.json")
+#: What the build could not compile, and why (written by the build; None when it could).
+NOTE = os.path.join(PACKAGE_DIR, "_build_note.json")
+#: What to do about a build without a C compiler, in the words of the tools that install one.
+COMPILER_HINT = ("install a C compiler and Python's headers (Debian/Ubuntu: apt install gcc "
+                 "python3-dev; conda: conda install -c conda-forge c-compiler), then "
+                 "pip install --force-reinstall --no-deps allsky")
+#: What a command pays without the functions built ahead of time (docs/design.md).
+WITHOUT_AOT = "every command loads numba's compiled loop instead, about 0.6 s more"
 #: The compiled functions a mission calls from Python, by module and name.
 EXPORTS = ("allsky.sim.frame_loop._run_leg_plain", "allsky.computer.cpu.target_step",
            "allsky.vehicle.quaternion.dcm_body_from_inertial")
@@ -155,6 +163,19 @@ def entry(qualified: str, args):
     if any(_structure_of(a) != w for a, w in zip(args, want, strict=True)):
         return None
     return getattr(module, export_name(qualified))
+
+
+def build_note():
+    """What the install could not compile: ``{"missing", "reason", "hint"}``, or None."""
+    try:
+        with open(NOTE, encoding="utf-8") as f:
+            note = json.load(f)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(note, dict) or not all(isinstance(note.get(k), str)
+                                             for k in ("missing", "reason", "hint")):
+        return None
+    return note
 
 
 def available() -> bool:

@@ -40,6 +40,7 @@ compiled loop behind).
 import functools
 import sys
 import threading
+import warnings
 
 from allsky import aot
 
@@ -64,9 +65,14 @@ def load_numba():
         if _numba is None:
             import numba
 
-            from allsky import jit_cache
+            try:  # the cache's key is an optimisation: compiled calls never depend on it
+                from allsky import jit_cache
 
-            jit_cache.install()
+                jit_cache.install()
+            except Exception as e:  # noqa: BLE001 - any failure leaves numba's own cache
+                warnings.warn(f"allsky: the package's cache locator failed ({type(e).__name__}"
+                              f": {e}); compiled functions are cached by numba's own",
+                              RuntimeWarning, stacklevel=2)
             for f in _waiting:
                 f._make(numba)
             _waiting.clear()

@@ -3,17 +3,40 @@
 :func:`install` puts :class:`PackageCacheLocator` first among numba's cache
 locators; :func:`allsky.jit.load_numba` calls it before it makes any
 compiled function.
+
+The locator builds on two private parts of numba (``caching._CacheLocator``
+and the ``_locator_classes`` table of its cache implementation), which a
+numba release may rename. Where either is missing, or the locator no longer
+fits numba's protocol, nothing of it is used: :func:`install` says so in one
+warning and every function is cached by numba's own locators, keyed by its
+own file (correct for an installed package; in a source tree, an edited block
+in another file then needs ``__pycache__`` cleared). Compiled calls never
+depend on it.
 """
 
+import inspect
 import os
+import warnings
 
 import numba
-from numba.core import caching
 
 from allsky.sources import PACKAGE_DIR, source_stamp
 
+try:
+    from numba.core import caching
 
-class PackageCacheLocator(caching._CacheLocator):
+    _BASE = caching._CacheLocator
+    _IMPL = getattr(caching, "CacheImpl", None) or caching._CacheImpl
+    if not isinstance(_IMPL._locator_classes, list):
+        raise TypeError("numba's cache locators are not a list")
+    #: Why the package's locator cannot be used with this numba (None: it can).
+    UNAVAILABLE = None
+except (ImportError, AttributeError, TypeError) as e:
+    _BASE, _IMPL = object, None
+    UNAVAILABLE = f"{type(e).__name__}: {e}"
+
+
+class PackageCacheLocator(_BASE):
     """numba's on-disk cache for allsky's compiled functions.
 
     The cache lives where numba would put it: under ``NUMBA_CACHE_DIR`` when
@@ -65,8 +88,42 @@ class PackageCacheLocator(caching._CacheLocator):
         return None
 
 
-def install():
-    """Put :class:`PackageCacheLocator` first among numba's cache locators (once)."""
-    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
-    if PackageCacheLocator not in impl._locator_classes:
-        impl._locator_classes.insert(0, PackageCacheLocator)
+#: What numba asks of a locator (the methods :class:`PackageCacheLocator` relies on).
+PROTOCOL = ("ensure_cache_path", "get_cache_path", "get_source_stamp", "get_disambiguator",
+            "from_function", "get_suitable_cache_subpath")
+
+
+def unavailable_reason():
+    """Why :class:`PackageCacheLocator` cannot serve this numba, or None when it can."""
+    if UNAVAILABLE is not None:
+        return UNAVAILABLE
+    missing = [m for m in PROTOCOL if not callable(getattr(PackageCacheLocator, m, None))]
+    if missing:
+        return f"numba's cache locator has no {missing[0]}"
+    if inspect.isabstract(PackageCacheLocator):
+        return ("numba's cache locator asks for "
+                f"{', '.join(sorted(PackageCacheLocator.__abstractmethods__))}")
+    return None
+
+
+_warned = []
+
+
+def install() -> bool:
+    """Put :class:`PackageCacheLocator` first among numba's cache locators (once).
+
+    Returns whether it is in place. When this numba has no room for it
+    (:func:`unavailable_reason`), one warning says so and numba's own locators
+    cache every function.
+    """
+    why = unavailable_reason()
+    if why is not None:
+        if not _warned:
+            _warned.append(why)
+            warnings.warn(f"allsky: numba {numba.__version__} does not take allsky's cache "
+                          f"locator ({why}); compiled functions are cached by numba's own, "
+                          "keyed by their own file", RuntimeWarning, stacklevel=2)
+        return False
+    if PackageCacheLocator not in _IMPL._locator_classes:
+        _IMPL._locator_classes.insert(0, PackageCacheLocator)
+    return True

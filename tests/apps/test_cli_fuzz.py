@@ -338,3 +338,50 @@ def test_resume_answers_any_results(capsys, tmp_path, recorded_campaign, runs_no
     (out / campaign.MANIFEST).write_bytes(manifest)
     (out / campaign.RESULTS).write_bytes(content)
     _answered(capsys, ["montecarlo", "--out", str(out), "--resume", "--workers", "1", "--quiet"])
+
+
+# -- allsky plot and replay: --summary files ---------------------------------------------------
+
+@st.composite
+def damaged_summaries(draw, summary):
+    """``summary`` with fields replaced by junk, removed, or its nesting changed."""
+    s = json.loads(json.dumps(summary))
+    for _ in range(draw(st.integers(1, 3))):
+        path, node = [], s
+        while isinstance(node, dict | list) and node and draw(st.booleans()):
+            key = draw(st.sampled_from(sorted(node) if isinstance(node, dict)
+                                       else list(range(len(node)))))
+            path.append(key)
+            node = node[key]
+        if not path:
+            s = draw(st.sampled_from(JUNK_JSON))
+            break
+        parent = s
+        for key in path[:-1]:
+            parent = parent[key]
+        if draw(st.booleans()) and isinstance(parent, dict):
+            del parent[path[-1]]
+        else:
+            parent[path[-1]] = draw(st.one_of(st.sampled_from(JUNK_JSON),
+                                              st.text(max_size=6)))
+    return s
+
+
+@pytest.fixture(scope="module")
+def flown_summary(saved_states):
+    return saved_states["mission"].summary()
+
+
+@FUZZ
+@given(data=st.data())
+def test_plot_and_replay_answer_any_summary(capsys, tmp_path, telemetry, flown_summary, data):
+    """A damaged summary is refused in one line (exit 2) or drawn; never an internal error."""
+    tlm = _fresh(tmp_path, "t.csv")
+    tlm.write_bytes(_csv(telemetry))
+    s = data.draw(damaged_summaries(flown_summary))
+    path = tlm.with_name("s.json")
+    path.write_text(json.dumps(s))
+    _answered(capsys, ["plot", str(tlm), "--summary", str(path), "--out",
+                       str(tlm.with_name("figs")), "--quiet"])
+    _answered(capsys, ["replay", str(tlm), "--summary", str(path), "--html",
+                       str(tlm.with_name("r.html")), "--quiet"])

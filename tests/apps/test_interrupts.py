@@ -253,3 +253,92 @@ def test_lost_dask_cluster_is_one_line_and_resume_continues(monkeypatch, tmp_pat
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert "lost the Dask cluster" in err and f"--resume --out {out}" in err
     assert [r["run"] for r in campaign.read_rows(out)] == [0]
+
+
+# -- a real Dask scheduler lost mid-campaign: one line, the rows kept ---------------------------
+
+def _free_port():
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_a_real_scheduler_killed_mid_campaign_is_one_line(monkeypatch, tmp_path, capsys):
+    """The scheduler process is SIGKILLed after the second row is saved: exit 2, one line."""
+    pytest.importorskip("distributed")
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "PYTHONPATH": str(SRC), "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED":
+           "False"}
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env,
+             "start_new_session": True}
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                                  "--host", "127.0.0.1", "--port", str(port),
+                                  "--no-dashboard"], **quiet)
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                               "--nworkers", "1", "--nthreads", "1", "--no-dashboard"], **quiet)
+    try:
+        saved = [0]
+        original = campaign.ResultsFile.write
+
+        def write_then_lose(self, row):
+            original(self, row)
+            saved[0] += 1
+            if saved[0] == 2:
+                os.kill(scheduler.pid, signal.SIGKILL)
+
+        monkeypatch.setattr(campaign.ResultsFile, "write", write_then_lose)
+        out = tmp_path / "mc"
+        code = cli.main(["montecarlo", "--runs", "400", "--scheduler", address, "--out",
+                         str(out), "--quiet"])
+        err = capsys.readouterr().err
+        assert code == 2, err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+        assert "lost the Dask cluster" in err and f"--resume --out {out}" in err
+        rows = campaign.read_rows(out)
+        assert 2 <= len(rows) < 400
+    finally:
+        for proc in (worker, scheduler):
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            proc.wait()
+
+
+def test_a_campaign_that_cannot_reach_its_scheduler_leaves_nothing(monkeypatch, tmp_path,
+                                                                   capsys):
+    pytest.importorskip("distributed")
+    monkeypatch.setattr(montecarlo, "DASK_CONNECT_TIMEOUT_S", 1.0)
+    out = tmp_path / "mc"
+    argv = ["montecarlo", "--runs", "2", "--scheduler", f"tcp://127.0.0.1:{_free_port()}",
+            "--out", str(out), "--quiet"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("allsky: error: cannot reach the Dask scheduler") and err.count(
+        "\n") == 1
+    assert not out.exists()  # the same command can simply be run again
+    out.mkdir()
+    assert cli.main(argv) == 2
+    assert list(out.iterdir()) == []  # a directory that was there stays, empty
+
+
+def test_a_second_campaign_on_a_locked_directory_is_refused(tmp_path, capsys):
+    out = tmp_path / "mc"
+    assert cli.main(["montecarlo", "--runs", "2", "--workers", "1", "--out", str(out),
+                     "--quiet"]) == 0
+    capsys.readouterr()
+    held = campaign._DirectoryLock(out)  # as a campaign flying there now holds it
+    try:
+        assert cli.main(["montecarlo", "--runs", "4", "--resume", "--out", str(out),
+                         "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "another allsky montecarlo is flying" in err
+        assert len(campaign.read_rows(out)) == 2
+    finally:
+        held.release()
+    assert cli.main(["montecarlo", "--runs", "4", "--resume", "--out", str(out),
+                     "--quiet"]) == 0
+    assert len(campaign.read_rows(out)) == 4

@@ -172,3 +172,111 @@ def test_the_installed_wheel_carried_the_compiled_loop_and_nothing_compiled_it_a
         data = index[0].locate().read_bytes()
         now = base64.urlsafe_b64encode(hashlib.new(shipped.mode, data).digest()).rstrip(b"=")
         assert now.decode() == shipped.value, f"{loop} was compiled again after the install"
+
+
+# -- the build and the compile messages -------------------------------------------------------
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def _setup_constants():
+    """The constants setup.py defines (read with ast: setup.py runs setup() on import)."""
+    import ast
+
+    with open(os.path.join(ROOT, "setup.py"), encoding="utf-8") as f:
+        tree = ast.parse(f.read())
+    out = {}
+    for node in tree.body:
+        if isinstance(node, ast.Assign):
+            try:
+                value = ast.literal_eval(node.value)
+            except ValueError:
+                continue
+            for target in node.targets:
+                if isinstance(target, ast.Name):
+                    out[target.id] = value
+                elif isinstance(target, ast.Tuple):
+                    out.update({t.id: v for t, v in zip(target.elts, value, strict=True)})
+    return out
+
+
+def test_every_compile_time_said_is_the_measured_one():
+    """The build, warm-up, its help and the pages say the times of warm_up.COMPILE_S."""
+    import re
+
+    from allsky.apps import cli
+
+    t = warm_up.COMPILE_S
+    consts = _setup_constants()
+    assert consts["BUILD_TIME"] == f"about {t['build']} s"
+    assert consts["FIRST_COMPILE"] == f"about {t['first use']} s"
+    help_text = cli._parser()._subparsers._group_actions[0].choices["warm-up"].description
+    assert f"about {t['warm-up']} s" in help_text
+    pages = {"README.md": t["build"], "docs/getting_started.md": t["build"]}
+    for page, seconds in pages.items():
+        with open(os.path.join(ROOT, page), encoding="utf-8") as f:
+            text = " ".join(f.read().split())
+        said = re.findall(r"\(about (\d+) s of the install\)", text)
+        assert said and all(int(s) == seconds for s in said), (page, said)
+    with open(os.path.join(ROOT, "docs/montecarlo.md"), encoding="utf-8") as f:
+        text = " ".join(f.read().split())
+    assert f"compiles, about {t['first use']} s," in text
+
+
+def test_setup_and_the_package_give_the_same_hints():
+    from allsky import aot
+
+    consts = _setup_constants()
+    assert consts["COMPILER_HINT"] == aot.COMPILER_HINT
+    assert consts["WITHOUT_AOT"] == aot.WITHOUT_AOT
+    assert consts["NOTE"] == os.path.basename(aot.NOTE)
+
+
+def test_an_installed_wheel_is_tagged_for_its_platform():
+    """A wheel carrying the compiled loop is a platform wheel, installed in platlib."""
+    import importlib.metadata as md
+    import sysconfig
+
+    files = _installed_from_a_wheel()
+    if files is None:
+        pytest.skip("allsky is not installed from a wheel here (editable or source tree)")
+    if os.environ.get("ALLSKY_BUILD_COMPILE") == "0":
+        pytest.skip("the build was told not to compile: a pure wheel")
+    wheel = md.distribution("allsky").read_text("WHEEL")
+    assert "Root-Is-Purelib: false" in wheel
+    tag = sys.implementation.cache_tag.replace("cpython-", "cp")
+    platform = sysconfig.get_platform().replace("-", "_").replace(".", "_")
+    assert f"Tag: {tag}-{tag}-{platform}" in wheel, wheel
+
+
+def test_the_build_note_is_said_once(tmp_path, monkeypatch, capsys):
+    """What the install could not build is said by the first command that flies, once."""
+    import json
+
+    from allsky import aot
+    from allsky.apps import cli
+
+    note = tmp_path / "_build_note.json"
+    note.write_text(json.dumps({"missing": "the loop built ahead of time",
+                                "reason": "no C compiler (cc not found)",
+                                "hint": aot.COMPILER_HINT, "effect": aot.WITHOUT_AOT}))
+    monkeypatch.setattr(aot, "NOTE", str(note))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    cli.build_note_once()
+    first = capsys.readouterr().err
+    assert first.count("\n") == 1 and first.startswith("allsky: note: this install has no "
+                                                       "the loop built ahead of time")
+    assert "conda install -c conda-forge c-compiler" in first and "0.6 s" in first
+    cli.build_note_once()
+    assert capsys.readouterr().err == ""
+    (tmp_path / "_build_note.shown").unlink()  # the package read-only: the user's cache
+    os.chmod(tmp_path, 0o555)
+    try:
+        if os.access(tmp_path, os.W_OK):  # root writes anyway: nothing more to see
+            return
+        cli.build_note_once()
+        assert capsys.readouterr().err == first
+        cli.build_note_once()
+        assert capsys.readouterr().err == ""
+    finally:
+        os.chmod(tmp_path, 0o755)

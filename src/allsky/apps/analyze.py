@@ -115,7 +115,7 @@ def run_from_cli(cfg, args) -> int:
         # Up to the frame's Nyquist frequency pi / frame_s: beyond it the loop is not defined.
         w = np.logspace(-2, math.log10(math.pi / cfg.mission.frame_s), 400)
         fig = plots.analysis(result, frequency_responses(scenario_loops(cfg), w))
-        say(f"plot: {plots.save(fig, args.plot)}")
+        say(f"plot: {plots.save(fig, args.plot, '--plot')}")
     return 0
 
 
@@ -361,5 +361,5 @@ def run_envelope(cfg, args) -> int:
     if args.plot:
         from allsky.apps import plots
 
-        say(f"plot: {plots.save(envelope_figure(result), args.plot)}")
+        say(f"plot: {plots.save(envelope_figure(result), args.plot, '--plot')}")
     return 0

@@ -26,9 +26,9 @@ import numpy as np
 
 from allsky import __version__
 from allsky.apps.output import write_atomic
-from allsky.config import dispersions
+from allsky.config import ConfigError, dispersions
 from allsky.config.rules import SEED_MAX
-from allsky.config.toml_io import os_reason
+from allsky.config.toml_io import os_reason, read_bounded
 from allsky.studies import montecarlo
 from allsky.studies.montecarlo import (
     AXES,
@@ -45,7 +45,16 @@ RESULTS = "runs.csv"
 SUMMARY_TEXT = "summary.txt"
 SUMMARY_JSON = "summary.json"
 HISTOGRAMS = "histograms.png"
+#: Every file a campaign directory holds.
+FILES = (MANIFEST, RESULTS, SUMMARY_TEXT, SUMMARY_JSON, HISTOGRAMS)
 MANIFEST_FORMAT = 1
+#: [bytes] Largest manifest read (the resolved scenario and dispersions: some kB).
+MANIFEST_MAX_BYTES = 16 * 2**20
+#: [bytes] Most a results line may take (inputs drawn, results, an abort reason), and so
+#: the largest results file of a campaign of N runs, (N + 1) lines of it.
+ROW_MAX_BYTES = 64 * 2**10
+#: [bytes] Largest results file read without its manifest's number of runs.
+RESULTS_MAX_BYTES = 4 * 2**30
 
 
 # ---------------------------------------------------------------------------
@@ -61,7 +70,7 @@ def _encode(row, cols) -> bytes:
 
 
 #: Statuses a campaign row can have (:func:`allsky.studies.montecarlo.fly_one`).
-STATUSES = ("complete", "aborted", "invalid", "error")
+STATUSES = ("complete", "aborted", "invalid", "error", "worker_died")
 
 
 def _decode(record, cols) -> dict:
@@ -126,10 +135,13 @@ def read_results(path, cols=None, runs=None, base_seed=None):
         seed, two different lines for one run.
     """
     path = Path(path)
+    limit = RESULTS_MAX_BYTES if runs is None else (runs + 1) * ROW_MAX_BYTES
     try:
-        data = path.read_bytes()
+        data = read_bounded(path, limit, "results file")
     except OSError as e:
         raise CampaignError(f"{path}: cannot read it: {os_reason(e)}") from None
+    except ConfigError as e:
+        raise CampaignError(str(e)) from None
     complete = data[: data.rfind(b"\n") + 1]  # a torn last line is left out
     if not complete.strip():
         raise CampaignError(f"{path}: empty, no header line; move it away to fly every run "
@@ -185,6 +197,25 @@ def read_results(path, cols=None, runs=None, base_seed=None):
     return [_decode(by_run[k][1], head) for k in sorted(by_run)], duplicates
 
 
+def _drop_torn_line(path: Path):
+    """Cut a last line that a crash left without its newline (read from the end only)."""
+    with path.open("rb+") as f:
+        end = f.seek(0, os.SEEK_END)
+        pos = end
+        while pos > 0:
+            start = max(0, pos - 65536)
+            f.seek(start)
+            block = f.read(pos - start)
+            if pos == end and block.endswith(b"\n"):
+                return
+            cut = block.rfind(b"\n")
+            if cut >= 0:
+                f.truncate(start + cut + 1)
+                return
+            pos = start
+        f.truncate(0)
+
+
 class ResultsFile:
     """``runs.csv`` opened for appending: one write and one fsync per row.
 
@@ -197,10 +228,7 @@ class ResultsFile:
         if not path.exists():
             write_atomic(path, ",".join(cols) + "\n")
         else:
-            with path.open("rb+") as f:  # drop a line torn by a crash
-                data = f.read()
-                if not data.endswith(b"\n"):
-                    f.truncate(data.rfind(b"\n") + 1)
+            _drop_torn_line(path)
         self.fd = os.open(path, os.O_WRONLY | os.O_APPEND)
 
     def write(self, row):
@@ -294,7 +322,9 @@ def read_manifest(out) -> dict:
     out = Path(out)
     mpath = out / MANIFEST
     try:
-        data = mpath.read_bytes()
+        data = read_bounded(mpath, MANIFEST_MAX_BYTES, "campaign manifest")
+    except ConfigError as e:
+        raise CampaignError(str(e)) from None
     except FileNotFoundError:
         raise CampaignError(f"no campaign to resume in {out} (no {MANIFEST})") from None
     except OSError as e:
@@ -401,28 +431,103 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
         montecarlo.check_seeds(cfg, runs)
     if resume and out is None:
         raise CampaignError("--resume needs --out DIR (the campaign to continue)")
-    if out is not None:
-        runs, done = open_campaign(cfg, runs, out, resume, on_note)
-    elif runs is None:
+    if scheduler is not None:
+        montecarlo.check_scheduler(scheduler)
+    if out is None and runs is None:
         raise CampaignError("--runs N is needed to start a campaign")
-    else:
-        done = []
-    results = ResultsFile(out / RESULTS, columns(cfg)) if out is not None else None
-    bar = _ProgressBar(progress)
+    made = _Made(out)  # before the lock makes the directory
+    lock = _DirectoryLock(out) if out is not None else None
+    results, bar, rows, failed = None, _ProgressBar(progress), [0], True
     try:
-        return montecarlo.run_campaign(cfg, runs, workers=workers, scheduler=scheduler,
-                                       done=done,
-                                       on_row=None if results is None else results.write,
-                                       on_progress=bar)
+        if out is not None:
+            runs, done = open_campaign(cfg, runs, out, resume, on_note)
+            results = ResultsFile(out / RESULTS, columns(cfg))
+        else:
+            done = []
+
+        def on_row(row):
+            results.write(row)
+            rows[0] += 1
+
+        result = montecarlo.run_campaign(cfg, runs, workers=workers, scheduler=scheduler,
+                                         done=done, on_row=None if results is None else on_row,
+                                         on_progress=bar)
+        failed = False
+        return result
+    except KeyboardInterrupt:
+        failed = False  # an interrupted start is a campaign to --resume
+        raise
     except montecarlo.ClusterLost as e:
         saved = (f"the runs finished are saved in {out / RESULTS}; --resume --out {out} "
-                 "continues the campaign" if out is not None else
-                 "nothing was saved (no --out DIR)")
+                 "continues the campaign" if out is not None and (rows[0] or done) else
+                 "no run was saved; start again when the cluster is back" if out is not None
+                 else "nothing was saved (no --out DIR)")
         raise montecarlo.ClusterLost(f"{e}; {saved}") from None
     finally:
         bar.close()
         if results is not None:
             results.close()
+        if failed and out is not None and not resume and rows[0] == 0:
+            made.undo()  # a start that failed (no cluster, no worker) leaves nothing behind
+        if lock is not None:
+            lock.release()
+
+
+class _Made:
+    """The files and directory a new campaign made, to take back if it never flew a run."""
+
+    def __init__(self, out):
+        self.out = None if out is None else Path(out)
+        self.dir_existed = self.out is None or self.out.exists()
+        self.existed = set() if self.out is None else {
+            n for n in (MANIFEST, RESULTS) if (self.out / n).exists()}
+
+    def undo(self):
+        for name in (MANIFEST, RESULTS):
+            if name not in self.existed:
+                (self.out / name).unlink(missing_ok=True)
+        if not self.dir_existed:
+            try:
+                self.out.rmdir()
+            except OSError:  # something else was put there meanwhile: leave it
+                pass
+
+
+class _DirectoryLock:
+    """An exclusive ``flock`` on a campaign directory while a campaign flies in it.
+
+    A second ``allsky montecarlo`` on the same directory (two ``--resume`` at
+    once would both fly the missing runs and record them twice) is refused
+    in one line. The lock goes with the process, even one that is killed.
+    Where the platform has no ``fcntl``, nothing is locked.
+    """
+
+    def __init__(self, out):
+        out = Path(out)
+        self.fd = None
+        try:
+            import fcntl
+        except ImportError:
+            return
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            self.fd = os.open(out, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        except OSError as e:
+            raise CampaignError(f"--out {out}: cannot use the directory: {os_reason(e)}"
+                                ) from None
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(self.fd)
+            self.fd = None
+            raise CampaignError(f"{out}: another allsky montecarlo is flying a campaign "
+                                "there now (the directory is locked); wait for it to end, "
+                                "or choose another --out") from None
+
+    def release(self):
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
 
 
 # ---------------------------------------------------------------------------
@@ -440,8 +545,9 @@ def format_summary(s: dict, outcomes=False) -> str:
     seeds = ("" if s["base_seed"] is None else
              f", seeds {s['base_seed']}..{s['base_seed'] + s['runs'] - 1}")
     head = f"Monte Carlo campaign: {s['recorded']} of {s['runs']} runs recorded{seeds}"
-    counts = ", ".join(f"{s[k]} {k}" for k in ("complete", "aborted", "invalid", "error")
-                       if s[k] or k == "complete")
+    counts = ", ".join(f"{s.get(k, 0)} {k}" for k in ("complete", "aborted", "invalid",
+                                                       "error", "worker_died")
+                       if s.get(k) or k == "complete")
     lines = [head, f"  {counts}"]
     if s["metrics"]:
         lines += ["", f"Over the {s['complete']} complete missions",

@@ -21,10 +21,12 @@ Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
 line ``allsky: error: ...`` on stderr; 3 an internal error, reported as one
 line with a crash report file holding the traceback; 130 interrupted
 (Ctrl-C or SIGTERM), after writing what the finished work promised, in one
-line ``allsky: interrupted; ...``. Never a bare traceback.
+line ``allsky: interrupted; ...``; 141 stdout's reader went away (``| head``) after
+every file asked for was written. Never a bare traceback.
 """
 
 import argparse
+import errno
 import os
 import signal
 import sys
@@ -44,8 +46,12 @@ EXIT_CODES = {
     2: "usage, input or output error (one line 'allsky: error: ...'), or the Dask cluster lost",
     3: "internal error (one line, the traceback in a crash report file)",
     130: "interrupted by Ctrl-C or SIGTERM (what finished is written; one line says what)",
+    141: "stdout's reader went away (allsky ... | head): every file asked for was still "
+         "written (a closed or full stdout: exit 2 and one line)",
 }
 EXIT_ABORTED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 130
+#: 128 + SIGPIPE, what a shell reports for a writer whose pipe closed.
+EXIT_STDOUT_GONE = 141
 #: The options that mean the same on every command that has them.
 COMMON_FLAGS = {
     "--json PATH": "write the result as JSON; '-' writes it to stdout and nothing else goes "
@@ -183,8 +189,9 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky compare --vehicle wheels --runs 20\n"
                "  allsky compare --methods legacy,dither,kalman --runs 200")
     scenario_args(cmp_)
-    cmp_.add_argument("--runs", type=_positive_int, default=1, metavar="N",
-                      help="repeat over N seeds (from mission.seed on) and give statistics")
+    cmp_.add_argument("--runs", type=_runs, default=1, metavar="N",
+                      help="repeat over N seeds (from mission.seed on) and give statistics "
+                           "(at most 10^7)")
     cmp_.add_argument("--workers", type=_positive_int, metavar="N",
                       help="worker processes for --runs (default: one per core; at most "
                            "one per run and per core)")
@@ -315,9 +322,9 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky montecarlo --runs 5000 --scheduler tcp://10.0.0.5:8786 --out mc/\n"
                "  allsky montecarlo --runs 100 --set target.star=Vega --json - --quiet")
     scenario_args(mc)
-    mc.add_argument("--runs", type=_positive_int, metavar="N",
-                    help="number of runs (needed for a new campaign; with --resume, a larger "
-                         "N extends it)")
+    mc.add_argument("--runs", type=_runs, metavar="N",
+                    help="number of runs, at most 10^7 (needed for a new campaign; with "
+                         "--resume, a larger N extends it)")
     mc.add_argument("--disperse", metavar="SPEC",
                     help="TOML file with a [dispersions] table, merged over the scenario's")
     where = mc.add_mutually_exclusive_group()
@@ -335,6 +342,7 @@ def _parser() -> argparse.ArgumentParser:
     mc.add_argument("--quiet", action="store_true", help="no progress bar")
 
     cfg = sub.add_parser("config", help="show or check a scenario")
+    cfg.add_argument("--version", action="version", version=f"allsky {__version__}")
     csub = cfg.add_subparsers(dest="config_command", required=True, metavar="ACTION")
     show = csub.add_parser(
         "show", help="print the fully resolved configuration as TOML",
@@ -413,7 +421,7 @@ def _parser() -> argparse.ArgumentParser:
         "warm-up", help="compile the frame loop once, so that no later command waits for it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Compile the frame loop, both its forms (the patent's vehicle without "
-                    "faults; wheels and faults), into numba's cache (about 30 s, once per "
+                    "faults; wheels and faults), into numba's cache (about 25 s, once per "
                     "install and machine; every later command loads it). 'pip install' does "
                     "this already when it builds allsky; this command is for editable "
                     "installs, a cache under NUMBA_CACHE_DIR, or a wheel built on another "
@@ -480,7 +488,11 @@ class _NameList(argparse.Action):
                                  f"{namespace.scenario!r} was given already")
                 namespace.scenario = word
                 continue
-            names += [n.strip() for n in word.split(",") if n.strip()]
+            given = [n.strip() for n in word.split(",") if n.strip()]
+            if not given:  # "," or "": nothing named, not "all"
+                parser.error(f"{option_string}: {word!r} names nothing; give names separated "
+                             "by commas, or leave the option out for all")
+            names += given
         setattr(namespace, self.dest, names)
 
 
@@ -529,6 +541,17 @@ def _positive_int(text):
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
     if v < 1:
         raise argparse.ArgumentTypeError(f"{v} must be >= 1")
+    return v
+
+
+def _runs(text):
+    """A number of runs: 1 to :data:`allsky.config.rules.RUNS_MAX`."""
+    from allsky.config.rules import RUNS_MAX
+
+    v = _positive_int(text)
+    if v > RUNS_MAX:
+        raise argparse.ArgumentTypeError(f"{v} is more than {RUNS_MAX} runs (a campaign keeps "
+                                         "each finished run's row in memory, about 2 kB)")
     return v
 
 
@@ -603,8 +626,49 @@ def _config(cfg, args) -> int:
     return 0
 
 
-def _raise_interrupt(signum, frame):
-    """SIGTERM handled as Ctrl-C: the command writes what finished and exits 130."""
+#: Signals the command received (Ctrl-C, SIGTERM), in order; empty while none came.
+_signalled = []
+#: Whether a command is under way in this process (main is running).
+_running = []
+#: [s] How soon a signal that arrived during an import is raised again.
+IMPORT_RETRY_S = 0.05
+
+
+def _in_import(frame) -> bool:
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _resend(signum):
+    if _running:
+        os.kill(os.getpid(), signum)
+
+
+def _deliver_again(signum=None):
+    """Send the last signal again shortly (one swallowed, or caught inside an import)."""
+    import threading
+
+    signum = signum or (_signalled[-1] if _signalled else signal.SIGINT)
+    timer = threading.Timer(IMPORT_RETRY_S, _resend, (signum,))
+    timer.daemon = True
+    timer.start()
+
+
+def _interrupt(signum, frame):
+    """Ctrl-C and SIGTERM during a command: KeyboardInterrupt, but never inside an import.
+
+    A compiled extension being imported (numba's) turns a KeyboardInterrupt
+    raised under it into an ImportError and prints it; so a signal that
+    arrives during an import is sent again a moment later, until the import
+    is done, and raised there.
+    """
+    _signalled.append(signum)
+    if _in_import(frame):
+        _deliver_again(signum)
+        return
     raise KeyboardInterrupt
 
 
@@ -622,11 +686,218 @@ def crash_report(exc) -> str:
     return path
 
 
+#: Per command, the options that name files it writes: (dest, option, kind), kind "file"
+#: or the names a directory option writes into its directory (checked before the work).
+OUTPUTS = {
+    "run": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
+            ("plots", "--plots", "plots"), ("html", "--html", "file")),
+    "step": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
+             ("save_dir", "--save-dir", "states")),
+    "compare": (("json", "--json", "file"), ("plot", "--plot", "file")),
+    "replay": (("html", "--html", "file"),),
+    "plot": (("out", "--out", "plots"),),
+    "analyze": (("json", "--json", "file"), ("plot", "--plot", "file")),
+    "montecarlo": (("json", "--json", "file"), ("out", "--out", "campaign")),
+    "stars": (("json", "--json", "file"),),
+    "faults": (("json", "--json", "file"),),
+    "scenarios": (("json", "--json", "file"),),
+}
+#: Per command, the options that name files it reads: (dest, option).
+INPUTS = {
+    "replay": (("telemetry", "TELEMETRY"), ("summary", "--summary"), ("scenario",
+                                                                      "--scenario")),
+    "plot": (("telemetry", "TELEMETRY"), ("summary", "--summary")),
+    "step": (("scenario", "SCENARIO"), ("from_state", "--from")),
+}
+
+
+def _directory_names(kind) -> tuple:
+    """The file names a directory output of ``kind`` writes (imported only when given)."""
+    if kind == "plots":
+        from allsky.apps.plots import CALIBRATION_FILE, HOLD_FILE, TELEMETRY_FIGURES
+
+        return (*(name for name, _ in TELEMETRY_FIGURES.values()), CALIBRATION_FILE,
+                HOLD_FILE)
+    if kind == "campaign":
+        from allsky.apps.campaign import FILES
+
+        return FILES
+    if kind == "states":
+        from allsky.sequencer.modes import MODE_TABLE
+
+        return tuple(f"after_mode_{m.name}.npz" for m in MODE_TABLE)
+    return None
+
+
+def check_paths(args):
+    """Refuse, before any work, outputs that cannot be written or that are one file.
+
+    Every output option of the command is checked (:func:`allsky.apps.output.check_output`),
+    then no two outputs, and no output and input, may be the same file
+    (:func:`allsky.apps.output.check_distinct`).
+    """
+    from allsky.apps.output import check_distinct, check_output
+
+    outputs = []
+    for dest, option, kind in OUTPUTS.get(args.command, ()):
+        path = getattr(args, dest, None)
+        if path is None:
+            continue
+        check_output(option, path, directory=kind != "file")
+        outputs.append((option, path, _directory_names(kind)))
+    inputs = [(option, getattr(args, dest, None)) for dest, option in
+              INPUTS.get(args.command, (("scenario", "SCENARIO"),))]
+    inputs.append(("--disperse", getattr(args, "disperse", None)))
+    check_distinct(outputs, [(o, p) for o, p in inputs if p is not None])
+
+
+#: Commands that fly missions (and so load the compiled loop).
+FLYING = ("run", "step", "compare", "montecarlo", "faults", "warm-up")
+
+
+def build_note_once():
+    """Say once, on stderr, what the install did not compile (:func:`aot.build_note`).
+
+    ``pip install`` shows the build's own lines only with ``-v``; the first
+    command that flies says it where the user sees it. A marker beside the
+    note (or, where the package cannot be written, in the user's cache
+    directory) keeps it to once.
+    """
+    import hashlib
+
+    from allsky import aot
+
+    note = aot.build_note()
+    if note is None:
+        return
+    key = hashlib.sha256(repr(sorted(note.items())).encode()).hexdigest()[:16]
+    cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"),
+                                                              ".cache")
+    markers = [aot.NOTE.replace(".json", ".shown"),
+               os.path.join(cache, "allsky", f"build-note-{key}.shown")]
+    if any(os.path.exists(m) for m in markers):
+        return
+    effect = note.get("effect") or "commands use numba instead"
+    print(f"allsky: note: this install has no {note['missing']} ({note['reason']}): "
+          f"{effect}; to build it, {note['hint']}", file=sys.stderr)
+    for marker in markers:
+        try:
+            os.makedirs(os.path.dirname(marker), exist_ok=True)
+            with open(marker, "w", encoding="utf-8") as f:
+                f.write(key + "\n")
+            return
+        except OSError:
+            continue
+
+
+def _take_signals() -> bool:
+    """Ctrl-C and SIGTERM raise KeyboardInterrupt from here on; False where they cannot.
+
+    Outside the main thread signals cannot be set, and nothing changes.
+    """
+    try:
+        signal.signal(signal.SIGINT, _interrupt)
+        signal.signal(signal.SIGTERM, _interrupt)
+    except ValueError:
+        return False
+    return True
+
+
 def main(argv=None) -> int:
     """Run the command line on ``argv`` (default ``sys.argv[1:]``); return exit code.
 
-    See :data:`EXIT_CODES`.
+    See :data:`EXIT_CODES`. In the ``allsky`` command (not when called from
+    Python), a signal after the command is over changes nothing: the process
+    exits with the command's code.
     """
+    import allsky
+    from allsky.apps.console import guarded
+
+    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    code, took = None, False
+    _signalled.clear()
+    _running.append(True)
+    try:
+        took = _take_signals()
+        with guarded(on_lost_interrupt=_deliver_again) as (out, _):
+            code = _main(argv)
+            code = _stdout_verdict(code, out)
+    except KeyboardInterrupt:  # in the instants around the command itself
+        _hold_signals()
+        if code is None:
+            try:
+                os.write(2, (_interrupted_line() + "\n").encode())
+            except OSError:
+                pass
+            code = EXIT_INTERRUPTED
+    finally:
+        _running.clear()
+        if took:
+            # In the allsky command the code is decided: a signal from here to the exit
+            # changes nothing (ignored; Python's shutdown leaves an ignored signal ignored,
+            # where it would give a handled one its default action, death).
+            for sig, handler in old.items():
+                signal.signal(sig, signal.SIG_IGN if allsky._COMMAND else handler)
+    if allsky._COMMAND and code == EXIT_INTERRUPTED:
+        _exit_now(code)
+    return code
+
+
+def _exit_now(code):
+    """End the allsky command with ``code`` now, everything written and flushed.
+
+    After a Ctrl-C that reached code run by ``PyRun_*`` (as some extension
+    modules' imports do), CPython 3.11 keeps a flag that makes the interpreter,
+    at its very end, reset SIGINT and kill itself with it: the command would
+    die by SIGINT after saying it exited 130. Every file is closed by now and
+    the workers are ended; only the console's buffers remain to flush.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
+
+
+def _hold_signals():
+    """Ignore further Ctrl-C and SIGTERM: the command is ending, its line being said."""
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+    except ValueError:  # not the main thread
+        pass
+
+
+def _stdout_verdict(code, out) -> int:
+    """The exit code once stdout is known lost or not (:data:`EXIT_STDOUT_GONE`)."""
+    if not out.dropped:
+        return code
+    if out.lost == errno.EPIPE:  # | head: the reader had what it wanted
+        return EXIT_STDOUT_GONE if code in (0, EXIT_ABORTED) else code
+    from allsky.apps.output import write_reason
+
+    why = ("it is closed" if out.lost == errno.EBADF else
+           write_reason(OSError(out.lost, os.strerror(out.lost))))
+    files = ("; what was meant for it is lost, every file asked for is written"
+             if code in (0, EXIT_ABORTED) else "")
+    print(f"allsky: error: stdout: cannot write: {why}{files}", file=sys.stderr)
+    return EXIT_USAGE if code in (0, EXIT_ABORTED) else code
+
+
+def _interrupted_line() -> str:
+    from allsky.apps.output import torn_writes
+
+    torn = torn_writes()
+    if torn:
+        return (f"allsky: interrupted; {', '.join(torn)} cut short (written in place, not a "
+                "regular file); every regular file is whole or untouched")
+    return ("allsky: interrupted; nothing half-written (files are written whole or not at "
+            "all)")
+
+
+def _main(argv) -> int:
     try:
         parser = _parser()
         args = parser.parse_args(argv)
@@ -635,12 +906,14 @@ def main(argv=None) -> int:
             parser.error("config check: give a scenario FILE, --set KEY=VALUE, or both")
     except SystemExit as e:  # --help, --version, or a usage error (printed as one line)
         return 0 if e.code is None else e.code if isinstance(e.code, int) else EXIT_USAGE
-    restore = None
+    except KeyboardInterrupt:
+        _hold_signals()
+        print(_interrupted_line(), file=sys.stderr)
+        return EXIT_INTERRUPTED
     try:
-        restore = signal.signal(signal.SIGTERM, _raise_interrupt)
-    except ValueError:  # not the main thread: leave SIGTERM alone
-        pass
-    try:
+        if args.command in FLYING:
+            build_note_once()
+        check_paths(args)
         # `allsky plot` reads a telemetry file, `allsky scenarios` lists files,
         # `allsky warm-up` compiles: no scenario.
         if args.command in ("plot", "scenarios", "warm-up"):
@@ -652,27 +925,36 @@ def main(argv=None) -> int:
         if args.command == "config":
             return _config(cfg, args)
         return _run(cfg, args)
-    except _usage_errors() as e:
-        print(f"allsky: error: {e}", file=sys.stderr)
-        return EXIT_USAGE
-    except _interrupted() as e:
-        print(f"allsky: interrupted; {e}", file=sys.stderr)
-        return EXIT_INTERRUPTED
     except KeyboardInterrupt:
-        print("allsky: interrupted; nothing half-written (files are written whole or not "
-              "at all)", file=sys.stderr)
+        _hold_signals()
+        print(_interrupted_line(), file=sys.stderr)
         return EXIT_INTERRUPTED
-    except BrokenPipeError:  # the reader went away (allsky ... | head): not an error
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
-    except OSError as e:  # an output path that cannot be written
-        name = f" {e.filename}" if e.filename else ""
-        print(f"allsky: error: cannot write{name}: {e.strerror or e}", file=sys.stderr)
-        return EXIT_USAGE
-    except Exception as e:  # noqa: BLE001 - one line and a crash report, never a traceback
+    except Exception as e:  # noqa: BLE001 - sorted below; never a traceback
+        return _report(e)
+
+
+def _report(e) -> int:
+    """One line for an exception that ended the command; its exit code."""
+    try:
+        if isinstance(e, _usage_errors()):
+            print(f"allsky: error: {e}", file=sys.stderr)
+            return EXIT_USAGE
+        if isinstance(e, _interrupted()):
+            _hold_signals()
+            print(f"allsky: interrupted; {e}", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        if _signalled:  # what failed after a Ctrl-C or SIGTERM failed because of it
+            _hold_signals()
+            print(_interrupted_line(), file=sys.stderr)
+            return EXIT_INTERRUPTED
+        if isinstance(e, OSError):  # a file that the command's own checks did not name
+            name = f"{e.filename}: " if e.filename else ""
+            print(f"allsky: error: {name}{(e.strerror or str(e)).lower()}", file=sys.stderr)
+            return EXIT_USAGE
         print(f"allsky: internal error: {type(e).__name__}: {e} (details in "
               f"{crash_report(e)})", file=sys.stderr)
         return EXIT_INTERNAL
-    finally:
-        if restore is not None:
-            signal.signal(signal.SIGTERM, restore)
+    except KeyboardInterrupt:  # a second Ctrl-C while the line was being made
+        _hold_signals()
+        print(_interrupted_line(), file=sys.stderr)
+        return EXIT_INTERRUPTED

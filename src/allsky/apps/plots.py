@@ -26,7 +26,6 @@ hold.png               each hold on target: the attitude's drift per body axis
 =====================  ==========================================================
 """
 
-import json
 import math
 from pathlib import Path
 from typing import NamedTuple
@@ -35,7 +34,6 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from allsky.apps.telemetry_files import TelemetryError, read
-from allsky.config import ConfigError
 from allsky.hardware import switch_bank, wiring
 from allsky.sequencer.modes import MODE_CODE, cpu_modes
 from allsky.sim.telemetry import INDEX, switch_closed
@@ -668,14 +666,15 @@ class PlotSet(NamedTuple):
     skipped: dict  #: file name -> why it was not drawn
 
 
-def save(fig: Figure, path) -> Path:
-    """Write a figure as PNG at :data:`DPI`."""
+def save(fig: Figure, path, option=None) -> Path:
+    """Write a figure at :data:`DPI`; ``option`` names the path in an error."""
     from allsky.apps.output import write_atomic  # whole or not at all
 
-    return write_atomic(path, writer=lambda tmp: fig.savefig(tmp, dpi=DPI))
+    return write_atomic(path, writer=lambda tmp: fig.savefig(tmp, dpi=DPI), option=option)
 
 
-def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> PlotSet:
+def write_plots(table: np.ndarray, out_dir, summary=None, progress=False,
+                option="--plots") -> PlotSet:
     """Write the mission figures as PNG files into ``out_dir`` (created if needed).
 
     Parameters
@@ -690,6 +689,9 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
         final pointing error.
     progress : bool
         Show a progress line on stderr while drawing (when it is a terminal).
+    option : str
+        The command-line option that named ``out_dir``, for a file that cannot
+        be written (:class:`~allsky.apps.output.OutputError`).
 
     Returns
     -------
@@ -716,7 +718,7 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False) -> Plo
               disable=None if progress else True) as bar:
         for file_name, draw in bar:
             bar.set_postfix_str(file_name)
-            files.append(save(draw(), out / file_name))
+            files.append(save(draw(), out / file_name, option))
     return PlotSet(files, skipped)
 
 
@@ -734,13 +736,17 @@ def run_from_cli(cfg, args) -> int:
         raise TelemetryError(f"telemetry file {args.telemetry!r} has no rows: nothing to plot")
     summary = None
     if args.summary:
-        try:
-            summary = json.loads(Path(args.summary).read_text())
-        except json.JSONDecodeError as e:
-            raise ConfigError(None, rule=f"summary {args.summary!r} is not JSON ({e})") from None
-        if not isinstance(summary, dict) or not {"calibration", "truth"} <= set(summary):
-            raise ConfigError(None, rule=f"summary {args.summary!r} is not an allsky mission "
-                                         "summary (allsky run --json)")
-    print(format_written(write_plots(table, args.out, summary,
-                                     progress=not getattr(args, "quiet", False))))
+        from allsky.apps.summaries import read_summary
+
+        summary = read_summary(args.summary)
+    from allsky.apps.output import OutputError, write_reason
+
+    try:
+        written = write_plots(table, args.out, summary,
+                              progress=not getattr(args, "quiet", False))
+    except OSError as e:  # the directory could not be made
+        raise OutputError("--out", e.filename or args.out, write_reason(e)) from None
+    except OutputError as e:  # a figure could not be written: named by this command's option
+        raise OutputError("--out", e.path, e.reason) from None
+    print(format_written(written))
     return 0

@@ -607,19 +607,9 @@ def write_replay(path, table, summary=None, cfg=None, option=None, scenario=None
 
 def read_summary(path) -> dict:
     """A mission summary written by ``allsky run --json`` (ConfigError if not one)."""
-    from allsky.config import ConfigError
-    from allsky.config.toml_io import os_reason
+    from allsky.apps.summaries import read_summary as read_checked
 
-    try:
-        summary = json.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as e:
-        raise ConfigError(None, rule=f"summary {str(path)!r}: {os_reason(e)}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ConfigError(None, rule=f"summary {str(path)!r} is not JSON ({e})") from None
-    if not isinstance(summary, dict) or not {"modes", "target", "status"} <= set(summary):
-        raise ConfigError(None, rule=f"summary {str(path)!r} is not an allsky mission "
-                                     "summary (allsky run --json)")
-    return summary
+    return read_checked(path)
 
 
 def run_from_cli(cfg, args) -> int:

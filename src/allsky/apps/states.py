@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from allsky.config import ConfigError, scenario_from_dict
-from allsky.config.toml_io import os_reason
+from allsky.config.toml_io import os_reason, read_bounded
 from allsky.hardware.wiring import SELECTORS
 from allsky.sequencer.modes import PLANS, mission_plan
 from allsky.sim import faults as sim_faults
@@ -31,23 +31,30 @@ from allsky.sim.mission import STATE_FORMAT, Mission, newer_state_arrays
 ARRAY_PREFIX = "state_"
 
 
-def save(m: Mission, path) -> Path:
+def save(m: Mission, path, option="--save-dir") -> Path:
     """Save mission ``m`` at its current mode boundary to ``path`` (``.npz``).
 
     The archive is written under a temporary name beside ``path`` and then
     renamed over it, so ``path`` holds the old file or the new one, never
-    half of one.
+    half of one. A file that cannot be written is an
+    :class:`~allsky.apps.output.OutputError` naming ``option``.
     """
+    from allsky.apps.output import OutputError, write_reason
+
     path = Path(path)
     history, arrays = m.snapshot()
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
         with tmp.open("wb") as f:  # a file object: numpy adds no ".npz" to the name
             np.savez(f, history=np.array(json.dumps(history)),
                      **{ARRAY_PREFIX + k: v for k, v in arrays.items()})
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(option, path, write_reason(e)) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -65,6 +72,8 @@ class StateError(ValueError):
 #: Largest member of a state archive [bytes]: the history JSON is a few kB, the state
 #: arrays a few hundred bytes; a bigger member is not a state (and is not unpacked).
 MEMBER_MAX_BYTES = 16 * 2**20
+#: Largest state file read, and the most its members may unpack to [bytes].
+STATE_MAX_BYTES = 64 * 2**20
 #: Largest departure of the saved quaternion from unit norm (the plant keeps 1e-15).
 QUATERNION_NORM_TOLERANCE = 1e-6
 #: State arrays added since files of this format were first written, with the value an
@@ -101,7 +110,7 @@ def load(path, telemetry=True) -> Mission:
 def _read_archive(path):
     """The state arrays and the history of the ``.npz`` archive at ``path``."""
     try:
-        data = path.read_bytes()
+        data = read_bounded(path, STATE_MAX_BYTES, "mission state")
     except (OSError, ValueError) as e:  # missing, a directory, no permission, NUL in the name
         raise StateError(f"cannot read it: {os_reason(e) if isinstance(e, OSError) else e}"
                          ) from None
@@ -114,6 +123,8 @@ def _read_archive(path):
             big = [i.filename for i in zf.infolist() if i.file_size > MEMBER_MAX_BYTES]
             if big:
                 raise StateError(f"member {big[0]!r} is over {MEMBER_MAX_BYTES >> 20} MB")
+            if sum(i.file_size for i in zf.infolist()) > STATE_MAX_BYTES:
+                raise StateError(f"its members unpack to over {STATE_MAX_BYTES >> 20} MB")
         with np.load(io.BytesIO(data), allow_pickle=False) as z:
             members = {name: z[name] for name in z.files}
     except StateError:

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from allsky.config.toml_io import os_reason
+from allsky.config.toml_io import os_reason, read_bounded
 from allsky.sim import recorder
 from allsky.sim.telemetry import COLUMNS, INDEX, header
 
@@ -153,6 +153,9 @@ def _widened(table: np.ndarray) -> np.ndarray:
     return out
 
 
+#: [bytes] Largest telemetry file read: the longest mission records at most 1e6 rows
+#: (config.schema.TELEMETRY_MAX_ROWS), under 1 kB each as CSV.
+FILE_MAX_BYTES = 2**30
 #: Parquet files begin (and end) with these four bytes.
 PARQUET_MAGIC = b"PAR1"
 #: Largest departure of a row's quaternion from unit norm: the plant keeps it within
@@ -196,7 +199,7 @@ def read(path, check=True):
     path = Path(path)
     fmt = file_format(path)
     try:
-        data = path.read_bytes()
+        data = read_bounded(path, FILE_MAX_BYTES, "telemetry file")
     except (OSError, ValueError) as e:  # missing, a directory, no permission, NUL in the name
         raise _refuse(path, f"cannot read it: {os_reason(e) if isinstance(e, OSError) else e}"
                       ) from None

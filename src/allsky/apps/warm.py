@@ -12,10 +12,18 @@ import time
 
 def run_from_cli(cfg, args) -> int:
     """``allsky warm-up``: compile (or load) the frame loop; one line says which."""
-    from allsky.sim.warm_up import LOOPS, entry_points, loop_entries, needs_compiling, warm_up
+    from allsky.sim.warm_up import (
+        COMPILE_S,
+        LOOPS,
+        entry_points,
+        loop_entries,
+        needs_compiling,
+        warm_up,
+    )
 
     if needs_compiling(loop_entries() + entry_points()[1:]) and not args.quiet:
-        print("allsky: compiling the frame loop for this machine, once (about 30 s)",
+        print(f"allsky: compiling the frame loop for this machine, once (about "
+              f"{COMPILE_S['warm-up']} s)",
               file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     compiled = warm_up(LOOPS)
@@ -59,12 +67,28 @@ def main(argv=None) -> int:
         try:
             path = build()
         except Exception as e:  # noqa: BLE001 - no compiler, no headers: numba at run time
-            print(f"allsky: not built ahead of time ({type(e).__name__}: {e}); missions use "
-                  "numba's compiled loop", file=sys.stderr)
+            why = " ".join(f"{type(e).__name__}: {e}".split())[:300]
+            print(f"allsky: not built ahead of time ({why}); missions use numba's compiled "
+                  "loop", file=sys.stderr)
+            _write_note("the loop built ahead of time", why)
             return 0
         print(f"allsky: built ahead of time in {time.perf_counter() - t0:.1f} s: {path}",
               file=sys.stderr)
     return 0
+
+
+def _write_note(what, why):
+    """Leave the first command after the install a note of what was not built (aot.NOTE)."""
+    import json
+
+    from allsky import aot
+
+    try:
+        with open(aot.NOTE, "w", encoding="utf-8") as f:
+            json.dump({"missing": what, "reason": why, "hint": aot.COMPILER_HINT,
+                       "effect": aot.WITHOUT_AOT}, f)
+    except OSError:
+        pass
 
 
 if __name__ == "__main__":

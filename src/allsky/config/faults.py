@@ -183,9 +183,21 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
         _scenario_flies(f"{where}.start_mode", out["start_mode"], values)
     else:
         out["start_s"] = number(NON_NEGATIVE)(f"{where}.start_s", entry.get("start_s", 0.0))
+        _starts_in_time(f"{where}.start_s", out["start_s"], values)
     if "duration_s" in entry:
         out["duration_s"] = number(POSITIVE)(f"{where}.duration_s", entry["duration_s"])
     return out
+
+
+def _starts_in_time(key, start_s, values):
+    """Refuse an onset after the longest mission ends: the fault would never start."""
+    from allsky.config.cross_rules import longest_mission_s  # it imports the sky
+
+    longest = longest_mission_s(values)
+    if start_s >= longest:
+        raise ConfigError(key, start_s, f"must be < {longest:g} s: the longest mission (the "
+                          "timeouts of the modes it flies, sequencer.timeout_s) ends by then, "
+                          "so the fault would never start")
 
 
 def _slit_meets(key, name, values):

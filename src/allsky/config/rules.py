@@ -27,6 +27,10 @@ EPHEMERIS_END_UTC = datetime(2100, 12, 31, 23, 59, 59, 999999, tzinfo=UTC)
 MISALIGNMENT_MAX_ARCSEC = 1.0 * DEG2ARCSEC
 #: Largest mission seed: seeds are 32-bit words (a campaign's seeds, base + run, too).
 SEED_MAX = 2**32 - 1
+#: Most runs of one campaign (``allsky montecarlo`` and ``compare --runs``): the campaign
+#: keeps every finished run's row for its statistics, about 2 kB each in memory, so ten
+#: million runs take about 20 GB (the jobs themselves are made as they are flown).
+RUNS_MAX = 10_000_000
 
 
 class _Absent:

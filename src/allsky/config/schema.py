@@ -76,6 +76,11 @@ DITHER_MAX_SAMPLES = 2**20
 DITHER_SETTLE_ALLOWANCE_S = 300.0
 #: [s] allowed to the hold on target beyond `target.hold_s` (its elapsed leg ends on a frame).
 HOLD_TIMEOUT_ALLOWANCE_S = 60.0
+#: [kg] Most propellant a tank may hold: 250 times the default 4 kg, past any attitude-control
+#: tank of an instrument vehicle. The tank is counted down by each frame's use (a few ug at
+#: the default thrust); float64 keeps that use to 1e-8 of itself in a 1000 kg tank, while
+#: past ~3e10 kg each frame's use rounds away entirely and the mission reports 0 kg used.
+PROPELLANT_MAX_KG = 1000.0
 
 
 # ---------------------------------------------------------------------------
@@ -267,7 +272,9 @@ RULES: dict[str, Callable] = {
     "jets.moment_arm_m": vector(3, POSITIVE),
     "jets.min_on_time_s": number(in_open_closed(0, 1, "cold-gas valves: a few to tens of ms")),
     "jets.isp_s": number(POSITIVE),
-    "jets.propellant_kg": number(POSITIVE),
+    "jets.propellant_kg": number(POSITIVE, in_open_closed(
+        0, PROPELLANT_MAX_KG, "a tank larger than any attitude-control system's, whose "
+        "per-frame use float64 cannot resolve")),
     "jets.supply": one_of("regulated", "blowdown"),
     "jets.tank_pressure_initial_bar": number(POSITIVE),
     "jets.tank_pressure_final_bar": number(POSITIVE),

@@ -9,7 +9,9 @@ tables); ``tomllib.loads`` reads its text back to equal data.
 """
 
 import math
+import os
 import re
+import stat
 import sys
 import tomllib
 from collections.abc import Mapping
@@ -67,14 +69,57 @@ def os_reason(e: OSError) -> str:
     return (e.strerror or type(e).__name__).lower()
 
 
+#: [bytes] Largest scenario or ``--disperse`` file read (the packaged default is 9 kB).
+TOML_MAX_BYTES = 2**20
+#: [bytes] Bytes read at a time from a FIFO or a device.
+_BLOCK = 2**20
+
+
+def _size_text(n: int) -> str:
+    for unit, size in (("GiB", 2**30), ("MiB", 2**20), ("kiB", 2**10)):
+        if n >= size:
+            return f"{n / size:g} {unit}"
+    return f"{n} bytes"
+
+
+def read_bounded(path, limit: int, what: str) -> bytes:
+    """The bytes of the file at ``path``; ConfigError past ``limit`` bytes.
+
+    A regular file's size is looked at before anything is read; anything else
+    (a FIFO, a device such as ``/dev/zero``, a pipe) is read in blocks until
+    it ends or passes the limit, so that no input can fill the memory. The
+    refusal is one line naming ``what`` (``"telemetry file"``), the path and
+    the limit. OSError (no such file, a directory, no permission) and
+    ValueError (a NUL in the path) are the caller's to word.
+    """
+    with open(path, "rb") as f:
+        st = os.fstat(f.fileno())
+        if stat.S_ISREG(st.st_mode) and st.st_size > limit:
+            data = None
+        else:
+            chunks, n = [], 0
+            while n <= limit:
+                block = f.read(min(_BLOCK, limit + 1 - n))
+                if not block:
+                    break
+                chunks.append(block)
+                n += len(block)
+            data = b"".join(chunks) if n <= limit else None
+    if data is None:
+        raise ConfigError(None, rule=f"{what} {path}: larger than {_size_text(limit)}, the "
+                                     f"most a {what} may hold; not read")
+    return data
+
+
 def read_toml(path, what="scenario file") -> dict:
     """The parsed TOML file at ``path``; ConfigError if missing, unreadable or bad.
 
-    ``what`` names the file in the messages (``"scenario file"``, ``"--disperse file"``).
+    ``what`` names the file in the messages (``"scenario file"``, ``"--disperse file"``);
+    a file over :data:`TOML_MAX_BYTES` is refused unread (:func:`read_bounded`).
     """
     p = Path(path)
     try:
-        data = p.read_bytes()
+        data = read_bounded(p, TOML_MAX_BYTES, what)
     except FileNotFoundError:
         raise ConfigError(None, str(p), f"{what} not found: {p}") from None
     except (OSError, ValueError) as e:  # a directory, no permission, NUL in the path

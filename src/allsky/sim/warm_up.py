@@ -13,6 +13,13 @@ directory) compile once and the others load the result.
 
 import contextlib
 
+#: [s] How long compiling takes on the project's 2-core machine, measured with an empty
+#: cache (CPU time of one process, which is its wall time on an idle machine;
+#: docs/design.md): the plain loop on first use, both loops in ``allsky warm-up``, and the
+#: build's step (the two loops side by side, one a core, the plain one then built ahead of
+#: time). Every message and page that gives a compile time says these (a test checks).
+COMPILE_S = {"first use": 12, "warm-up": 25, "build": 20}
+
 
 def entry_points(params=None) -> tuple:
     """The compiled functions a mission calls from Python (the loop, the pointing).

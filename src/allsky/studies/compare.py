@@ -409,14 +409,19 @@ def compare(cfg, runs=1, workers=2, on_progress=None, vehicle=None,
 
     cfg = on_vehicle(cfg, vehicle)
     data = cfg.as_dict()
-    seeds = [int(cfg.mission.seed) + k for k in range(runs)]
+    seeds = range(int(cfg.mission.seed), int(cfg.mission.seed) + runs)
     extra = tuple(m for m in METHODS if m in methods and m not in DEFAULT_METHODS)
-    if extra:
-        jobs, fly_row = [(data, s, extra) for s in seeds], fly_methods
+    if extra:  # made as they are flown
+        jobs, fly_row = ((data, s, extra) for s in seeds), fly_methods
     else:
-        jobs, fly_row = [(data, s) for s in seeds], fly_pair
-    rows, interrupted = ordered_rows(fly_row, jobs, workers, on_progress,
-                                     fly_here=lambda job: fly_row(job, on_flight))
+        jobs, fly_row = ((data, s) for s in seeds), fly_pair
+    # A seed whose worker process died twice: a row of that status in every section.
+    sections = ("legacy", "dither", *(KALMAN_SECTIONS if "kalman" in extra else ()),
+                *(("smoother",) if "smoother" in extra else ()))
+    rows, interrupted = ordered_rows(
+        fly_row, jobs, workers, on_progress, fly_here=lambda job: fly_row(job, on_flight),
+        total=runs, died=lambda job, why: {"seed": job[1], **{
+            k: {"status": "worker_died", "abort_reason": why} for k in sections}})
     done = len(rows)
     result = {"runs": done, "seeds": [seeds[0], seeds[done - 1]]}
     if cfg.actuators.kind != "jets":

@@ -20,8 +20,6 @@ naming the key).
 
 import itertools
 import math
-import os
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -200,7 +198,7 @@ def sweep(cfg, amplitudes_urad, records_s, runs=1, workers=2, on_progress=None) 
         ``max_excursion_arcsec``, ``propellant_kg``), ``crossover``
         (:func:`crossover`), ``runs`` and ``seeds``.
     """
-    from allsky.studies.montecarlo import interrupts_held, stop_pool, worker_process_setup
+    from allsky.studies.montecarlo import ordered_rows
 
     data = cfg.as_dict()
     seeds = [int(cfg.mission.seed) + k for k in range(runs)]
@@ -208,35 +206,19 @@ def sweep(cfg, amplitudes_urad, records_s, runs=1, workers=2, on_progress=None) 
     # Validate every point before flying any (a bad value names its key).
     point_cfgs = [scenario_from_dict(data, point_overrides(cfg, a, t)) for a, t in grid]
     total = runs * (1 + len(grid))
-    done = 0
-    workers = max(1, min(int(workers), total))
-    pool = None
-    if workers > 1:
-        pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
-                                   initargs=(os.getpid(),))
-    run = pool.map if pool is not None else map
-    finished = False
-    try:
-        legacy_rows = []
-        for row in run(fly_legacy, [(data, s) for s in seeds]):
-            legacy_rows.append(row)
-            done += 1
-            if on_progress is not None:
-                on_progress(done, total)
-        words = {r["seed"]: r.get("cross_coupling") for r in legacy_rows}
-        jobs = [(data, point_overrides(cfg, a, t), s, words[s]) for a, t in grid
-                for s in seeds]
-        dither_rows = []
-        for row in run(fly_dither, jobs):
-            dither_rows.append(row)
-            done += 1
-            if on_progress is not None:
-                on_progress(done, total)
-        finished = True
-    finally:
-        if pool is not None:
-            with interrupts_held():
-                stop_pool(pool, not finished)
+
+    def phase(fly, jobs, before):
+        progress = None if on_progress is None else (
+            lambda done, n: on_progress(before + done, total))
+        rows, interrupted = ordered_rows(fly, jobs, workers, progress)
+        if interrupted:  # the sweep needs every point: stop, as before the first row
+            raise KeyboardInterrupt
+        return rows
+
+    legacy_rows = phase(fly_legacy, [(data, s) for s in seeds], 0)
+    words = {r["seed"]: r.get("cross_coupling") for r in legacy_rows}
+    jobs = [(data, point_overrides(cfg, a, t), s, words[s]) for a, t in grid for s in seeds]
+    dither_rows = phase(fly_dither, jobs, runs)
     legacy = _summarise(legacy_rows)
     points = []
     for k, ((a, t), pc) in enumerate(zip(grid, point_cfgs)):

@@ -80,6 +80,14 @@ def _fly(job):
     return fly_case(*job)
 
 
+def died_case(job, reason) -> dict:
+    """The row of a case whose worker died twice flying it (``worker_died``)."""
+    _, kind, mode = job
+    fault = describe(fault_entry(kind, mode)) if kind is not None else None
+    return {"kind": kind, "mode": mode, "fault": fault, "status": "worker_died",
+            "outcome": f"worker died: {reason}", "abort_reason": reason}
+
+
 def fault_matrix(cfg, kinds=None, modes=None, workers=1, on_progress=None) -> dict:
     """Fly every fault kind from the start of every mode, and the fault-free reference.
 
@@ -110,7 +118,7 @@ def fault_matrix(cfg, kinds=None, modes=None, workers=1, on_progress=None) -> di
     modes = list(modes or MATRIX_MODES)
     data = cfg.as_dict()
     jobs = [(data, None, None)] + [(data, k, m) for k in kinds for m in modes]
-    rows, interrupted = ordered_rows(_fly, jobs, workers, on_progress)
+    rows, interrupted = ordered_rows(_fly, jobs, workers, on_progress, died=died_case)
     out = {"kinds": kinds, "modes": modes,
            "faults": {k: describe({"kind": k, **MATRIX_FAULTS[k]}) for k in kinds},
            "scenario_faults": [describe(f) for f in cfg.faults],

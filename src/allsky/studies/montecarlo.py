@@ -19,23 +19,25 @@ the table and the histograms of ``allsky montecarlo``).
 """
 
 import contextlib
+import itertools
 import json
+import logging
 import math
 import os
 import signal
-import sys
-import time
 from collections import Counter
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor
-from concurrent.futures import wait as wait_futures
 
 import numpy as np
 
 from allsky.config import ConfigError, dispersions, scenario_from_dict
+from allsky.config.rules import RUNS_MAX
 from allsky.sequencer.master_sequencer import MODES
 from allsky.sim import results
 from allsky.sim.faults import symptom
 from allsky.sim.results import calibration_errors
+from allsky.studies.pool import Died, PoolError, WorkerPool, worker_process_setup
+
+__all__ = ["RUNS_MAX", "worker_process_setup"]  # worker_process_setup: allsky.studies.pool
 
 AXES = results.AXES
 SF_AXES = results.SCALE_FACTOR_AXES
@@ -172,65 +174,18 @@ def _compile_once_per_machine():
         warm_up.warm_up()
 
 
-#: [s] How often a worker checks that its parent is still there (where the
-#: kernel cannot be asked to signal it, or was asked too late).
-PARENT_CHECK_S = 0.5
-#: prctl(2) option: the signal the kernel sends this process when its parent dies.
-_PR_SET_PDEATHSIG = 1
-
-
-def worker_process_setup(parent_pid: int):
-    """Make a worker process quiet on Ctrl-C and end it when its parent goes.
-
-    Ctrl-C (sent to the whole terminal process group) and SIGTERM are the
-    parent's to handle: it stops handing out runs and saves what has
-    finished, so the worker ignores SIGINT and takes SIGTERM's default
-    action (a forked worker would otherwise inherit the parent's handler).
-    If the parent is killed (even by SIGKILL, which it cannot handle), the
-    worker must not fly on for minutes: on Linux the kernel sends it
-    SIGTERM (``prctl(PR_SET_PDEATHSIG)``); everywhere a daemon thread checks
-    every :data:`PARENT_CHECK_S` that the parent is still ``parent_pid``.
-    """
-    import threading
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
-        except (OSError, AttributeError):  # no prctl: the thread below suffices
-            pass
-
-    def watch_parent():
-        while os.getppid() == parent_pid:
-            time.sleep(PARENT_CHECK_S)
-        os.kill(os.getpid(), signal.SIGTERM)
-
-    if os.getppid() != parent_pid:  # the parent went before the kernel was asked
-        os.kill(os.getpid(), signal.SIGTERM)
-    threading.Thread(target=watch_parent, name="allsky-parent-watch", daemon=True).start()
-
-
-def _init_local_worker(data, parent_pid):
-    worker_process_setup(parent_pid)
+def _init_local_worker(data):
     _WORKER.update(key=json.dumps(data, sort_keys=True), cfg=scenario_from_dict(data))
     _compile_once_per_machine()
 
 
 def stop_pool(pool, interrupted):
-    """Shut a process pool down; after an interruption, end its workers at once.
+    """End a :class:`~allsky.studies.pool.WorkerPool`; after an interruption, at once.
 
-    The runs under way when the campaign is interrupted are not waited for
-    (they are flown again on ``--resume``): the workers are terminated, so
-    that Ctrl-C takes effect now and a second Ctrl-C finds nothing to wait on.
+    The jobs under way were waited for already (:meth:`WorkerPool.finish`);
+    what is left is idle workers, or jobs a second Ctrl-C gave up on.
     """
-    if interrupted:
-        for proc in list((getattr(pool, "_processes", None) or {}).values()):
-            proc.terminate()
-    pool.shutdown(wait=True, cancel_futures=True)
+    pool.close(at_once=interrupted)
 
 
 @contextlib.contextmanager
@@ -255,42 +210,105 @@ def interrupts_held():
             signal.signal(sig, handler)
 
 
-def ordered_rows(fly, jobs, workers, on_progress=None, fly_here=None):
+def ordered_rows(fly, jobs, workers, on_progress=None, fly_here=None, total=None,
+                 died=None):
     """``fly`` over ``jobs`` in order on ``workers`` processes; Ctrl-C stops cleanly.
 
-    One worker flies in this process (with ``fly_here`` when given, e.g. a
-    version that reports its own progress). ``on_progress(done, total)``
-    follows each row. Returns ``(rows, interrupted)``: a Ctrl-C after the
-    first row keeps the rows finished and ends the workers at once; before
-    it, the interruption propagates.
+    Parameters
+    ----------
+    fly : callable
+        ``fly(job)`` -> row; module-level (it crosses to the worker processes).
+    jobs : iterable
+        Drawn one at a time as workers come free (a generator holds no list).
+    workers : int
+        Worker processes (:class:`~allsky.studies.pool.WorkerPool`); 1 flies
+        in this process, with ``fly_here`` when given (e.g. a version that
+        reports its own progress).
+    on_progress : callable, optional
+        ``on_progress(done, total)`` after each row, in order.
+    total : int, optional
+        The number of jobs (default ``len(jobs)``).
+    died : callable, optional
+        ``died(job, reason)`` -> the row of a job whose worker process died
+        twice flying it (:class:`~allsky.studies.pool.Died`); without it such
+        a job raises :class:`~allsky.studies.pool.PoolError`.
+
+    Returns
+    -------
+    (list, bool)
+        The rows, in the order of ``jobs``, and whether Ctrl-C stopped them:
+        the jobs under way then finish (a second Ctrl-C ends them at once)
+        and the rows up to the first missing one are kept. With no row
+        finished, the KeyboardInterrupt goes on.
     """
-    workers = max(1, min(int(workers), len(jobs)))  # no idle processes
-    pool = None
-    if workers == 1:
-        it = map(fly_here or fly, jobs)
-    else:
-        pool = ProcessPoolExecutor(workers, initializer=worker_process_setup,
-                                   initargs=(os.getpid(),))
-        it = pool.map(fly, jobs)
+    total = len(jobs) if total is None else int(total)
+    workers = max(1, min(int(workers), total))  # no idle processes
     rows, interrupted = [], False
+
+    def progress():
+        if on_progress is not None:
+            on_progress(len(rows), total)
+
+    if workers == 1:
+        try:
+            for job in jobs:
+                rows.append((fly_here or fly)(job))
+                progress()
+        except KeyboardInterrupt:
+            if not rows:
+                raise
+            interrupted = True
+        return rows, interrupted
+    pool = WorkerPool(fly, workers)
+    waiting, flying = {}, {}  # index -> row ahead of its turn; index -> job under way
+
+    def feed():
+        for i, job in enumerate(jobs):
+            flying[i] = job
+            yield i, job
+
+    def take(pairs):
+        for i, result in pairs:
+            job = flying.pop(i)
+            if isinstance(result, Died):
+                if died is None:
+                    raise PoolError(f"job {i}: {result.reason()}")
+                result = died(job, result.reason())
+            waiting[i] = result
+            while len(rows) in waiting:
+                rows.append(waiting.pop(len(rows)))
+                progress()
+
     try:
-        for row in it:
-            rows.append(row)
-            if on_progress is not None:
-                on_progress(len(rows), len(jobs))
+        for pair in pool.results(feed()):
+            take([pair])
     except KeyboardInterrupt:
+        interrupted = True
+        take(pool.finish())
         if not rows:
             raise
-        interrupted = True
     finally:
-        if pool is not None:
-            with interrupts_held():
-                stop_pool(pool, interrupted or len(rows) < len(jobs))
+        with interrupts_held():
+            stop_pool(pool, interrupted or len(rows) < total)
     return rows, interrupted
 
 
-def _fly_local(jobs):
-    return [fly_one(_WORKER["cfg"], run, seed) for run, seed in jobs]
+def died_row_maker(cfg):
+    """``died(job, reason)`` for :func:`ordered_rows` over runs of ``cfg``."""
+    def died(job, reason):
+        run, seed = job
+        try:
+            drawn = dispersions.draw(cfg, seed)
+        except ConfigError:
+            drawn = {}
+        return _failed_row(cfg, run, seed, drawn, "worker_died", reason)
+
+    return died
+
+
+def _fly_local(job):
+    run, seed = job
+    return fly_one(_WORKER["cfg"], run, seed)
 
 
 # ---------------------------------------------------------------------------
@@ -342,13 +360,40 @@ class _InFlight:
 
 
 def _chunks(jobs, size):
-    for i in range(0, len(jobs), size):
-        yield jobs[i:i + size]
+    """Lists of up to ``size`` jobs, drawn from the iterator ``jobs`` as needed."""
+    jobs = iter(jobs)
+    while chunk := list(itertools.islice(jobs, size)):
+        yield chunk
+
+
+class _LocalStream:
+    """Rows of ``jobs`` on a :class:`~allsky.studies.pool.WorkerPool`, one run a job.
+
+    A run whose worker process dies is flown again on a new worker; a run
+    that kills its worker twice becomes a row of status ``worker_died``.
+    """
+
+    def __init__(self, data, jobs, workers):
+        self.cfg = scenario_from_dict(data)
+        self.pool = WorkerPool(_fly_local, workers, initializer=_init_local_worker,
+                               initargs=(data,))
+        self.jobs, self.died = jobs, died_row_maker(self.cfg)
+
+    def _row(self, job, result):
+        return self.died(job, result.reason()) if isinstance(result, Died) else result
+
+    def __iter__(self):
+        for job, result in self.pool.results((job, job) for job in self.jobs):
+            yield [self._row(job, result)]
+
+    def salvage(self) -> list:
+        """After a Ctrl-C: the rows of the runs under way, which the workers finish."""
+        return [self._row(job, result) for job, result in self.pool.finish()]
 
 
 def _local_stream(data, jobs, workers):
     """Rows on ``workers`` local processes (in this process when 1)."""
-    if workers == 1 or not jobs:
+    if workers == 1:
         cfg = scenario_from_dict(data)
 
         class _Serial:
@@ -358,16 +403,8 @@ def _local_stream(data, jobs, workers):
                 for run, seed in jobs:
                     yield [fly_one(cfg, run, seed)]
         return _Serial(), None
-    pool = ProcessPoolExecutor(workers, initializer=_init_local_worker,
-                               initargs=(data, os.getpid()))
-
-    def wait_first(fs):
-        return wait_futures(fs, return_when=FIRST_COMPLETED).done
-
-    # One run per task: a finished run is handed back at once (the task costs ~0.1 ms).
-    stream = _InFlight(lambda c: pool.submit(_fly_local, c), wait_first, _chunks(jobs, 1),
-                       IN_FLIGHT_PER_WORKER * workers)
-    return stream, lambda interrupted=False: stop_pool(pool, interrupted)
+    stream = _LocalStream(data, jobs, workers)
+    return stream, lambda interrupted=False: stop_pool(stream.pool, interrupted)
 
 
 def _dask_stream(data, jobs, address):
@@ -378,10 +415,16 @@ def _dask_stream(data, jobs, address):
     except ImportError:
         raise CampaignError("--scheduler needs Dask distributed: pip install "
                             "'dask[distributed]'") from None
+    quiet = _dask_logs_quiet()
     try:
         client = Client(address, timeout=DASK_CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError) as e:
-        raise CampaignError(f"cannot reach the Dask scheduler at {address}: {e}") from None
+        quiet()
+        raise CampaignError(f"cannot reach the Dask scheduler at {address}: "
+                            f"{' '.join(str(e).split()) or type(e).__name__}") from None
+    except BaseException:
+        quiet()
+        raise
     threads = max(1, sum(client.nthreads().values()))
     size = max(1, min(DASK_CHUNK_MAX, math.ceil(len(jobs) / (16 * threads))))
     # Scatter the scenario as the single element of a list: a dict would be taken
@@ -397,7 +440,42 @@ def _dask_stream(data, jobs, address):
         return dask_wait(list(fs), return_when="FIRST_COMPLETED").done
 
     stream = _InFlight(submit, wait_first, _chunks(jobs, size), IN_FLIGHT_PER_WORKER * threads)
-    return stream, lambda interrupted=False: client.close()
+
+    def close(interrupted=False):
+        try:
+            client.close(timeout=DASK_CONNECT_TIMEOUT_S)
+        except Exception:  # noqa: BLE001, S110 - a client of a lost cluster closes as it can
+            pass
+        finally:
+            quiet()
+
+    return stream, close
+
+
+#: Loggers of Dask and its network layer: while a campaign runs they stay silent (a lost
+#: scheduler is one line of ours, ClusterLost, not forty of theirs).
+DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def _dask_logs_quiet():
+    """Silence :data:`DASK_LOGGERS`; returns the function that restores them."""
+    saved = {}
+    names = [n for n in list(logging.root.manager.loggerDict)
+             if any(n == d or n.startswith(d + ".") for d in DASK_LOGGERS)]
+    for name in {*DASK_LOGGERS, *names}:
+        log = logging.getLogger(name)
+        saved[name] = (log.level, log.propagate, log.disabled)
+        log.disabled = True
+        if name in DASK_LOGGERS:  # loggers made later inherit it
+            log.setLevel(logging.CRITICAL + 1)
+
+    def restore():
+        for name, (level, propagate, disabled) in saved.items():
+            log = logging.getLogger(name)
+            log.setLevel(level)
+            log.propagate, log.disabled = propagate, disabled
+
+    return restore
 
 
 # ---------------------------------------------------------------------------
@@ -419,17 +497,45 @@ def _cluster_lost(e) -> bool:
 
 
 def check_seeds(cfg, runs: int):
-    """Refuse a campaign whose seeds ``cfg.mission.seed + i`` pass the largest seed.
+    """Refuse more than :data:`RUNS_MAX` runs, or seeds past the largest.
 
     Raises
     ------
     CampaignError
-        Naming the seed range.
+        Naming the number of runs or the seed range.
     """
+    if not 1 <= runs <= RUNS_MAX:
+        raise CampaignError(f"--runs {runs}: a campaign has 1..{RUNS_MAX} runs")
     base = int(cfg.mission.seed)
     if base + runs - 1 >= 2**32:
         raise CampaignError(f"seeds {base}..{base + runs - 1} pass the largest mission.seed "
                             f"({2**32 - 1})")
+
+
+def check_scheduler(address: str):
+    """Refuse an empty Dask scheduler address (Dask would start a cluster of its own)."""
+    if not str(address).strip():
+        raise CampaignError("--scheduler: an empty address; give the scheduler's, "
+                            "tcp://HOST:PORT, or leave --scheduler out to fly on this machine")
+
+
+class Jobs:
+    """The ``(run, seed)`` pairs a campaign still flies, made as they are drawn.
+
+    ``len()`` is their number; iterating draws them in run order, skipping
+    the runs in ``finished``. Nothing is held per run, so a campaign of
+    :data:`RUNS_MAX` runs starts as quickly, and in as little memory, as one
+    of ten.
+    """
+
+    def __init__(self, runs: int, base: int, finished=frozenset()):
+        self.runs, self.base, self.finished = int(runs), int(base), finished
+
+    def __len__(self):
+        return self.runs - sum(1 for i in self.finished if 0 <= i < self.runs)
+
+    def __iter__(self):
+        return ((i, self.base + i) for i in range(self.runs) if i not in self.finished)
 
 
 def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=None,
@@ -476,10 +582,12 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
         resumed campaign flies the others.
     """
     check_seeds(cfg, runs)
+    if scheduler is not None:
+        check_scheduler(scheduler)
     base = int(cfg.mission.seed)
     rows = list(done)
     finished = {r["run"] for r in rows}
-    jobs = [(i, base + i) for i in range(runs) if i not in finished]
+    jobs = Jobs(runs, base, finished)
     data = cfg.as_dict()
     flown, interrupted = [], False
     workers = max(1, min(workers or os.cpu_count() or 1, len(jobs) or 1))
@@ -501,14 +609,18 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
             record(chunk_rows)
     except KeyboardInterrupt:
         interrupted = True
+        salvaged = stream.salvage()  # the runs under way (a second Ctrl-C: at once)
         with interrupts_held():
-            record(stream.salvage())
+            record(salvaged)
+    except PoolError as e:
+        raise CampaignError(f"the local worker processes cannot fly: {e}") from None
     except Exception as e:
         if scheduler is None or isinstance(e, CampaignError) or not _cluster_lost(e):
             raise
-        raise ClusterLost(f"lost the Dask cluster at {scheduler} ({type(e).__name__}"
-                            f"{': ' + str(e) if str(e) else ''}) after {len(flown)} runs of "
-                            "this session") from None
+        first = (str(e).strip().splitlines() or [""])[0].rstrip(":")
+        why = f"{type(e).__name__}{': ' + first[:120] if first else ''}"
+        raise ClusterLost(f"lost the Dask cluster at {scheduler} ({why}) after {len(flown)} "
+                          "runs of this session") from None
     finally:
         if close is not None:
             with interrupts_held():
@@ -545,7 +657,7 @@ def summarize(rows, runs=None, base_seed=None) -> dict:
     return {"runs": runs if runs is not None else len(rows), "recorded": len(rows),
             "base_seed": base_seed, "complete": status.get("complete", 0),
             "aborted": status.get("aborted", 0), "invalid": status.get("invalid", 0),
-            "error": status.get("error", 0),
+            "error": status.get("error", 0), "worker_died": status.get("worker_died", 0),
             "abort_reasons": dict(reasons.most_common()),
             "outcomes": outcome_probabilities(rows), "metrics": metrics}
 

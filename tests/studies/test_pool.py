@@ -1,0 +1,132 @@
+"""WorkerPool: each job once, a dead worker replaced and its job flown again, Ctrl-C clean.
+
+A worker is killed by SIGKILL from inside the job it is flying (the job
+kills its own process), which is what the kernel's out-of-memory killer or
+``kill -9`` does to a worker, at a moment that does not depend on timing.
+"""
+
+import os
+import signal
+from pathlib import Path
+
+import pytest
+
+from allsky.studies.pool import Died, PoolError, WorkerPool
+
+
+def _square(job):
+    return job * job
+
+
+def _kill_once(job):
+    """Square the number; the first time job 3 is flown, SIGKILL the worker flying it."""
+    number, marks = job
+    if number == 3:
+        mark = Path(marks) / "killed"
+        if not mark.exists():
+            mark.write_text("1")
+            os.kill(os.getpid(), signal.SIGKILL)
+    return number * number
+
+
+def _kill_always(job):
+    number, _ = job
+    if number == 2:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return number * number
+
+
+def _raise(job):
+    raise ValueError(f"job {job}")
+
+
+def _fly(pool, jobs):
+    try:
+        return dict(pool.results((k, j) for k, j in jobs))
+    finally:
+        pool.close()
+
+
+def test_every_job_once_in_any_order():
+    pool = WorkerPool(_square, 2)
+    assert _fly(pool, ((k, k) for k in range(20))) == {k: k * k for k in range(20)}
+    assert pool.replaced == 0
+
+
+def test_jobs_are_drawn_as_workers_come_free():
+    drawn = []
+
+    def jobs():
+        for k in range(10):
+            drawn.append(k)
+            yield k, k
+
+    pool = WorkerPool(_square, 2)
+    it = pool.results(jobs())
+    next(it)
+    assert len(drawn) <= 3  # two handed out, one more when the first came back
+    pool.close()
+
+
+def test_a_worker_killed_mid_job_is_replaced_and_the_job_flown_again(tmp_path):
+    pool = WorkerPool(_kill_once, 2)
+    out = _fly(pool, ((k, (k, str(tmp_path))) for k in range(8)))
+    assert out == {k: k * k for k in range(8)}
+    assert pool.replaced == 1
+
+
+def test_a_job_that_kills_its_worker_twice_comes_back_died(tmp_path):
+    pool = WorkerPool(_kill_always, 2)
+    out = _fly(pool, ((k, (k, str(tmp_path))) for k in range(5)))
+    assert isinstance(out[2], Died)
+    assert out[2].exit_codes == (-signal.SIGKILL, -signal.SIGKILL)
+    assert out[2].reason() == "its worker process died twice (SIGKILL, SIGKILL)"
+    assert {k: v for k, v in out.items() if k != 2} == {0: 0, 1: 1, 3: 9, 4: 16}
+    assert pool.replaced == 2
+
+
+def test_an_exception_of_the_job_is_raised_in_the_parent():
+    pool = WorkerPool(_raise, 2)
+    with pytest.raises(ValueError, match="job 1"):
+        _fly(pool, [(1, 1)])
+
+
+def _broken_start():
+    raise RuntimeError("cannot start")
+
+
+def _exit_at_start():
+    os._exit(7)
+
+
+def test_an_initializer_that_raises_is_the_answer_to_every_job():
+    pool = WorkerPool(_square, 2, initializer=_broken_start)
+    with pytest.raises(RuntimeError, match="cannot start"):
+        _fly(pool, [(1, 1), (2, 2)])
+
+
+def test_workers_that_cannot_start_end_the_pool_in_one_error():
+    pool = WorkerPool(_square, 2, initializer=_exit_at_start)
+    with pytest.raises(PoolError, match="died before their first job"):
+        _fly(pool, [(1, 1), (2, 2)])
+
+
+def test_finish_lets_the_jobs_under_way_end():
+    pool = WorkerPool(_square, 2)
+    it = pool.results((k, k) for k in range(100))
+    first = [next(it)]
+    rest = pool.finish()  # as after a Ctrl-C: nothing more handed out
+    pool.close()
+    got = dict(first + rest)
+    assert 1 <= len(got) <= 3 and all(v == k * k for k, v in got.items())
+
+
+def test_no_worker_outlives_the_pool():
+    pool = WorkerPool(_square, 2)
+    it = pool.results((k, k) for k in range(4))
+    next(it)
+    processes = [w.process for w in [*pool._idle, *pool._busy.values()]]
+    assert len(processes) == 2 and all(p.is_alive() for p in processes)
+    list(it)
+    pool.close()
+    assert not any(p.is_alive() for p in processes)

@@ -44,8 +44,8 @@ def _interrupted_while_starting(signum, frame):
 #: of allsky that runs): a Ctrl-C while its modules load ends it with one line, never a
 #: traceback. :func:`allsky.apps.cli.main` takes over once it runs. A library user's
 #: signals are left alone.
-_COMMAND = _started_as_the_command()
-if _COMMAND:
+RUNNING_AS_COMMAND = _started_as_the_command()
+if RUNNING_AS_COMMAND:
     for _sig in (_signal.SIGINT, _signal.SIGTERM):
         if _signal.getsignal(_sig) in (_signal.default_int_handler, _signal.SIG_DFL):
             _signal.signal(_sig, _interrupted_while_starting)

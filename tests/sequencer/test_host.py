@@ -52,8 +52,9 @@ def test_the_mission_is_a_host():
             assert callable(getattr(m, name)), name
 
 
-#: A named tuple's own API (public, named with an underscore so as not to clash).
-NAMED_TUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
+#: A named tuple's own API (public, named with an underscore so as not to clash), and
+#: ``os._exit`` (the documented exit without clean-up).
+NAMED_TUPLE_API = {"_replace", "_asdict", "_fields", "_make", "_exit"}
 #: Private fields of other libraries read where they offer no public way, each guarded:
 #: argparse's list of a parser's actions and subparsers (the generated CLI reference),
 #: numba's cache locators and index (allsky.jit_cache, allsky.sim.warm_up).

@@ -837,8 +837,8 @@ def main(argv=None) -> int:
             # changes nothing (ignored; Python's shutdown leaves an ignored signal ignored,
             # where it would give a handled one its default action, death).
             for sig, handler in old.items():
-                signal.signal(sig, signal.SIG_IGN if allsky._COMMAND else handler)
-    if allsky._COMMAND and code == EXIT_INTERRUPTED:
+                signal.signal(sig, signal.SIG_IGN if allsky.RUNNING_AS_COMMAND else handler)
+    if allsky.RUNNING_AS_COMMAND and code == EXIT_INTERRUPTED:
         _exit_now(code)
     return code
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from allsky.config import ConfigError
 from allsky.config.toml_io import os_reason, read_bounded
+from allsky.vocabulary import AXES, CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES
 
 #: [bytes] Largest summary file read (a mission's summary is a few kB; one of many
 #: targets some tens of kB).
@@ -24,9 +25,9 @@ SUMMARY_MAX_BYTES = 16 * 2**20
 # The shape language: a type name, a tuple of alternatives, a dict of fields (each
 # optional, unless its name ends in "!"), ("list", shape), ("map", key names, shape).
 NUMBER, TEXT, FLAG, NONE = "number", "text", "flag", "none"
-_AXES3 = ("roll", "pitch", "yaw")
-_CROSS = ("roll_into_pitch", "roll_into_yaw", "yaw_into_pitch", "yaw_into_roll")
-_WORDS = {"drift_deg_h": ("map", _AXES3, NUMBER), "scale_factor": ("map", ("roll", "yaw"),
+_AXES3 = AXES
+_CROSS = CROSS_COUPLING_KEYS
+_WORDS = {"drift_deg_h": ("map", _AXES3, NUMBER), "scale_factor": ("map", SCALE_FACTOR_AXES,
                                                                     NUMBER),
           "cross_coupling": ("map", _CROSS, NUMBER)}
 _HOLD = ({"drift_arcsec_per_min": ("map", _AXES3, NUMBER)}, NONE)

@@ -54,11 +54,12 @@ _EXAMPLE = '{ dist = "normal", sigma = 0.5 }'
 def merge(base: dict, incoming) -> dict:
     """Merge a ``[dispersions]`` table over ``base`` (flat ``{key: entry}``), in place.
 
-    ``incoming`` is the table as read from TOML. Both spellings of a key are
-    accepted: ``gyro.drift_deg_h = {...}`` (TOML nests it as ``gyro =
-    {drift_deg_h = {...}}``) and ``"gyro.drift_deg_h" = {...}``. An entry
-    replaces the same key's entry in ``base``; an entry with ``dist = "none"``
-    removes it. Entries are checked later, by :func:`validate`.
+    ``incoming`` is the table as read from TOML.
+
+    Both spellings of a key are accepted: ``gyro.drift_deg_h = {...}`` (TOML
+    nests it as ``gyro = {drift_deg_h = {...}}``) and ``"gyro.drift_deg_h" =
+    {...}``. An entry replaces the same key's entry in ``base``; an entry with
+    ``dist = "none"`` removes it. Entries are checked later, by :func:`validate`.
     """
     if not isinstance(incoming, Mapping):
         raise ConfigError("dispersions", incoming,

@@ -32,7 +32,7 @@ class OutputError(Exception):
     """An output path that cannot be written, named by its option (one line).
 
     ``option`` is the command-line option that gave the path (``--json``;
-    empty for none), ``path`` the path and ``reason`` why, in words
+    None when no option did), ``path`` the path and ``reason`` why, in words
     (:func:`write_reason`).
     """
 

@@ -51,8 +51,8 @@ def fly(m, quiet=False, stream=None):
     """Fly the remaining modes of ``m`` with a progress line; return its summary.
 
     ``m`` is the :class:`~allsky.sim.mission.Mission`. With ``quiet`` no line
-    is shown; ``stream`` is where it goes (default ``sys.stderr``; a
-    stream that is not a terminal gets the compile note alone).
+    is shown; ``stream`` is where it goes (default ``sys.stderr``, which, when
+    it is not a terminal, gets the compile note alone).
     """
     stream = stream or sys.stderr
     if quiet:

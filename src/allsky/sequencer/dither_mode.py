@@ -44,12 +44,13 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
     Parameters
     ----------
     rec : numpy.ndarray, shape (n, 7)
-        The record, one row per sample: time [s], up/down counters 14, 16,
-        18 [arcsec] and the optical roll, pitch, yaw attitude [arcsec].
+        The record, one row per sample: leg time [s], up/down counters 14,
+        16, 18 [arcsec] and the optical roll, pitch, yaw attitude [arcsec]
+        (:func:`allsky.sim.recorder.record_dither`).
     sample_s : float
         [s] Interval between samples (``dither.sample_s``).
     lead_in_s : float
-        [s] Time from the record's start to the analysed span.
+        [s] Leg time at which the analysed span begins (``dither.lead_in_s``).
     record_s : float
         [s] The analysed span, whole dither periods (``dither.record_s``).
     amplitude_arcsec : array_like, shape (3,)

@@ -80,8 +80,10 @@ def cpu_fingerprint():
 def structure(x):
     """The shape of an argument as numba types it: nested tuples, array kinds, scalars.
 
-    Two arguments of the same structure get the same numba type, so code
-    compiled for one reads the other correctly.
+    ``x`` is one argument of a compiled call: a NamedTuple or tuple (read
+    field by field), an array, a Python or NumPy scalar, or None. Two
+    arguments of the same structure get the same numba type, so code compiled
+    for one reads the other correctly.
     """
     fields = getattr(x, "_fields", None)
     if fields is not None:

@@ -102,7 +102,7 @@ def standard_normal(rng):
 
 
 def new_generator(value=1) -> np.ndarray:
-    """A seeded generator state, (1,) uint64."""
+    """A generator state, (1,) uint64, seeded from integer ``value`` (:func:`seed`)."""
     rng = np.zeros(1, dtype=np.uint64)
     seed(rng, value)
     return rng

@@ -90,7 +90,9 @@ class CompiledFunction:
 
     Calling it, or reading any attribute of numba's dispatcher from it
     (``signatures``, ``targetoptions``, ``stats``...), loads numba
-    (:func:`load_numba`); ``py_func`` is the Python function itself.
+    (:func:`load_numba`); ``py_func`` is the Python function itself and
+    ``options`` the keywords numba's ``njit`` gets for it (``cache``,
+    ``nogil``, ``inline`` ...).
     """
 
     def __init__(self, py_func, options):

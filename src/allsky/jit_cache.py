@@ -44,6 +44,10 @@ class PackageCacheLocator(_BASE):
     ships the compiled loop), else, if that cannot be written, in the user's
     cache directory. The stamp is :func:`source_stamp`. Functions outside the
     package are left to numba's own locators.
+
+    Make it with :meth:`from_function`; numba does. ``py_func`` is the
+    Python function compiled, ``py_file`` the absolute path of its source
+    file and ``cache_path`` the directory chosen for its cache files.
     """
 
     def __init__(self, py_func, py_file, cache_path):

@@ -51,13 +51,17 @@ SRC = Path(__file__).resolve().parent
 
 
 def module_name(path: Path, root: Path = SRC) -> str:
-    """Dotted module name of a source file under ``root`` (the allsky folder)."""
+    """Dotted module name of source file ``path`` under ``root`` (the allsky folder)."""
     parts = path.relative_to(root.parent).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
 def package_of(module: str, root: Path = SRC) -> str:
-    """Layer package of a dotted allsky module name ("" for the foundations)."""
+    """Layer package of a dotted allsky module name ("" for the foundations).
+
+    ``module`` is the name (``allsky.sim.mission``); ``root`` the allsky
+    source folder, where a layer package must be a folder.
+    """
     if module in FRONT_DOORS:
         return FRONT_DOORS[module]
     parts = module.split(".")
@@ -67,7 +71,11 @@ def package_of(module: str, root: Path = SRC) -> str:
 
 
 def imports_of(path: Path, root: Path = SRC) -> set:
-    """Every allsky module an import statement of ``path`` names (lazy imports too)."""
+    """Every allsky module an import statement of ``path`` names (lazy imports too).
+
+    ``root`` is the allsky source folder: ``from allsky.x import y`` counts
+    as an import of module ``allsky.x.y`` when that is a file or package there.
+    """
     tree = ast.parse(path.read_text(encoding="utf-8"))
     found = set()
     for node in ast.walk(tree):
@@ -92,7 +100,10 @@ def import_graph(root: Path = SRC) -> dict:
 
 
 def package_edges(graph: dict) -> dict:
-    """(importing package, imported package) -> number of module imports between them."""
+    """(importing package, imported package) -> number of module imports between them.
+
+    ``graph`` is an import graph as :func:`import_graph` makes it.
+    """
     edges = {}
     for module, deps in graph.items():
         a = package_of(module)
@@ -104,7 +115,10 @@ def package_edges(graph: dict) -> dict:
 
 
 def find_cycles(graph: dict) -> list:
-    """Every import loop a depth-first search meets, as ``[a, b, ..., a]``."""
+    """Every import loop a depth-first search meets, as ``[a, b, ..., a]``.
+
+    ``graph`` maps each module to the modules it imports (:func:`import_graph`).
+    """
     state, stack, cycles = {}, [], []
 
     def visit(m):

@@ -23,7 +23,10 @@ from allsky.vehicle.envelopes import facet_polygons
 
 
 def format_margins(margins: dict) -> str:
-    """Loop margins (:func:`allsky.studies.analysis.loop_margins`) as a text table."""
+    """Loop margins as a text table.
+
+    ``margins`` are :func:`allsky.studies.analysis.loop_margins`'.
+    """
     head = (f"{'loop':<19}{'GM [dB]':>9}{'PM [deg]':>10}{'w_gc [rad/s]':>14}"
             f"{'w_pc [rad/s]':>14}{'BW [rad/s]':>12}{'coupling':>10}")
     lines = [head, "-" * len(head)]
@@ -39,7 +42,10 @@ def format_margins(margins: dict) -> str:
 
 
 def format_pwpf(result: dict) -> str:
-    """The PWPF static characteristic (analysis.pwpf_static_characteristic) as a table."""
+    """The PWPF static characteristic (analysis.pwpf_static_characteristic) as a table.
+
+    ``result`` is :func:`allsky.studies.analysis.pwpf_static_characteristic`'s.
+    """
     def ms(v):
         return f"{'inf':>9}" if v is None else f"{v * 1e3:>9.2f}"
 
@@ -65,7 +71,10 @@ def format_pwpf(result: dict) -> str:
 
 
 def format_analysis(result: dict) -> str:
-    """An :func:`allsky.studies.analysis.analyze` result as text: margins, then PWPF."""
+    """An analysis as text: margins, then PWPF.
+
+    ``result`` is :func:`allsky.studies.analysis.analyze`'s.
+    """
     return "\n".join(["Loop margins (linear, cut at the plant input)", "",
                       format_margins(result["margins"]), "", format_pwpf(result["pwpf"])])
 
@@ -86,6 +95,10 @@ def run_from_cli(cfg, args) -> int:
 
     ``--json -`` writes the JSON alone to stdout, instead of the tables.
     With ``--envelope``: :func:`run_envelope`.
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
     """
     from allsky.apps.output import FIGURE_SUFFIXES, check_output, write_atomic
 
@@ -173,7 +186,11 @@ def format_wheel_array(arr: dict, actuators_kind=None) -> str:
 
 
 def format_envelopes(result: dict, actuators_kind=None) -> str:
-    """A :func:`scenario_envelopes` result as text: array, reaches, dither check."""
+    """A :func:`scenario_envelopes` result as text: array, reaches, dither check.
+
+    ``result`` is that result; ``actuators_kind`` the scenario's
+    ``actuators.kind`` ("jets" or "wheels"), which the array's heading names.
+    """
     w, dc = result["wheels"], result["dither_check"]
     failed = w["one_failed"]["wheel"]
     head = f"  {'':<26}{'radius':>10}{'x (roll)':>12}{'y (pitch)':>12}{'z (yaw)':>12}"
@@ -344,6 +361,10 @@ def run_envelope(cfg, args) -> int:
     The wheel array is the scenario's ``[wheels]``; ``--wheel-beta``,
     ``--wheel-torque`` and ``--wheel-momentum`` replace its axes (by a
     four-wheel pyramid) and its limits.
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
     """
     from allsky.apps.output import FIGURE_SUFFIXES, check_output, write_atomic
 

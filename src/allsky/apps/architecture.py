@@ -12,7 +12,11 @@ from allsky import layers
 
 
 def package_modules(graph: dict) -> dict:
-    """Package -> sorted short module names (package faces left out)."""
+    """Package -> sorted short module names (package faces left out).
+
+    ``graph`` is the import graph (:func:`allsky.layers.import_graph`); only
+    its modules are read.
+    """
     out = {layer.package: [] for layer in layers.LAYERS}
     for module in graph:
         pkg = layers.package_of(module)

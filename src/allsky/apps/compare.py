@@ -28,7 +28,10 @@ def _fmt(v, spec=".1f"):
 
 
 def format_compare(result) -> str:
-    """Side-by-side table of a comparison (:func:`allsky.studies.compare.compare`)."""
+    """Side-by-side table of a comparison.
+
+    ``result`` is :func:`allsky.studies.compare.compare`'s.
+    """
     leg, dit = result["legacy"], result["dither"]
     pred = result["predicted_scale_factor_sigma_ppm"]
     n = result["runs"]
@@ -168,7 +171,11 @@ def comparison_figure(result, pulse_weight_arcsec: float):
 
 
 def plot(result, path, pulse_weight_arcsec: float) -> Path:
-    """PNG of :func:`comparison_figure` at ``path``; returns the path."""
+    """PNG of :func:`comparison_figure` at ``path``; returns the path.
+
+    ``result`` and ``pulse_weight_arcsec`` [arcsec] are passed to
+    :func:`comparison_figure`.
+    """
     path = Path(path)
     comparison_figure(result, pulse_weight_arcsec).savefig(path, dpi=120)
     return path
@@ -180,6 +187,10 @@ def run_from_cli(cfg, args) -> int:
     Ctrl-C or SIGTERM after some pairs finished: the table, ``--json`` (marked
     ``interrupted``) and the plot of those pairs are written, and
     :class:`~allsky.apps.output.Interrupted` says so.
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
     """
     import sys
 
@@ -276,6 +287,7 @@ def format_information(result) -> str:
     measured sample sigma and RMS of the error, and RMS / bound: 1 is
     information-limited, more leaves information on the table. Then each
     method's final pointing taken apart (:mod:`allsky.studies.pointing`).
+    ``result`` is :func:`allsky.studies.compare.compare`'s.
     """
     bounds = result.get("crlb")
     if not bounds:
@@ -325,7 +337,8 @@ def information_figure(result):
     Left: the Cramer-Rao bound of the roll and yaw scale factors and of a
     cross-coupling factor per manoeuvre (``crlb_manoeuvres``; a quantity the
     manoeuvre does not show is marked at the top). Right: each method's RMS
-    error over its bound, per quantity (1: information-limited).
+    error over its bound, per quantity (1: information-limited). ``result``
+    is :func:`allsky.studies.compare.compare`'s.
 
     Returns
     -------
@@ -400,6 +413,8 @@ def format_kalman(result) -> str:
     Cells are one run's value or mean ± standard deviation over the runs;
     "predicted" is each method's analytic 1-sigma (for the filter, the RMS
     of its own sigma over the runs), "measured" the spread of the errors.
+    ``result`` is :func:`allsky.studies.compare.compare`'s, flown with the
+    ``"kalman"`` method.
     """
     cols = [c for c in THREE_WAY if c in result]
     pred = result["predicted_scale_factor_sigma_ppm"]
@@ -451,6 +466,8 @@ def three_way_figure(result):
     Left: |scale-factor error| of every complete run, roll and yaw, per
     method, with each method's predicted 1-sigma as a bar. Right: the final
     pointing error of every run (Mode 6 flown with each method's register 23).
+    ``result`` is :func:`allsky.studies.compare.compare`'s, flown with the
+    ``"kalman"`` method.
 
     Returns
     -------
@@ -496,7 +513,8 @@ def three_way_figure(result):
 def plot_three_way(result, path, pulse_weight_arcsec: float | None = None) -> Path:
     """PNG of :func:`three_way_figure` at ``path``; returns the path.
 
-    ``pulse_weight_arcsec`` is unused (the signature of :func:`plot`).
+    ``result`` is passed to it; ``pulse_weight_arcsec`` is unused (the
+    signature of :func:`plot`).
     """
     path = Path(path)
     three_way_figure(result).savefig(path, dpi=120)

@@ -153,8 +153,8 @@ def guarded(on_lost_interrupt=None):
     counts as lost from the start. A command started without stdin reads an
     empty one (the null device). An exception Python can only ignore (raised
     in a callback from compiled code) is one line, not a traceback; a
-    KeyboardInterrupt lost that way calls ``on_lost_interrupt()``, which
-    delivers it again.
+    KeyboardInterrupt lost that way calls ``on_lost_interrupt``, if given,
+    with no arguments: it delivers it again.
     """
     closed = _descriptors_open()
     old_in, old_out, old_err = sys.stdin, sys.stdout, sys.stderr

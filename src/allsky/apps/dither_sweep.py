@@ -16,7 +16,7 @@ SWEEP_NAMES = ("amplitude_urad", "record_s")
 def sweep_axis(text):
     """Parse one ``--sweep NAME=V1,V2,...`` into ``(name, (v1, v2, ...))``.
 
-    The values are positive, finite numbers.
+    ``text`` is the option's value. The values are positive, finite numbers.
     """
     name, sep, values = text.partition("=")
     name = name.strip()
@@ -38,8 +38,9 @@ def sweep_axis(text):
 def grid_from_args(cfg, sweeps):
     """Amplitudes [µrad] and record lengths [s] from the ``--sweep`` options.
 
-    A name not given keeps the scenario's value (the largest amplitude of
-    the dithered axes; ``dither.record_s``). A name given twice raises
+    ``sweeps`` are the ``--sweep`` values as given (text); a name not given
+    keeps scenario ``cfg``'s value (the largest amplitude of the dithered
+    axes; ``dither.record_s``). A name given twice raises
     :class:`allsky.config.ConfigError` naming ``--sweep``.
     """
     from allsky.config import ConfigError
@@ -59,7 +60,10 @@ def _g(v, spec):
 
 
 def format_sweep(result) -> str:
-    """The trade study as a table: one line per grid point, the legacy reference first."""
+    """The trade study as a table: one line per grid point, the legacy reference first.
+
+    ``result`` is :func:`allsky.studies.dither_sweep.sweep`'s.
+    """
     leg = result["legacy"]
     rms = leg.get("scale_factor_rms_error_ppm", {})
     axes = sorted({a for p in result["points"] for a in p.get("predicted_sigma_ppm", {})},
@@ -105,7 +109,8 @@ def sweep_figure(result):
     Solid lines: the dither with the legacy cross-coupling known; dotted:
     its own register 23; thin dashed: the analytic 1-sigma. The horizontal
     line per axis is the legacy turns' RMS error; the right axis (grey) the
-    largest excursion from the attitude held.
+    largest excursion from the attitude held. ``result`` is
+    :func:`allsky.studies.dither_sweep.sweep`'s.
 
     Returns
     -------
@@ -169,6 +174,10 @@ def run_from_cli(cfg, args) -> int:
 
     ``--json`` gets :func:`allsky.studies.dither_sweep.sweep`'s result,
     ``--plot`` :func:`sweep_figure`.
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
     """
     import sys
 

@@ -206,7 +206,12 @@ def _wait_text(step, cfg, mode) -> str:
 
 
 def step_text(step, cfg, mode) -> str:
-    """One step of the mode table in words (values from scenario ``cfg``)."""
+    """One step of the mode table in words (values from scenario ``cfg``).
+
+    ``step`` is an :class:`~allsky.sequencer.modes.Operate`,
+    :class:`~allsky.sequencer.modes.Wait` or :class:`~allsky.sequencer.modes.Do`
+    of mode ``mode`` (its name: durations may depend on it).
+    """
     if isinstance(step, modes.Operate):
         return _operate_text(step)
     if isinstance(step, modes.Wait):
@@ -346,7 +351,11 @@ SECTIONS = {"theory_of_operation.md": {"modes": mode_reference, "wiring": wiring
 
 
 def fill_sections(text: str, sections: dict) -> str:
-    """``text`` with each ``<!-- BEGIN GENERATED: name -->`` section regenerated."""
+    """``text`` with each ``<!-- BEGIN GENERATED: name -->`` section regenerated.
+
+    ``sections`` maps each section's name to a function of no argument that
+    makes its text. ValueError when the page has not exactly one such section.
+    """
     for name, make in sections.items():
         begin, end = f"<!-- BEGIN GENERATED: {name} -->\n", f"<!-- END GENERATED: {name} -->"
         if text.count(begin) != 1 or text.count(end) != 1:

@@ -49,7 +49,11 @@ REGISTER_NAMES = {"23": "register 23", "24": "register 24",
 
 
 def mode_sentence(name, exit_text=None) -> str:
-    """One sentence explaining mode ``name``: what it waits for, and how it ends."""
+    """One sentence explaining mode ``name``: what it waits for, and how it ends.
+
+    ``exit_text`` is how the mode ended in this flight (its ``mode_end``
+    entry's ``exit``); None, or an abort, gives the mode table's words.
+    """
     mode = modes.BY_NAME[name]
     waits = [s.what for s in mode.steps if isinstance(s, modes.Wait)]
     text = f"The sequencer waits for {', then '.join(waits)}" if waits else "No waits"
@@ -60,7 +64,7 @@ def mode_sentence(name, exit_text=None) -> str:
 
 
 def switch_words(close, open_) -> str:
-    """``close S12; open S16, S18``."""
+    """``close S12; open S16, S18``: switch numbers ``close`` and ``open_`` in words."""
     parts = []
     for verb, group in (("close", close), ("open", open_)):
         if group:
@@ -76,7 +80,7 @@ def _value(e) -> str:
 
 
 def event_text(e) -> str:
-    """One journal entry in one line of words."""
+    """Journal entry ``e`` (a dict, docs/journal.md) in one line of words."""
     kind = e["kind"]
     if kind == "mode_start":
         return f"Mode {e['mode']} begins: {e['title']}"
@@ -124,7 +128,7 @@ def event_text(e) -> str:
 
 
 def worth_a_line(e) -> bool:
-    """Whether a journal entry is worth a line of a log.
+    """Whether journal entry ``e`` is worth a line of a log.
 
     All are but a counter cleared to zero (its action has a line) and a
     mode's successful end (the next mode's start says it).
@@ -137,6 +141,8 @@ def worth_a_line(e) -> bool:
 
 def page_log(events) -> list:
     """The replay page's event log, one row per journal entry worth a line.
+
+    ``events`` are the journal's entries, in order (the summary's ``events``).
 
     Each row: ``t_s``, ``kind``, ``mode``, ``text``, ``reason`` and, for
     switch operations and mode starts, ``waiting`` (what the sequencer waits
@@ -183,6 +189,8 @@ def page_log(events) -> list:
 
 def register_history(events) -> dict:
     """Registers 23 and 24 over time, from the journal's register writes.
+
+    ``events`` are the journal's entries, in order (the summary's ``events``).
 
     Returns ``{"23": [...], "24": [...]}``: for register 23, each write's
     time, the action that wrote it (``by``; None for the neutral words at

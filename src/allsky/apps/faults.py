@@ -28,7 +28,11 @@ def _cell(row, notes) -> str:
 
 
 def format_matrix(result, wall_s=None) -> str:
-    """The matrix as text: a table of outcomes, the abort reasons, the counts."""
+    """The matrix as text: a table of outcomes, the abort reasons, the counts.
+
+    ``result`` is :func:`allsky.studies.faults.fault_matrix`'s; ``wall_s``
+    [s], if given, is the time the matrix took, which the counts line names.
+    """
     modes, kinds = result["modes"], result["kinds"]
     ref = result["reference"]
     notes = {}
@@ -86,7 +90,12 @@ def _flown(modes, cfg):
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky faults``: fly the matrix, print it, write its JSON (``--json``)."""
+    """``allsky faults``: fly the matrix, print it, write its JSON (``--json``).
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
+    """
     from tqdm import tqdm
 
     from allsky.apps.output import Interrupted, cap_workers, check_output, write_atomic
@@ -124,7 +133,10 @@ def run_from_cli(cfg, args) -> int:
 
 
 def format_scenarios(entries) -> str:
-    """The packaged scenarios: name and the first line of each file's story."""
+    """The packaged scenarios: name and the first line of each file's story.
+
+    ``entries`` are ``{"name", "path", "title"}`` per scenario.
+    """
     width = max(len(e["name"]) for e in entries)
     lines = ["Packaged scenarios (allsky run NAME):"]
     lines += [f"  {e['name']:<{width}}  {e['title']}" for e in entries]
@@ -132,7 +144,11 @@ def format_scenarios(entries) -> str:
 
 
 def scenarios_from_cli(cfg, args) -> int:
-    """``allsky scenarios [--json PATH]``: list the packaged scenarios."""
+    """``allsky scenarios [--json PATH]``: list the packaged scenarios.
+
+    ``cfg`` is None (the command loads no scenario) and ``args`` the parsed
+    command line (:mod:`allsky.apps.cli`); returns the exit status.
+    """
     from allsky.apps.output import check_output, write_atomic
     from allsky.config.faults import packaged_scenarios
 

@@ -80,6 +80,8 @@ def observability_figure(legacy: kalman_mekf.Observability,
 def mismatch_figure(study: dict):
     """The filter under a wrong model (:func:`allsky.studies.mismatch.study_dict`).
 
+    ``study`` is that function's result.
+
     Left: the noise data sheet scaled by k (all noises, the gyro's, the
     optics'): the mean NEES at the end of Mode 5 (15 expected) and the RMS
     roll and yaw scale-factor errors over the filter's own sigma (1 for an
@@ -145,7 +147,11 @@ def mismatch_figure(study: dict):
 
 
 def write_figures(out_dir, cfg=None) -> list:
-    """Fly both plans, filter them, write ``kalman_observability.png`` in ``out_dir``."""
+    """Fly both plans, filter them, write ``kalman_observability.png`` in ``out_dir``.
+
+    ``cfg`` is the scenario flown (None: the packaged default). Returns the
+    paths written.
+    """
     from allsky.apps.output import write_atomic
     from allsky.config import load_scenario
 

@@ -29,7 +29,12 @@ from pathlib import Path
 
 
 class OutputError(Exception):
-    """An output path that cannot be written, named by its option (one line)."""
+    """An output path that cannot be written, named by its option (one line).
+
+    ``option`` is the command-line option that gave the path (``--json``;
+    None when no option did), ``path`` the path and ``reason`` why, in words
+    (:func:`write_reason`).
+    """
 
     def __init__(self, option, path, reason):
         self.option, self.path, self.reason = option, str(path), reason
@@ -38,7 +43,10 @@ class OutputError(Exception):
 
 
 def write_reason(e: OSError) -> str:
-    """A short reason for a failed write, in words rather than errno text."""
+    """A short reason for a failed write, in words rather than errno text.
+
+    ``e`` is the error the write raised.
+    """
     return {errno.ENOENT: "directory does not exist", errno.EACCES: "permission denied",
             errno.EPERM: "permission denied", errno.EROFS: "read-only file system",
             errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
@@ -64,6 +72,8 @@ _MAX_LINKS = 40
 
 def descriptor_of(path):
     """The file descriptor a path names (``/dev/stdout``, ``/dev/fd/63``), or None.
+
+    ``path`` is any path (str or path-like).
 
     Such a path reaches a descriptor this process already holds (the shell's
     redirection or process substitution): writing goes through that

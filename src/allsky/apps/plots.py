@@ -68,7 +68,7 @@ def _switch_labels() -> dict:
 
 
 def mode_name(code: float) -> str:
-    """Mode name (``"6-1"``) of a telemetry mode code (6.1); ``"?"`` if unknown."""
+    """Mode name (``"6-1"``) of telemetry mode code ``code`` (6.1); ``"?"`` if unknown."""
     for name, c in MODE_CODE.items():
         if abs(code - c) < 1e-6:
             return name
@@ -76,7 +76,10 @@ def mode_name(code: float) -> str:
 
 
 def mode_spans(table: np.ndarray) -> list:
-    """Runs of equal mode code in time order: ``[(name, t_start_s, t_end_s), ...]``."""
+    """Runs of equal mode code in time order: ``[(name, t_start_s, t_end_s), ...]``.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    """
     if len(table) == 0:
         return []
     t = table[:, INDEX["time"]]
@@ -146,13 +149,16 @@ DITHER_SIGNALS = (("roll", "roll: star tracker yaw 105", "tracker_yaw"),
 
 
 def dither_span(table: np.ndarray):
-    """``(t_start_s, t_end_s)`` of the dither hold (mode ``"dither"``), or None."""
+    """``(t_start_s, t_end_s)`` of the dither hold (mode ``"dither"``), or None.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    """
     holds = [(t0, t1) for name, t0, t1 in mode_spans(table) if name == "dither"]
     return (holds[0][0], holds[-1][1]) if holds else None
 
 
 def final_pointing_error_arcsec(summary):
-    """The true final pointing error [arcsec] of a mission summary, or None.
+    """The true final pointing error [arcsec] of mission ``summary``, or None.
 
     It is the angle between the body roll axis and the target flown last at
     the end of the mission (the summary's ``end``), computed by the
@@ -186,6 +192,8 @@ def attitude_errors(table: np.ndarray, summary=None) -> Figure:
     at the end of the flight. When the telemetry
     holds a dither hold, a last row shows the hold on a linear scale, where
     the sinusoids keep their shape (symlog bends them at +-10 arcsec).
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
     t = _col(table, "time")
     signals = _sensor_signals(table)
@@ -285,6 +293,8 @@ def selector_shares(table: np.ndarray, windows=SELECTOR_WINDOWS):
     roll, pitch, yaw (each row sums to 1). A window is a whole multiple of
     three samples, so that a selector stepping once per sample is counted
     evenly; its length is the record over ``windows``.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
     t = _col(table, "time")
     axis = np.rint(_col(table, "s7_s8")).astype(int)
@@ -305,6 +315,8 @@ def switch_timing(table: np.ndarray) -> Figure:
     step every frame or few, faster than the telemetry samples them, so
     their row shows per window of samples the share on each contact,
     stacked roll (bottom), pitch, yaw (top) (:func:`selector_shares`).
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
     t = _col(table, "time")
     labels = _switch_labels()
@@ -345,7 +357,10 @@ def switch_timing(table: np.ndarray) -> Figure:
 
 
 def counters(table: np.ndarray) -> Figure:
-    """Up/down counters 14/16/18 and drift counters 13/15/17 [pulses] against time."""
+    """Up/down counters 14/16/18 and drift counters 13/15/17 [pulses] against time.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    """
     t = _col(table, "time")
     spans = mode_spans(table)
     fig, axes = _new_figure(2, "Gyro pulse counters (modes shaded)")
@@ -372,6 +387,8 @@ def jets(table: np.ndarray) -> Figure:
     Valve commands are telemetry samples (one every telemetry interval), so
     pulses shorter than the interval may not show; the propellant curve
     counts every pulse.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
     t = _col(table, "time")
     spans = mode_spans(table)
@@ -466,7 +483,8 @@ def unstable_loops(margins: dict) -> list:
     """The loops to flag, ``[(loop name, margins), ...]``.
 
     A loop is flagged when its closed loop is unstable (``stable`` false) or
-    its gain or phase margin is negative.
+    its gain or phase margin is negative. ``margins`` are
+    :func:`allsky.studies.analysis.loop_margins`'.
     """
     out = []
     for kind in ("position", "rate"):
@@ -579,7 +597,10 @@ def analysis(result: dict, frequency_responses: dict) -> Figure:
 
 
 def hold_spans(table: np.ndarray) -> list:
-    """``[(t_start_s, t_end_s), ...]`` of every hold on target in the telemetry."""
+    """``[(t_start_s, t_end_s), ...]`` of every hold on target in the telemetry.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    """
     return [(t0, t1) for name, t0, t1 in mode_spans(table) if name == "hold"]
 
 
@@ -590,6 +611,8 @@ def hold_drift_arcsec(table: np.ndarray, span):
     hold, as the summary measures the drift
     (:func:`allsky.sequencer.master_sequencer.measure_hold`); each row is the
     rotation about roll, pitch or yaw.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
     t = _col(table, "time")
     rows = (t >= span[0]) & (t <= span[1]) & np.isclose(_col(table, "mode"), MODE_CODE["hold"])
@@ -616,6 +639,8 @@ def hold_drift(table: np.ndarray, summary=None) -> Figure:
     (docs/theory_of_operation.md); pitch and yaw are the roll axis walking
     off the target. A least-squares line gives each axis's rate
     [arcsec/min]; with the ``summary``, its end-to-end figure is shown too.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
     spans = hold_spans(table)
     if not spans:
@@ -667,7 +692,10 @@ class PlotSet(NamedTuple):
 
 
 def save(fig: Figure, path, option=None) -> Path:
-    """Write a figure at :data:`DPI`; ``option`` names the path in an error."""
+    """Write figure ``fig`` to ``path`` at :data:`DPI`; ``option`` names it in errors.
+
+    The file is written whole or not at all; returns its path.
+    """
     from allsky.apps.output import write_atomic  # whole or not at all
 
     return write_atomic(path, writer=lambda tmp: fig.savefig(tmp, dpi=DPI), option=option)
@@ -723,14 +751,18 @@ def write_plots(table: np.ndarray, out_dir, summary=None, progress=False,
 
 
 def format_written(result: PlotSet) -> str:
-    """One line per file written or skipped."""
+    """One line per file written or skipped, from ``result`` (:class:`PlotSet`)."""
     lines = [f"plot: {p}" for p in result.files]
     lines += [f"plot: skipped {name}: {why}" for name, why in result.skipped.items()]
     return "\n".join(lines)
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky plot TELEMETRY [--out DIR] [--summary SUMMARY.json]`` (``cfg`` unused)."""
+    """``allsky plot TELEMETRY [--out DIR] [--summary SUMMARY.json]`` (``cfg`` unused).
+
+    ``args`` is the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
+    """
     table, _ = read(args.telemetry)
     if len(table) == 0:
         raise TelemetryError(f"telemetry file {args.telemetry!r} has no rows: nothing to plot")

@@ -48,7 +48,12 @@ def _fixed_size(stream):
 
 
 def fly(m, quiet=False, stream=None):
-    """Fly the remaining modes of ``m`` with a progress line; return its summary."""
+    """Fly the remaining modes of ``m`` with a progress line; return its summary.
+
+    ``m`` is the :class:`~allsky.sim.mission.Mission`. With ``quiet`` no line
+    is shown; ``stream`` is where it goes (default ``sys.stderr``, which, when
+    it is not a terminal, gets the compile note alone).
+    """
     stream = stream or sys.stderr
     if quiet:
         return m.run()

@@ -210,7 +210,11 @@ def _targets(cfg, summary, timeline, t_end_s) -> list:
 
 
 def target_at(targets, t_s) -> dict:
-    """The target being flown at mission time ``t_s`` [s]: the last one begun by then."""
+    """The target being flown at mission time ``t_s`` [s]: the last one begun by then.
+
+    ``targets`` are the page's targets in flight order, each with its
+    ``start_s`` [s] (the first is returned before any has begun).
+    """
     current = targets[0]
     for tgt in targets:
         if tgt["start_s"] <= t_s + 1e-9:
@@ -435,7 +439,10 @@ def _timeline(table, summary, cfg) -> list:
 
 
 def mode_runs(table):
-    """Runs of equal mode code in the telemetry: ``[(first row, mode name), ...]``."""
+    """Runs of equal mode code in the telemetry: ``[(first row, mode name), ...]``.
+
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    """
     code = table[:, INDEX["mode"]]
     names = {round(c, 6): n for n, c in modes.MODE_CODE.items()}
     cuts = np.r_[0, np.flatnonzero(np.diff(code) != 0) + 1] if len(code) else []
@@ -530,7 +537,12 @@ def _mode_at(timeline, t_s):
 
 
 def notes(config, journal=True) -> list:
-    """What the telemetry interval hides, in words, for the page."""
+    """What the telemetry interval hides, in words, for the page.
+
+    ``config`` is the page's ``config`` (``interval_s``, ``frame_s``,
+    ``min_on_time_s`` [s]); ``journal`` says whether the page has the
+    mission's journal (a summary was given).
+    """
     dt = config["interval_s"]
     out = [(f"Telemetry is one row every {dt:g} s (the loop runs every "
             f"{config['frame_s']:g} s); the page shows the row at or before the time shown."),
@@ -561,7 +573,10 @@ def _csp_hash(text) -> str:
 
 
 def page_title(data) -> str:
-    """The page's ``<title>``: the scenario, how the mission ended, date and seed."""
+    """The page's ``<title>``: the scenario, how the mission ended, date and seed.
+
+    ``data`` is the page's data (:func:`replay_data`).
+    """
     m = data.get("mission") or {}
     ending = data.get("ending") or {}
     status = {"complete": "complete", "aborted": "ABORTED"}.get(ending.get("status"), "")
@@ -606,14 +621,22 @@ def write_replay(path, table, summary=None, cfg=None, option=None, scenario=None
 
 
 def read_summary(path) -> dict:
-    """A mission summary written by ``allsky run --json`` (ConfigError if not one)."""
+    """The mission summary at ``path``, written by ``allsky run --json``.
+
+    ConfigError if the file is not one (:func:`allsky.apps.summaries.read_summary`).
+    """
     from allsky.apps.summaries import read_summary as read_checked
 
     return read_checked(path)
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky replay TELEMETRY [--summary JSON] --html PATH``: write the page."""
+    """``allsky replay TELEMETRY [--summary JSON] --html PATH``: write the page.
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
+    """
     from allsky.apps.output import check_output
     from allsky.apps.telemetry_files import TelemetryError, read
 

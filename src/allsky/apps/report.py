@@ -11,7 +11,7 @@ from allsky.vocabulary import AXES
 
 
 def format_report(summary: dict, tracker_star=None) -> str:
-    """A plain-text report of a mission summary (:meth:`Mission.summary`).
+    """A plain-text report of mission ``summary`` (:meth:`Mission.summary`).
 
     The machine's judgement (status, the mode timeline, the computer's
     calibration) and, beside it, what happened: the drift each DAC applies,
@@ -144,14 +144,17 @@ def _targets_lines(targets) -> list:
 
 
 def tracker_star(cfg):
-    """The planned reference star ``star_tracker.reference_star``, at the mission date."""
+    """The planned reference star ``star_tracker.reference_star``, at the mission date.
+
+    Both are scenario ``cfg``'s; returns a :class:`allsky.vehicle.sky.Star`.
+    """
     from allsky.vehicle import sky
 
     return sky.star(cfg.star_tracker.reference_star, cfg.mission.date_utc)
 
 
 def where_stopped(m) -> str:
-    """Where an interrupted or stopped mission is: mission time and mode."""
+    """Where interrupted or stopped mission ``m`` is: mission time and mode."""
     mode = m.current_mode or (m.plan[m.next_mode] if not m.finished else None)
     return f"t = {m.state.time_s[0]:.1f} s" + (f", in Mode {mode}" if mode else "")
 
@@ -183,6 +186,10 @@ def run_from_cli(cfg, args) -> int:
     the report, ``--json`` and ``--telemetry`` of the part flown are still
     written and :class:`~allsky.apps.output.Interrupted` says so; a file that
     cannot be written does not stop the others.
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
     """
     from allsky.apps.output import (
         TELEMETRY_SUFFIXES,

@@ -8,7 +8,12 @@ import sys
 
 
 def format_stars(stars, window, date_utc) -> str:
-    """The catalog as a table: magnitude, RA [h], Dec [deg], window, reference star."""
+    """The catalog as a table: magnitude, RA [h], Dec [deg], window, reference star.
+
+    ``stars`` are :func:`allsky.vehicle.sky.catalog`'s entries, ``window`` the
+    tracker's (brightest, faintest) magnitudes and ``date_utc`` the UTC
+    date-time of the positions.
+    """
     lo, hi = window
     inside = sum(1 for s in stars if s["in_window"])
     when = date_utc.isoformat().replace("+00:00", "Z")
@@ -24,7 +29,12 @@ def format_stars(stars, window, date_utc) -> str:
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky stars [--window] [--date UTC] [--json PATH]``."""
+    """``allsky stars [--window] [--date UTC] [--json PATH]``.
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
+    """
     from allsky.apps.output import check_output, write_atomic
     from allsky.config import ConfigError, load_scenario
     from allsky.vehicle import sky

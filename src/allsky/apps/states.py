@@ -95,6 +95,8 @@ def load(path, telemetry=True) -> Mission:
     array (shape, dtype, finite; propellant within the tank, a unit
     quaternion, switches, valves and flags within their values).
 
+    ``telemetry`` is passed to the mission (keep its telemetry from here on).
+
     Raises
     ------
     StateError

@@ -122,7 +122,11 @@ def _row(label, values, spec):
 
 
 def format_stop(snap, number=None) -> str:
-    """The terminal block of one stop."""
+    """The terminal block of one stop.
+
+    ``snap`` is the stop's :func:`snapshot`; ``number``, if given, counts the
+    stops in its heading.
+    """
     head = f"Stop {number} - " if number is not None else ""
     where = "end of" if snap["kind"] == "mode end" else "inside"
     target = snap.get("target")
@@ -241,7 +245,10 @@ def step_mission(m, on_stop, every_s=None, until=None, save_dir=None) -> list:
 
 
 def state_file_name(m, mode) -> str:
-    """File name for the state saved after ``mode`` (and target, from the second on)."""
+    """File name for the state saved after ``mode`` (and target, from the second on).
+
+    ``m`` is the mission (its target being flown).
+    """
     target = f"target{m.target_index + 1}_" if m.target_index else ""
     return f"after_{target}mode_{mode}.npz"
 
@@ -280,6 +287,10 @@ def run_from_cli(cfg, args) -> int:
     ``q`` at a prompt, Ctrl-C or SIGTERM end the session; the report,
     ``--json`` and ``--telemetry`` of the flight so far are written either
     way (after Ctrl-C, :class:`~allsky.apps.output.Interrupted` says so).
+
+    ``cfg`` is the scenario the command line loaded (``--scenario``, ``--set``)
+    and ``args`` the parsed command line (:mod:`allsky.apps.cli`); returns the
+    exit status.
     """
     from allsky.apps import report, states, telemetry_files
     from allsky.apps.output import TELEMETRY_SUFFIXES, Interrupted, check_output, write_atomic

@@ -75,7 +75,10 @@ def _describe(kind) -> str:
 
 
 def problem(value, shape, where="") -> str | None:
-    """The first way ``value`` differs from ``shape`` (:data:`SHAPE`), or None."""
+    """The first way ``value`` differs from ``shape`` (:data:`SHAPE`), or None.
+
+    ``where`` is ``value``'s place in the summary, which the answer names.
+    """
     if isinstance(shape, tuple) and shape and shape[0] == "list":
         if not isinstance(value, list):
             return f"{where or 'it'} is not a list"

@@ -44,7 +44,7 @@ class TelemetryError(ValueError):
 
 
 def file_format(path) -> str:
-    """The format (``"csv"`` or ``"parquet"``) of a telemetry path, from its suffix.
+    """The format (``"csv"`` or ``"parquet"``) of telemetry ``path``, from its suffix.
 
     Raises
     ------
@@ -60,7 +60,7 @@ def file_format(path) -> str:
 
 
 def write(path, table: np.ndarray, option=None) -> Path:
-    """Write the telemetry table to ``path``, CSV or Parquet by its suffix.
+    """Write the telemetry ``table`` to ``path``, CSV or Parquet by its suffix.
 
     The file is written whole or not at all (:func:`allsky.apps.output.write_atomic`);
     ``option`` names the command-line option in an
@@ -79,7 +79,10 @@ PARQUET_FORMAT_KEY = b"allsky.telemetry_format"
 
 
 def write_csv(path, table: np.ndarray, option=None) -> Path:
-    """Write the telemetry table to CSV (each float as ``repr``: exact on reading)."""
+    """Write the telemetry table to CSV (each float as ``repr``: exact on reading).
+
+    ``path``, ``table`` and ``option`` as for :func:`write`.
+    """
     from allsky.apps.output import write_atomic
 
     def writer(tmp):
@@ -94,7 +97,10 @@ def write_csv(path, table: np.ndarray, option=None) -> Path:
 
 
 def write_parquet(path, table: np.ndarray, option=None) -> Path:
-    """Write the telemetry table to Parquet, one float64 column per telemetry column."""
+    """Write the telemetry table to Parquet, one float64 column per telemetry column.
+
+    ``path``, ``table`` and ``option`` as for :func:`write`.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -437,7 +443,10 @@ def markdown() -> str:
 
 
 def main(argv=None) -> int:
-    """``python -m allsky.apps.telemetry_files --markdown``: print the column list."""
+    """``python -m allsky.apps.telemetry_files --markdown``: print the column list.
+
+    ``argv`` are the arguments (None: the command line's); returns the exit status.
+    """
     p = argparse.ArgumentParser(prog="python -m allsky.apps.telemetry_files",
                                 description="Print the telemetry column list.")
     p.add_argument("--markdown", action="store_true", required=True,

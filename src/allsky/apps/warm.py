@@ -11,7 +11,11 @@ import time
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky warm-up``: compile (or load) the frame loop; one line says which."""
+    """``allsky warm-up``: compile (or load) the frame loop; one line says which.
+
+    ``cfg`` is None (the command loads no scenario) and ``args`` the parsed
+    command line (:mod:`allsky.apps.cli`); returns the exit status.
+    """
     from allsky.sim.warm_up import (
         COMPILE_S,
         LOOPS,
@@ -33,14 +37,20 @@ def run_from_cli(cfg, args) -> int:
 
 
 def dask_setup(worker=None):
-    """Dask preload hook: the worker compiles or loads the loop before it joins."""
+    """Dask preload hook: the worker compiles or loads the loop before it joins.
+
+    Dask passes its ``worker``, which is not needed.
+    """
     from allsky.sim.warm_up import warm_up
 
     warm_up()
 
 
 def main(argv=None) -> int:
-    """``python -m allsky.apps.warm [LOOP ...]``: compile loops (the build runs it)."""
+    """``python -m allsky.apps.warm [LOOP ...]``: compile loops (the build runs it).
+
+    ``argv`` are the arguments (None: the command line's); returns the exit status.
+    """
     import argparse
 
     from allsky.sim.warm_up import LOOPS, warm_up

@@ -9,7 +9,8 @@ factors into computed word register 23 (:func:`allsky.computer.cpu.calibrate_rol
 
 The true angle of the turn is a full turn, 360 deg, in the direction of the
 rate command: the optical re-acquisition (star for roll, Sun for yaw)
-confirms it.
+confirms it. With ``sequencer.recovery`` master sequencer 20 may judge that
+more whole turns were flown and pass their number (``turn_sign``).
 """
 
 import numpy as np
@@ -38,7 +39,9 @@ def calibrate(axis, switches, counters, pulse_weight_arcsec, turn_sign, word23) 
     pulse_weight_arcsec : float
         [arcsec] per pulse of the converters.
     turn_sign : int
-        Direction of the turn: +1 or -1 (the rate command's sign).
+        The turn in signed whole turns: the rate command's sign (+1 or -1)
+        times the turns flown (1, or more when ``sequencer.recovery`` counts
+        a turn flown on past a missed star or Sun).
     word23 : numpy.ndarray
         Computed word register 23, written in place.
 

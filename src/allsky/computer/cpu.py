@@ -32,26 +32,45 @@ N_WORK = 6
 
 
 def scale_factor(true_angle_arcsec: float, counted_arcsec: float) -> float:
-    """Scale factor = true angle / counted angle."""
+    """Scale factor = true angle / counted angle, both [arcsec].
+
+    ``true_angle_arcsec`` is the turn as the optics confirm it and
+    ``counted_arcsec`` what the turned axis's counter holds; ZeroDivisionError
+    when it holds nothing.
+    """
     if counted_arcsec == 0.0:
         raise ZeroDivisionError("no counts accumulated: the turn was not measured")
     return true_angle_arcsec / counted_arcsec
 
 
 def cross_coupling(other_axis_arcsec: float, true_angle_arcsec: float) -> float:
-    """Cross-coupling factor = counts on the other axis / true angle."""
+    """Cross-coupling factor = counts on the other axis / true angle [-].
+
+    ``other_axis_arcsec`` is what another axis's counter holds after the turn
+    and ``true_angle_arcsec`` the turn, both [arcsec].
+    """
     return other_axis_arcsec / true_angle_arcsec
 
 
 def calibrate_roll(word23, counts_arcsec, true_angle_arcsec):
-    """Mode 4: roll scale factor, roll-into-pitch and roll-into-yaw into register 23."""
+    """Mode 4: roll scale factor, roll-into-pitch and roll-into-yaw into register 23.
+
+    ``word23`` is computed word register 23, written in place;
+    ``counts_arcsec`` the counted angles, roll, pitch, yaw [arcsec]; and
+    ``true_angle_arcsec`` the signed angle of the roll turn [arcsec].
+    """
     word23[wr.SF_ROLL] = scale_factor(true_angle_arcsec, counts_arcsec[0])
     word23[wr.ROLL_INTO_PITCH] = cross_coupling(counts_arcsec[1], true_angle_arcsec)
     word23[wr.ROLL_INTO_YAW] = cross_coupling(counts_arcsec[2], true_angle_arcsec)
 
 
 def calibrate_yaw(word23, counts_arcsec, true_angle_arcsec):
-    """Mode 5: yaw scale factor, yaw-into-pitch and yaw-into-roll into register 23."""
+    """Mode 5: yaw scale factor, yaw-into-pitch and yaw-into-roll into register 23.
+
+    ``word23`` is computed word register 23, written in place;
+    ``counts_arcsec`` the counted angles, roll, pitch, yaw [arcsec]; and
+    ``true_angle_arcsec`` the signed angle of the yaw turn [arcsec].
+    """
     word23[wr.SF_YAW] = scale_factor(true_angle_arcsec, counts_arcsec[2])
     word23[wr.YAW_INTO_PITCH] = cross_coupling(counts_arcsec[1], true_angle_arcsec)
     word23[wr.YAW_INTO_ROLL] = cross_coupling(counts_arcsec[0], true_angle_arcsec)
@@ -61,8 +80,11 @@ def calibrate_yaw(word23, counts_arcsec, true_angle_arcsec):
 def target_step(axis, counter_arcsec, word23, word24, work):
     """One computer cycle on ``axis``: update that axis's corrected angle and error.
 
-    ``counter_arcsec`` is the selected counter's content times the pulse
-    weight. Returns the error to write into that axis's storage register.
+    ``axis`` is 0 roll, 1 pitch, 2 yaw; ``counter_arcsec`` the selected
+    counter's content times the pulse weight [arcsec]; ``word23`` and
+    ``word24`` registers 23 (calibration) and 24 (programmed roll and yaw
+    [arcsec]); ``work`` CPU 22's (N_WORK,) working store, updated in place.
+    Returns the error [arcsec] to write into that axis's storage register.
     """
     phi = work[CORRECTED_ROLL]
     psi = work[CORRECTED_YAW]
@@ -94,6 +116,9 @@ def mode6_preset_arcsec(word23, work):
     and yaw of the end of 6-1 become the zero of 6-2. The patent words this
     as loading the negative of the correction; with corrections subtracted
     in step 2 above, as here, it is the correction itself.
+
+    ``word23`` is register 23 (its roll cross-couplings are read) and
+    ``work`` CPU 22's working store (its corrected roll is read).
     """
     phi = work[CORRECTED_ROLL]
     return (word23[wr.ROLL_INTO_PITCH] * phi, word23[wr.ROLL_INTO_YAW] * phi)

@@ -20,7 +20,12 @@ from allsky import units
 
 
 def reference_frame(sun_inertial, star_inertial) -> np.ndarray:
-    """Rows: reference x, y, z axes in inertial components (a body-from-inertial DCM)."""
+    """Rows: reference x, y, z axes in inertial components (a body-from-inertial DCM).
+
+    ``sun_inertial`` and ``star_inertial`` are the directions of the Sun and
+    the reference star, (3,) in inertial axes, any length: +x goes to the Sun,
+    +z toward the star. ValueError when the star is on the Sun line.
+    """
     x = np.asarray(sun_inertial, dtype=float)
     x = x / np.linalg.norm(x)
     c = np.asarray(star_inertial, dtype=float)
@@ -36,7 +41,9 @@ def reference_frame(sun_inertial, star_inertial) -> np.ndarray:
 def programmed_angles_deg(sun_inertial, star_inertial, target_inertial) -> tuple:
     """Programmed (roll, yaw) [deg] that point +x at the target.
 
-    The turns start from the reference attitude.
+    The turns start from the reference attitude that ``sun_inertial`` and
+    ``star_inertial`` define (:func:`reference_frame`); ``target_inertial`` is
+    the target's direction. All three are (3,) in inertial axes, any length.
     """
     t = reference_frame(sun_inertial, star_inertial) @ np.asarray(target_inertial, dtype=float)
     return angles_to_deg(t)
@@ -62,7 +69,11 @@ def angles_to_deg(direction) -> tuple:
 
 
 def pointing_direction(roll_deg, yaw_deg) -> np.ndarray:
-    """Reference-frame direction of +x after the roll-then-yaw manoeuvre."""
+    """Reference-frame direction of +x after the roll-then-yaw manoeuvre.
+
+    ``roll_deg`` and ``yaw_deg`` are the turns [deg], as programmed in
+    register 24 (:func:`programmed_angles_deg`).
+    """
     phi, psi = roll_deg * units.DEG2RAD, yaw_deg * units.DEG2RAD
     return np.array([math.cos(psi), math.sin(psi) * math.cos(phi),
                      math.sin(psi) * math.sin(phi)])
@@ -71,8 +82,9 @@ def pointing_direction(roll_deg, yaw_deg) -> np.ndarray:
 def attitude_after(roll_deg, yaw_deg) -> np.ndarray:
     """The body axes after the roll-then-yaw manoeuvre, as columns, in the start frame.
 
-    The roll turns the frame about +x, the yaw about the rolled +z:
-    ``Rx(roll) Rz(yaw)``; its first column is :func:`pointing_direction`.
+    ``roll_deg`` and ``yaw_deg`` are the turns [deg]. The roll turns the frame
+    about +x, the yaw about the rolled +z: ``Rx(roll) Rz(yaw)``; its first
+    column is :func:`pointing_direction`.
     """
     phi, psi = roll_deg * units.DEG2RAD, yaw_deg * units.DEG2RAD
     cf, sf, cp, sp = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
@@ -106,8 +118,10 @@ def turn_to_deg(body_axes, to_roll_deg, to_yaw_deg) -> tuple:
 def turn_between_deg(from_roll_deg, from_yaw_deg, to_roll_deg, to_yaw_deg) -> tuple:
     """(roll, yaw) [deg] from a target reached by its programmed angles to the next.
 
-    Both pairs are measured from the same reference attitude; the vehicle on
-    the first target has the body axes :func:`attitude_after` of its angles
+    ``from_roll_deg``, ``from_yaw_deg`` are the programmed angles [deg] of the
+    target held and ``to_roll_deg``, ``to_yaw_deg`` those of the next. Both
+    pairs are measured from the same reference attitude; the vehicle on the
+    first target has the body axes :func:`attitude_after` of its angles
     (:func:`turn_to_deg`).
     """
     return turn_to_deg(attitude_after(from_roll_deg, from_yaw_deg), to_roll_deg,

@@ -41,8 +41,8 @@ WORD23 = {"sf_roll": SF_ROLL, "sf_yaw": SF_YAW, "roll_into_pitch": ROLL_INTO_PIT
 def computed_as_dict(w) -> dict:
     """Register 23 as the scale-factor and cross-coupling parts of the summary.
 
-    The parts are the calibration summary's ``scale_factor`` and
-    ``cross_coupling``.
+    ``w`` is register 23, (N_COMPUTED,) as laid out above. The parts are the
+    calibration summary's ``scale_factor`` and ``cross_coupling``.
     """
     return {
         "scale_factor": {"roll": float(w[SF_ROLL]), "yaw": float(w[SF_YAW])},

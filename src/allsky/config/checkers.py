@@ -27,14 +27,18 @@ from allsky.config.rules import (
 
 
 def boolean(key, v):
-    """``true`` or ``false``."""
+    """``true`` or ``false``: ``v``, the value of ``key`` as read from TOML."""
     if not isinstance(v, bool):
         raise ConfigError(key, v, f"must be true or false, not {type_name(v)}")
     return v
 
 
 def utc_datetime(key, v):
-    """A date-time in the ephemeris range, returned timezone-aware in UTC."""
+    """A date-time in the ephemeris range, returned timezone-aware in UTC.
+
+    ``v`` is the value of ``key`` as read from TOML: a date-time (naive ones
+    taken as UTC), a date (its midnight) or an ISO-8601 string.
+    """
     shown = v
     if isinstance(v, str):
         try:
@@ -59,7 +63,7 @@ def utc_datetime(key, v):
 
 
 def symmetric_eigenvalues(m) -> tuple:
-    """Eigenvalues of a symmetric 3x3 matrix (nested sequences), ascending.
+    """Eigenvalues of the symmetric 3x3 matrix ``m`` (nested sequences), ascending.
 
     The closed form of Smith (Commun. ACM 4(4), 168, 1961): the eigenvalues
     are ``q + 2 p cos(phi + 2 pi k / 3)`` with ``q`` the mean of the
@@ -85,7 +89,11 @@ def symmetric_eigenvalues(m) -> tuple:
 
 
 def inertia_tensor(key, v):
-    """Rigid-body inertia tensor: symmetric, positive definite, triangle inequalities."""
+    """Rigid-body inertia tensor: symmetric, positive definite, triangle inequalities.
+
+    ``v`` is the value of ``key`` as read from TOML, a 3x3 array [kg m^2];
+    the upper triangle, mirrored, is returned.
+    """
     j = real_array(key, v, (3, 3))
     scale = max(abs(x) for row in j for x in row)
     if scale == 0.0:
@@ -107,7 +115,10 @@ def inertia_tensor(key, v):
 
 
 def misalignment_matrix(key, v):
-    """Gyro input-axis misalignments: 3x3, zero diagonal, each within 1 degree."""
+    """Gyro input-axis misalignments: 3x3, zero diagonal, each within 1 degree.
+
+    ``v`` is the value of ``key`` as read from TOML, a 3x3 array [arcsec].
+    """
     m = real_array(key, v, (3, 3))
     if any(m[i][i] != 0.0 for i in range(3)):
         raise ConfigError(key, v, "diagonal must be 0: scale-factor error is set by "
@@ -121,7 +132,8 @@ def misalignment_matrix(key, v):
 def attitude(key, v):
     """``"random"``, or a quaternion [w, x, y, z] (inertial -> body).
 
-    A quaternion is returned normalised.
+    ``v`` is the value of ``key`` as read from TOML. A quaternion is returned
+    normalised (one already of unit length, bit for bit).
     """
     if v == "random":
         return "random"
@@ -141,7 +153,7 @@ def attitude(key, v):
 
 
 def mode_timeouts(*conds: Cond):
-    """A table of exactly the ``MODE_KEYS``, each a time [s] obeying every ``Cond``."""
+    """Checker of a table of the ``MODE_KEYS``, each a time [s] obeying all ``*conds``."""
     each = number(*conds)
 
     def check(key, v):
@@ -158,7 +170,10 @@ def mode_timeouts(*conds: Cond):
 
 
 def magnitude_window(key, v):
-    """[brightest, faintest] visual magnitudes, brightest < faintest."""
+    """[brightest, faintest] visual magnitudes, brightest < faintest.
+
+    ``v`` is the value of ``key`` as read from TOML, an array of two numbers.
+    """
     lo, hi = real_array(key, v, (2,))
     if not lo < hi:
         raise ConfigError(key, v, "must be [brightest, faintest] with brightest < faintest")
@@ -174,7 +189,10 @@ def _catalog() -> dict:
 
 
 def star_name(key, v):
-    """A star of PyEphem's catalog (any case), returned with its catalog spelling."""
+    """A star of PyEphem's catalog (any case), returned with its catalog spelling.
+
+    ``v`` is the value of ``key`` as read from TOML, a string.
+    """
     if not isinstance(v, str):
         raise ConfigError(key, v, f"must be a star name (a string), not {type_name(v)}")
     found = _catalog().get(v.strip().lower())

@@ -145,12 +145,14 @@ def _converters_follow_the_turns(v):
 def plan_durations_s(v) -> dict:
     """Longest time [s] of the ``legacy`` and ``dither`` plans: their modes' timeouts.
 
-    The dither mode, in place of Modes 4 and 5, is allowed its lead-in and record and
-    :data:`DITHER_SETTLE_ALLOWANCE_S`; a hold on target (`target.hold_s` > 0), flown after
-    either plan, its hold and :data:`HOLD_TIMEOUT_ALLOWANCE_S`. Each further target of
-    `target.sequence` adds Modes 1, 2, 6-1, 6-2 and the hold
-    (`sequencer.between_targets = "reacquire"`), the whole plan again ("recycle"), or the
-    direct roll (allowed Mode 6-1's timeout), Mode 6-2 and the hold ("direct")."""
+    ``v`` is the flat scenario (``"table.key" -> value``), every key checked.
+    The dither mode, in place of Modes 4 and 5, is allowed its lead-in and
+    record and :data:`DITHER_SETTLE_ALLOWANCE_S`; a hold on target
+    (`target.hold_s` > 0), flown after either plan, its hold and
+    :data:`HOLD_TIMEOUT_ALLOWANCE_S`. Each further target of `target.sequence`
+    adds Modes 1, 2, 6-1, 6-2 and the hold (`sequencer.between_targets =
+    "reacquire"`), the whole plan again ("recycle"), or the direct roll
+    (allowed Mode 6-1's timeout), Mode 6-2 and the hold ("direct")."""
     t = v["sequencer.timeout_s"]
     hold = v["target.hold_s"] + HOLD_TIMEOUT_ALLOWANCE_S if v["target.hold_s"] > 0 else 0.0
     legacy = math.fsum([*(t[m] for m in MODE_KEYS), hold])
@@ -171,12 +173,19 @@ def plan_durations_s(v) -> dict:
 
 
 def longest_mission_s(v) -> float:
-    """The longest a mission of either plan can take [s] (:func:`plan_durations_s`)."""
+    """The longest a mission of either plan can take [s] (:func:`plan_durations_s`).
+
+    ``v`` is the flat scenario (``"table.key" -> value``), every key checked.
+    """
     return max(plan_durations_s(v).values())
 
 
 def last_start_utc(v):
-    """The latest ``mission.date_utc`` whose mission ends inside the ephemeris range."""
+    """The latest ``mission.date_utc`` whose mission ends inside the ephemeris range.
+
+    ``v`` is the flat scenario (``"table.key" -> value``), every key checked;
+    the mission is allowed at least :data:`SUN_RATE_SPAN_S` after its start.
+    """
     span_s = max(longest_mission_s(v), SUN_RATE_SPAN_S)
     return EPHEMERIS_END_UTC - timedelta(seconds=span_s)
 

@@ -54,6 +54,8 @@ _EXAMPLE = '{ dist = "normal", sigma = 0.5 }'
 def merge(base: dict, incoming) -> dict:
     """Merge a ``[dispersions]`` table over ``base`` (flat ``{key: entry}``), in place.
 
+    ``incoming`` is the table as read from TOML.
+
     Both spellings of a key are accepted: ``gyro.drift_deg_h = {...}`` (TOML
     nests it as ``gyro = {drift_deg_h = {...}}``) and ``"gyro.drift_deg_h" =
     {...}``. An entry replaces the same key's entry in ``base``; an entry with
@@ -127,7 +129,10 @@ def _kind(key, values):
 
 
 def value_shape(v):
-    """Shape of a real number, vector or matrix value; None for anything else."""
+    """Shape of a real number, vector or matrix value; None for anything else.
+
+    ``v`` is a validated value: a float, or (nested) tuples of floats.
+    """
     def real(x):
         return isinstance(x, float)
     if real(v):
@@ -141,7 +146,10 @@ def value_shape(v):
 
 
 def dispersible_keys(values: Mapping) -> list:
-    """Every key a ``[dispersions]`` table may name, for these scenario values."""
+    """Every key a ``[dispersions]`` table may name, for these scenario values.
+
+    ``values`` are the validated scenario's values by dotted key.
+    """
     out = [k for k, v in values.items()
            if k not in NOT_DISPERSIBLE and not k.startswith("target.")
            and value_shape(v) is not None]

@@ -170,6 +170,9 @@ def _kept_faults(faults, drawn):
 def draw(cfg, seed=None) -> dict:
     """The values of the scenario's dispersions for mission seed ``seed``.
 
+    ``cfg`` is a validated :class:`~allsky.config.scenario.Scenario`; ``seed``
+    defaults to its own ``mission.seed``.
+
     Returns ``{key: value}`` in scenario form: a float, a list (nested for a
     matrix), an ISO-8601 date-time for ``mission.date_utc``, and for
     ``target`` ``{"star": name}`` or ``{"ra_deg": ..., "dec_deg": ...}``.
@@ -190,7 +193,7 @@ def draw(cfg, seed=None) -> dict:
 
 
 def spec(cfg) -> dict:
-    """The scenario's dispersions as plain ``{key: entry}`` (empty when none)."""
+    """The dispersions of scenario ``cfg`` as plain ``{key: entry}`` (empty when none)."""
     return cfg.as_dict().get("dispersions", {})
 
 
@@ -239,8 +242,10 @@ def disperse(cfg, seed=None):
 def flat_inputs(cfg, drawn: Mapping) -> dict:
     """Drawn values as flat columns: ``gyro.drift_deg_h[0]``, ``target.ra_deg``, ...
 
-    Only the drawn elements of a matrix appear (not the misalignment diagonal,
-    only the inertia upper triangle).
+    ``drawn`` is :func:`draw`'s result for scenario ``cfg``; the columns
+    follow from ``drawn`` alone (``cfg`` is taken, as by :func:`input_columns`,
+    for the caller's convenience). Only the drawn elements of a matrix appear
+    (not the misalignment diagonal, only the inertia upper triangle).
     """
     out = {}
     for key, v in drawn.items():
@@ -260,7 +265,7 @@ def flat_inputs(cfg, drawn: Mapping) -> dict:
 
 
 def input_columns(cfg) -> list:
-    """The names :func:`flat_inputs` gives for this scenario's dispersions, in order."""
+    """Names :func:`flat_inputs` gives for scenario ``cfg``'s dispersions, in order."""
     cols = []
     for key, e in spec(cfg).items():
         if key == TARGET_KEY:
@@ -283,7 +288,7 @@ def input_columns(cfg) -> list:
 
 
 def format_drawn(seed: int, drawn: Mapping) -> str:
-    """The drawn values as text lines, for ``allsky run``."""
+    """Values ``drawn`` (:func:`draw`) for mission ``seed``, as ``allsky run`` shows."""
     lines = [f"Dispersions drawn for mission.seed = {seed}"]
     for key, v in drawn.items():
         if key == TARGET_KEY:

@@ -120,9 +120,9 @@ def _bit(key, v, bits, word):
 def validate_fault(where: str, entry, values: Mapping) -> dict:
     """One ``[[faults]]`` table, checked; returns its fields normalised.
 
-    ``where`` is its name in errors (``faults[1]``); ``values`` the
-    scenario's validated values by dotted key (for word lengths, the
-    tracker's field and the star catalog).
+    ``entry`` is the table as read from TOML; ``where`` is its name in errors
+    (``faults[1]``); ``values`` the scenario's validated values by dotted key
+    (for word lengths, the tracker's field and the star catalog).
     """
     if not isinstance(entry, Mapping):
         raise ConfigError(where, entry, f"must be a table, not {type_name(entry)}")
@@ -242,7 +242,9 @@ def check_plan(faults, plan, plan_name=None) -> None:
 
     ``plan`` is the sequence of mode names the mission flies (the dither
     plan has no Modes 4 and 5, the patent's no dither); ``plan_name`` names
-    it in the message. Raises :class:`ConfigError` naming ``faults[i].start_mode``.
+    it in the message. ``faults`` are the validated ``[[faults]]`` tables
+    (:func:`validate`). Raises :class:`ConfigError` naming
+    ``faults[i].start_mode``.
     """
     for i, f in enumerate(faults):
         mode = f.get("start_mode")
@@ -254,7 +256,11 @@ def check_plan(faults, plan, plan_name=None) -> None:
 
 
 def validate(faults, values: Mapping) -> list:
-    """The whole ``faults`` array, checked (:func:`validate_fault` for each table)."""
+    """The whole ``faults`` array, checked (:func:`validate_fault` for each table).
+
+    ``faults`` is the array as read from TOML; ``values`` the scenario's
+    validated values by dotted key.
+    """
     if not isinstance(faults, list):
         raise ConfigError("faults", faults, "must be an array of tables ([[faults]])")
     if len(faults) > MAX_FAULTS:
@@ -263,12 +269,18 @@ def validate(faults, values: Mapping) -> list:
 
 
 def is_fault_key(key: str) -> bool:
-    """Whether a ``[dispersions]`` key names a fault (``faults.N``)."""
+    """Whether ``key``, a ``[dispersions]`` key, names a fault (``faults.N``)."""
     return key.split(".", 1)[0] == "faults"
 
 
 def validate_dispersion(key: str, entry, faults: list) -> dict:
-    """A ``faults.N`` entry of ``[dispersions]``, checked against the faults."""
+    """A ``faults.N`` entry of ``[dispersions]``, checked against the faults.
+
+    ``key`` is ``faults.N``, ``entry`` its table as read from TOML and
+    ``faults`` the scenario's validated ``[[faults]]`` tables; N counts them
+    from 1. Returns the entry normalised (``probability``, and the onset span
+    ``low``, ``high`` [s] when given).
+    """
     where = f"dispersions.{key}"
     n = key.split(".", 1)[1] if "." in key else ""
     if not n.isdigit() or not 1 <= int(n) <= len(faults):
@@ -300,7 +312,10 @@ def validate_dispersion(key: str, entry, faults: list) -> dict:
 
 
 def describe(fault: Mapping) -> str:
-    """A fault in words, as abort reasons and tables name it ("roll gyro stuck")."""
+    """``fault`` in words, as abort reasons and tables name it ("roll gyro stuck").
+
+    ``fault`` is one validated ``[[faults]]`` table (:func:`validate_fault`).
+    """
     kind = fault["kind"]
     axis = fault.get("axis", "")
     sign = "+" if fault.get("sign", 1) > 0 else "-"

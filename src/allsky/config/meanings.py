@@ -35,7 +35,7 @@ KEY_LINE = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=")
 
 
 def unit_of(key: str) -> str:
-    """The unit a key's name carries ("-" for none)."""
+    """The unit the name of ``key`` carries (``gyro.drift_deg_h``: deg/h; "-": none)."""
     if key in SPECIAL_UNITS:
         return SPECIAL_UNITS[key]
     name = key.rsplit(".", 1)[1]
@@ -48,8 +48,9 @@ def unit_of(key: str) -> str:
 def key_comments(text: str) -> tuple[dict, dict]:
     """Meaning of each key and intro of each section, from the default file's comments.
 
-    A key's meaning is its trailing comment, or the comment lines right above
-    it; comment lines right under a section header introduce the section.
+    ``text`` is the default scenario file's TOML text. A key's meaning is its
+    trailing comment, or the comment lines right above it; comment lines right
+    under a section header introduce the section.
     """
     keys, sections = {}, {}
     section, pending, in_value, after_header = None, [], False, False

@@ -46,6 +46,10 @@ _ABSENT = _Absent()
 class ConfigError(Exception):
     """A scenario that cannot be used: ``str()`` is one line, ``key = value: rule``.
 
+    Made from ``key``, ``value`` and ``rule``, the attributes below; leave
+    ``value`` out when there is none to show (the attribute is then None and
+    the line reads ``key: rule``).
+
     Attributes
     ----------
     key : str or None
@@ -100,12 +104,12 @@ def _show_value(value, limit=120) -> str:
 class Cond(NamedTuple):
     """A rule on one number: the words shown when it fails, and the test."""
 
-    text: str
-    ok: Callable[[float], bool]
+    text: str  #: the rule in words, as the error shows it ("must be > 0")
+    ok: Callable[[float], bool]  #: the test: true when the number obeys the rule
 
 
 def shown_number(x) -> str:
-    """A number as rule texts show it: integers whole, floats in %g form."""
+    """Number ``x`` as rule texts show it: integers whole, floats in %g form."""
     return str(x) if isinstance(x, int) else f"{x:g}"
 
 
@@ -118,40 +122,50 @@ NON_NEGATIVE = Cond("must be >= 0", lambda x: x >= 0)
 
 
 def at_least(lo, why=""):
-    """:class:`Cond` requiring ``x >= lo`` (``why``, if given, in parentheses)."""
+    """:class:`Cond` requiring ``x >= lo`` (``why``, if given, in parentheses).
+
+    ``lo`` is in the unit of the key the rule is for.
+    """
     return Cond(f"must be >= {shown_number(lo)}{_why(why)}", lambda x: x >= lo)
 
 
 def in_closed(lo, hi, why=""):
-    """:class:`Cond` requiring ``lo <= x <= hi`` (``why``, if given, in parentheses)."""
+    """:class:`Cond` requiring ``lo <= x <= hi`` (``why``, if given, in parentheses).
+
+    ``lo`` and ``hi`` are in the unit of the key the rule is for.
+    """
     return Cond(f"must be in [{shown_number(lo)}, {shown_number(hi)}]{_why(why)}", lambda x: lo <= x <= hi)
 
 
 def in_open(lo, hi):
-    """:class:`Cond` requiring ``lo < x < hi``."""
+    """:class:`Cond` requiring ``lo < x < hi`` (``lo``, ``hi`` in the key's unit)."""
     return Cond(f"must be in ({shown_number(lo)}, {shown_number(hi)})", lambda x: lo < x < hi)
 
 
 def in_open_closed(lo, hi, why=""):
-    """:class:`Cond` requiring ``lo < x <= hi`` (``why``, if given, in parentheses)."""
+    """:class:`Cond` requiring ``lo < x <= hi`` (``why``, if given, in parentheses).
+
+    ``lo`` and ``hi`` are in the unit of the key the rule is for.
+    """
     return Cond(f"must be in ({shown_number(lo)}, {shown_number(hi)}]{_why(why)}", lambda x: lo < x <= hi)
 
 
 def in_closed_open(lo, hi):
-    """:class:`Cond` requiring ``lo <= x < hi``."""
+    """:class:`Cond` requiring ``lo <= x < hi`` (``lo``, ``hi`` in the key's unit)."""
     return Cond(f"must be in [{shown_number(lo)}, {shown_number(hi)})", lambda x: lo <= x < hi)
 
 
 def magnitude_at_most(limit):
-    """:class:`Cond` requiring ``abs(x) <= limit``."""
+    """:class:`Cond` requiring ``abs(x) <= limit`` (``limit`` in the key's unit)."""
     return Cond(f"magnitude must be <= {shown_number(limit)}", lambda x: abs(x) <= limit)
 
 
 def check_conds(conds, key, x, shown, where=""):
     """Raise :class:`ConfigError` for the first ``Cond`` that ``x`` breaks.
 
-    The error shows the value as ``shown`` and prefixes the rule with
-    ``where``.
+    ``conds`` are the :class:`Cond` to test, in order; the error names
+    ``key``, shows the value as ``shown`` (the whole array when ``x`` is one
+    element of it) and prefixes the rule with ``where``.
     """
     for c in conds:
         if not c.ok(x):
@@ -176,7 +190,10 @@ def type_name(v) -> str:
 
 
 def as_float(v):
-    """``(float, None)`` or ``(None, reason)``: a finite number (int yes, bool no)."""
+    """``(float, None)`` or ``(None, reason)``: ``v`` as a finite number.
+
+    An int is accepted, a bool is not.
+    """
     if isinstance(v, bool) or not isinstance(v, int | float):
         return None, f"must be a number, not {type_name(v)}"
     try:
@@ -189,7 +206,11 @@ def as_float(v):
 
 
 def real_array(key, v, shape):
-    """Nested tuples of finite floats with the exact ``shape`` (1 or 2 dimensions)."""
+    """Nested tuples of finite floats with the exact ``shape`` (1 or 2 dimensions).
+
+    ``v`` is the value of ``key`` as read from TOML (nested lists); a wrong
+    shape or element raises :class:`ConfigError` naming ``key``.
+    """
     what = (f"an array of {shape[0]} numbers" if len(shape) == 1 else
             f"a {shape[0]}x{shape[1]} array ({shape[0]} arrays of {shape[1]} numbers)")
     if not isinstance(v, list) or len(v) != shape[0]:
@@ -222,7 +243,7 @@ def _allowed(what, conds, each=False):
 
 
 def number(*conds: Cond):
-    """A finite float (an integer is accepted) obeying every ``Cond``."""
+    """Checker of a finite float (an integer is accepted) obeying all ``*conds``."""
     def check(key, v):
         x, why = as_float(v)
         if why:
@@ -234,7 +255,7 @@ def number(*conds: Cond):
 
 
 def integer(*conds: Cond):
-    """An integer (not a float, not a boolean) obeying every ``Cond``."""
+    """Checker of an integer (not a float, not a boolean) obeying all ``*conds``."""
     def check(key, v):
         if isinstance(v, bool) or not isinstance(v, int):
             raise ConfigError(key, v, f"must be an integer, not {type_name(v)}")
@@ -245,7 +266,7 @@ def integer(*conds: Cond):
 
 
 def vector(n: int, *conds: Cond):
-    """An array of ``n`` finite floats, each obeying every ``Cond``."""
+    """Checker of an array of ``n`` finite floats, each obeying all ``*conds``."""
     def check(key, v):
         xs = real_array(key, v, (n,))
         for i, x in enumerate(xs):
@@ -256,7 +277,7 @@ def vector(n: int, *conds: Cond):
 
 
 def one_of(*choices: str):
-    """One of the given strings."""
+    """Checker of a string that is one of ``*choices``."""
     def check(key, v):
         if not isinstance(v, str) or v not in choices:
             quoted = [f'"{c}"' for c in choices]

@@ -106,7 +106,8 @@ def _replace_target_form(base: dict, incoming: dict) -> None:
 def parse_override(item: str) -> dict:
     """Parse an override ``"a.b=VALUE"`` into ``{"a": {"b": value}}``.
 
-    VALUE is read in TOML syntax, else kept as a plain string.
+    ``item`` is the override's text, as given on the command line. VALUE is
+    read in TOML syntax, else kept as a plain string.
     """
     if not isinstance(item, str) or "=" not in item:
         raise ConfigError(None, item, f"override {item!r} must be KEY=VALUE, "
@@ -143,7 +144,12 @@ def _thaw(v):
 
 
 class Section:
-    """One frozen scenario section: its keys as read-only attributes."""
+    """One frozen scenario section: its keys as read-only attributes.
+
+    ``name`` is the section's name (``gyro``), as errors show it; ``values``
+    its validated values by key, frozen here (lists to tuples, mappings
+    read-only).
+    """
 
     __slots__ = ("_name", "_values")
     __hash__ = None
@@ -184,7 +190,9 @@ class Section:
 class Scenario:
     """A validated, frozen scenario: ``cfg.section.key``, and ``cfg.faults``.
 
-    Build it with :func:`load_scenario`.
+    Build it with :func:`load_scenario`, which passes ``sections``: each
+    section's validated values by key (each becomes a :class:`Section`), and
+    the ``faults`` list, frozen as it is.
 
     Vectors are tuples of floats, matrices tuples of tuples, ``mission.date_utc``
     a UTC datetime, ``sequencer.timeout_s`` a read-only mapping mode -> seconds.

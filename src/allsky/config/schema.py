@@ -156,7 +156,11 @@ WHEEL_SPAN_TOL = 1e-6
 
 
 def wheel_axes(key, v):
-    """Spin axes of 3 to WHEELS_MAX wheels: unit vectors (normalised) that span 3-D."""
+    """Spin axes of 3 to WHEELS_MAX wheels: unit vectors (normalised) that span 3-D.
+
+    ``v`` is the value of ``key`` as read from TOML: one row ``[x, y, z]``
+    (body axes) per wheel.
+    """
     rows = v if isinstance(v, list) else None
     if rows is None or not 3 <= len(rows) <= WHEELS_MAX:
         got = f"{len(v)} rows" if isinstance(v, list) else type_name(v)
@@ -193,7 +197,7 @@ wheel_axes.allowed = (f"an array of 3 to {WHEELS_MAX} spin axes [x, y, z] spanni
 
 
 def per_wheel(*conds):
-    """One number for all wheels or an array of one per wheel, each obeying ``conds``."""
+    """Checker of one number for all wheels or one per wheel, each obeying ``*conds``."""
     one = number(*conds)
 
     def check(key, v):
@@ -211,6 +215,8 @@ _DEC_DEG = number(in_closed(-90, 90))
 
 def target_sequence(key, v):
     """Targets in flight order: each a catalog star name or ``{ ra_deg, dec_deg }``.
+
+    ``v`` is the value of ``key`` as read from TOML, an array.
 
     Returned as a tuple of star names (catalog spelling) and
     ``{"ra_deg": ..., "dec_deg": ...}`` tables; an entry that is neither is

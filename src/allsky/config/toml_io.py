@@ -59,7 +59,10 @@ class LongInteger(int):
 
 
 def os_reason(e: OSError) -> str:
-    """Why a file cannot be opened, in words (no errno number, no repeated path)."""
+    """Why a file cannot be opened, in words (no errno number, no repeated path).
+
+    ``e`` is the error that opening or reading it raised.
+    """
     if isinstance(e, FileNotFoundError):
         return "no such file"
     if isinstance(e, IsADirectoryError):
@@ -148,7 +151,7 @@ def parse_toml(text: str, source: str) -> dict:
 
 
 def parse_value(text: str):
-    """One value in TOML syntax (``[1, 2]``, ``"Vega"``).
+    """One value in TOML syntax (``[1, 2]``, ``"Vega"``), read from ``text``.
 
     Text that is not TOML is returned stripped.
     """
@@ -197,7 +200,7 @@ def _unmark(v):
 
 
 def copy_tables(v):
-    """Copy of TOML data: tables and arrays copied, scalars (immutable) shared."""
+    """Copy of TOML data ``v``: tables and arrays copied, scalars (immutable) shared."""
     if isinstance(v, Mapping):
         return {k: copy_tables(x) for k, x in v.items()}
     if isinstance(v, list):
@@ -210,7 +213,7 @@ def copy_tables(v):
 # ---------------------------------------------------------------------------
 
 def iso_utc(d: datetime) -> str:
-    """``YYYY-MM-DDTHH:MM:SS[.ffffff]Z`` for a UTC date-time (a TOML offset date-time)."""
+    """``YYYY-MM-DDTHH:MM:SS[.ffffff]Z`` for UTC date-time ``d`` (TOML's offset form)."""
     frac = f".{d.microsecond:06d}" if d.microsecond else ""
     return f"{d.year:04d}-{d:%m-%dT%H:%M:%S}{frac}Z"  # %Y drops the zeros of year 999
 
@@ -236,7 +239,7 @@ def _toml_string(s: str) -> str:
 
 
 def toml_value(v) -> str:
-    """One value as TOML text.
+    """One value ``v`` as TOML text.
 
     A UTC date-time is written as ``...Z``, a mapping as an inline table.
     """
@@ -268,7 +271,7 @@ def toml_value(v) -> str:
 
 
 def toml_dumps(doc: Mapping, comments: Mapping | None = None) -> str:
-    """TOML text for a dict of tables and top-level scalars.
+    """TOML text for ``doc``, a dict of tables and top-level scalars.
 
     ``tomllib.loads`` reads it back.
 

@@ -9,5 +9,9 @@ from allsky.jit import njit
 
 @njit
 def rate_command(rate_arcsec_s, sign):
-    """Commanded rate [arcsec/s] of a module set to turn in direction ``sign`` (+1/-1)."""
+    """Commanded rate [arcsec/s] of a module set to turn in direction ``sign`` (+1/-1).
+
+    ``rate_arcsec_s`` is the module's rate magnitude [arcsec/s]
+    (``ElectronicsParams.rate_command_arcsec_s``).
+    """
     return rate_arcsec_s * sign

@@ -27,7 +27,15 @@ class SunAcquisitionParams(NamedTuple):
 
 @njit
 def sun_acquisition(p, linear_range_arcsec, fine, coarse_body, gyro_arcsec_s, pos, rate):
-    """Fill control-amplifier inputs ``pos`` [arcsec], ``rate`` [arcsec/s] for Mode 1."""
+    """Fill control-amplifier inputs ``pos`` [arcsec], ``rate`` [arcsec/s] for Mode 1.
+
+    ``p`` is the :class:`SunAcquisitionParams`; ``linear_range_arcsec`` the
+    fine sun sensor's linear half-range [arcsec]; ``fine`` sun sensor 104's
+    (3,) output ``[pitch_arcsec, yaw_arcsec, present]``; ``coarse_body`` the
+    coarse eyes' (3,) unit Sun vector in body axes; ``gyro_arcsec_s`` the (3,)
+    drift-compensated rates of summing amplifiers 4-6 [arcsec/s]. ``pos`` and
+    ``rate`` are (3,), roll, pitch, yaw.
+    """
     in_range = fine[2] > 0.5 and abs(fine[0]) < linear_range_arcsec \
         and abs(fine[1]) < linear_range_arcsec
     rate[0] = gyro_arcsec_s[0]

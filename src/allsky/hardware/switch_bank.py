@@ -33,7 +33,14 @@ def new_bank() -> np.ndarray:
 
 
 def operate(bank: np.ndarray, close=(), open_=()) -> None:
-    """Close and open on/off switches by number, respecting the coupled pairs."""
+    """Close and open on/off switches by number, respecting the coupled pairs.
+
+    ``bank`` is the switch bank (:func:`new_bank`), changed in place;
+    ``close`` and ``open_`` are iterables of switch numbers (1-19, not the
+    selectors S7/S8). A request that moves one member of a coupled pair
+    without the other, names no on/off switch, or closes and opens one
+    switch at once raises :class:`SwitchError` and changes nothing.
+    """
     for group in (close, open_):
         members = set(group)
         for k in members:
@@ -51,7 +58,7 @@ def operate(bank: np.ndarray, close=(), open_=()) -> None:
 
 
 def select(bank: np.ndarray, axis: int) -> None:
-    """Step the coupled selectors S7/S8 to ``axis`` (0 roll, 1 pitch, 2 yaw)."""
+    """Step coupled selectors S7/S8 of ``bank`` to ``axis`` (0 roll, 1 pitch, 2 yaw)."""
     if axis not in (0, 1, 2):
         raise SwitchError(f"S7/S8 have contacts for axes 0, 1, 2, not {axis}")
     bank[7] = axis
@@ -59,12 +66,12 @@ def select(bank: np.ndarray, axis: int) -> None:
 
 
 def closed(bank: np.ndarray) -> tuple:
-    """Numbers of the closed on/off switches."""
+    """Numbers of the closed on/off switches of ``bank``, ascending."""
     return tuple(k for k in range(1, N_SWITCHES + 1) if k not in SELECTORS and bank[k])
 
 
 def bitmask(bank) -> int:
-    """Bit k-1 set when on/off switch Sk is closed (for telemetry)."""
+    """Bit k-1 set when on/off switch Sk of ``bank`` is closed (for telemetry)."""
     m = 0
     for k in range(1, N_SWITCHES + 1):
         if k not in SELECTORS and bank[k]:

@@ -43,7 +43,12 @@ class DitherParams(NamedTuple):
 
 @njit
 def dither_command(p, t_s, angle_arcsec, ff_volts):
-    """Dither angle [arcsec] per axis and feed-forward modulator input [V] at ``t_s``."""
+    """Dither angle [arcsec] per axis and feed-forward modulator input [V] at ``t_s``.
+
+    ``p`` is the :class:`DitherParams`, ``t_s`` the time in the leg [s]; the
+    angles go into ``angle_arcsec`` and the inputs of modulators 34-36 into
+    ``ff_volts``, both (3,) roll, pitch, yaw.
+    """
     # a(t) = -A w^2 sin(w t) [rad/s^2], kept in ff_volts until the torque is formed
     for i in range(3):
         s = np.sin(p.omega_rad_s[i] * t_s)
@@ -57,7 +62,12 @@ def dither_command(p, t_s, angle_arcsec, ff_volts):
 
 
 def feedforward_torque_n_m(inertia_kg_m2, amplitude_rad, omega_rad_s, t_s):
-    """Feed-forward torque [N m] = J_est a(t), for checking the compiled generator."""
+    """Feed-forward torque [N m] = J_est a(t), for checking the compiled generator.
+
+    ``inertia_kg_m2`` is the 3x3 inertia estimate J_est [kg m^2],
+    ``amplitude_rad`` the (3,) dither amplitudes [rad], ``omega_rad_s`` their
+    angular frequencies [rad/s] and ``t_s`` the time [s].
+    """
     a = -np.asarray(amplitude_rad) * np.asarray(omega_rad_s) ** 2 * np.sin(
         np.asarray(omega_rad_s) * t_s)
     return np.asarray(inertia_kg_m2) @ a
@@ -72,7 +82,9 @@ def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
 
     The component is ``|c| sin(w t + arg c)``, t from the first sample.
 
-    ``x`` holds ``n + 1`` samples spanning the record. For an *integrating*
+    ``x`` holds ``n + 1`` samples spanning the record, ``sample_s`` [s] apart;
+    ``freq_hz`` [Hz] is the dither frequency, ``window`` ``"rect"`` or
+    ``"hann"``, and ``integrating`` true for a counter channel. For an *integrating*
     channel (a counter) the estimate works on the ``n`` sample-to-sample
     differences, the pulses per sample: the drift ramp becomes a constant
     and the random walk white noise, so neither leaks; the DFT bin is then
@@ -82,6 +94,7 @@ def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
     samples are used directly, less their mean. With ``window="rect"`` the
     ``n`` samples must span whole dither periods (the dither on an FFT bin);
     ``"hann"`` tolerates an off-bin frequency (corrected for the window's gain).
+    ``c`` has the units of ``x``.
     """
     x = np.asarray(x, dtype=float)
     omega = 2.0 * np.pi * freq_hz
@@ -111,8 +124,10 @@ def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):
 
     The fit holds a sine, a cosine and a polynomial trend.
 
-    Exact for any record length (no leakage from the dither itself); the
-    trend absorbs the drift ramp of a counter.
+    ``x`` holds samples ``sample_s`` [s] apart, ``freq_hz`` [Hz] is the dither
+    frequency and ``trend_order`` the degree of the polynomial trend. Exact
+    for any record length (no leakage from the dither itself); the trend
+    absorbs the drift ramp of a counter. The amplitude has the units of ``x``.
     """
     x = np.asarray(x, dtype=float)
     t = np.arange(x.size) * sample_s
@@ -132,5 +147,11 @@ def projected(c, ref):
 
 
 def scale_factor_sigma(arw_arcsec_rt_s, record_s, amplitude_arcsec, omega_rad_s):
-    """Predicted 1-sigma scale-factor error [-]: N sqrt(2/T) / (A w)."""
+    """Predicted 1-sigma scale-factor error [-]: N sqrt(2/T) / (A w).
+
+    ``arw_arcsec_rt_s`` is the gyro's angle random walk N [arcsec/sqrt(s)],
+    ``record_s`` the record length T [s], ``amplitude_arcsec`` the dither
+    amplitude A [arcsec] and ``omega_rad_s`` its angular frequency w [rad/s]
+    (docs/comparison.md derives it).
+    """
     return arw_arcsec_rt_s * np.sqrt(2.0 / record_s) / (amplitude_arcsec * omega_rad_s)

@@ -41,7 +41,30 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
             detector="fft", optics_frames=1, cross_coupling=None):
     """Estimates from a dither record (rows: t, counters x3, optical x3).
 
-    Counters and optical channels are in [arcsec].
+    Parameters
+    ----------
+    rec : numpy.ndarray, shape (n, 7)
+        The record, one row per sample: leg time [s], up/down counters 14,
+        16, 18 [arcsec] and the optical roll, pitch, yaw attitude [arcsec]
+        (:func:`allsky.sim.recorder.record_dither`).
+    sample_s : float
+        [s] Interval between samples (``dither.sample_s``).
+    lead_in_s : float
+        [s] Leg time at which the analysed span begins (``dither.lead_in_s``).
+    record_s : float
+        [s] The analysed span, whole dither periods (``dither.record_s``).
+    amplitude_arcsec : array_like, shape (3,)
+        [arcsec] Commanded dither amplitude per axis; 0 for an axis not
+        dithered (it gets no estimate).
+    omega_rad_s : array_like, shape (3,)
+        [rad/s] Dither angular frequency per axis.
+    detector : str
+        How an amplitude is measured: ``"fft"`` (on-bin, rectangular window),
+        ``"hann"`` or ``"lsq"`` (sinusoid and trend), as ``dither.detector``.
+    optics_frames : int
+        Frames each optical sample averages (see below).
+    cross_coupling : dict, optional
+        Known cross-coupling words (see below).
 
     ``optics_frames`` is the number of frames each optical sample averages
     (:func:`allsky.sim.recorder.record_dither`); the boxcar's gain and lag
@@ -142,6 +165,9 @@ def cross_coupling_words(w) -> dict:
 def dither_analysis(m, records):
     """Analyse the dither record of the mode and store the results in register 23.
 
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name.
+
     The record is the one the mode's first leg kept (``records["dither record"]``,
     :data:`allsky.sequencer.modes.MODE_TABLE`); the estimates are kept on the
     mission (``m.dither_estimates``, ``m.dither_record``) for the comparison.
@@ -176,7 +202,8 @@ def dither_analysis(m, records):
 def target_hold_dither(m):
     """Dither while holding on the target after Mode 6-2.
 
-    The computer's errors hold the vehicle.
+    The computer's errors hold mission ``m``'s vehicle (a
+    :class:`~allsky.sequencer.host.Host`; it flies one leg more).
 
     There is no optical reference on the target (the Sun sensor is off the
     Sun, S14/S15 open), so only estimate 1 (gyro against command) exists, and

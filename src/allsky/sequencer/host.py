@@ -50,21 +50,86 @@ class Host(Protocol):
         """Mission time [s]."""
 
     def note(self, kind: str, **fields) -> dict:
-        """Journal an entry of ``kind`` (:data:`allsky.vocabulary.EVENT_KINDS`) now."""
+        """Journal an entry of ``kind`` (:data:`allsky.vocabulary.EVENT_KINDS`) now.
+
+        ``**fields`` are the entry's fields for that kind (docs/journal.md);
+        the time and the mode are added. Returns the entry.
+        """
 
     def write_register(self, register: str, word: str, value: float, unit: str,
                        pulses: int | None = None) -> None:
-        """Journal a write of a register's (or counter's) word."""
+        """Journal a write of a register's (or counter's) word.
+
+        Parameters
+        ----------
+        register : str
+            The block's numeral: ``"23"``, ``"24"``, a counter (13-18) or a
+            drift DAC (7/9/11).
+        word : str
+            The word written: an axis (``"roll"``), or a register 23 word
+            (:data:`allsky.computer.word_registers.WORD23`).
+        value : float
+            The value written, in ``unit``.
+        unit : str
+            Its unit in words (``"deg"``, ``"arcsec"``, ``"deg/h"``; ``"-"``
+            for none).
+        pulses : int, optional
+            The raw content [pulses] of a counter or DAC.
+        """
 
     def switch(self, close=(), open_=(), step: str = "", waits_for: str = "") -> None:
-        """Operate the switch bank; ``step``: what the sequencer had waited for, and next."""
+        """Operate the switch bank; ``step``: what the sequencer had waited for, and next.
+
+        ``close`` and ``open_`` are switch numbers
+        (:func:`allsky.hardware.switch_bank.operate`: coupled pairs together);
+        ``waits_for`` says what the sequencer waits for next. What moved is
+        journaled.
+        """
 
     def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
             on_timeout=None, record_rows=0, carry_settle=False):
-        """Fly the frame loop until ``what`` happens (:class:`allsky.sequencer.legs.Leg`)."""
+        """Fly the frame loop until ``what`` happens (:class:`allsky.sequencer.legs.Leg`).
+
+        Parameters
+        ----------
+        what : str
+            What the leg waits for, in words (abort reasons and hooks show it).
+        program : int
+            The computer's program, a ``legs.PROGRAM_*`` code.
+        watch : int
+            What ends the leg, a ``legs.WATCH_*`` code.
+        mask : int
+            Bits of the ``legs.SIG_*`` signals that must settle
+            (``Leg.settle_mask``).
+        signal : int
+            The ``legs.SIG_*`` signal watched for a hand-over
+            (``Leg.handover_signal``).
+        blank_s : float
+            [s] The watched signal is ignored this long after the leg starts.
+        hold_s : float, optional
+            [s] Settle time (``WATCH_SETTLE``) or duration (``WATCH_ELAPSED``);
+            None for the scenario's settle time.
+        on_timeout : str, optional
+            The abort reason's words should the mode time out first (default:
+            ``what`` not achieved).
+        record_rows : int
+            Most rows of the dither record the leg keeps.
+        carry_settle : bool
+            The settle time goes on from the previous leg's.
+
+        Returns
+        -------
+        numpy.ndarray
+            The leg's dither record; a leg that ends otherwise than done raises
+            :class:`allsky.sequencer.master_sequencer.ModeAbort`.
+        """
 
     def extra_leg(self, mode: str, allowed_s: float, what, program, watch, **kwargs):
-        """A leg outside the plan, flown as part of ``mode`` within ``allowed_s`` [s]."""
+        """A leg outside the plan, flown as part of ``mode`` within ``allowed_s`` [s].
+
+        ``what``, ``program``, ``watch`` and ``**kwargs`` (any other keyword
+        of :meth:`leg`) are passed to :meth:`leg`.
+        """
 
     def extend_mode(self, seconds: float) -> None:
         """Move the mode's deadline on by ``seconds`` [s] (a recovery)."""
@@ -84,6 +149,9 @@ class Host(Protocol):
 
 
 def note_register23(m: Host, words) -> None:
-    """Journal register 23's ``words`` (:data:`allsky.computer.word_registers.WORD23`)."""
+    """Journal register 23's ``words`` (:data:`allsky.computer.word_registers.WORD23`).
+
+    ``m`` is the mission (the host) whose register 23 is read.
+    """
     for w in words:
         m.write_register("23", w, float(m.state.word23[wr.WORD23[w]]), "-")

@@ -53,8 +53,9 @@ RATE_SIGN = {"roll": 0, "yaw": 1}
 class ModeAbort(Exception):
     """A mode could not finish; the message is the abort reason.
 
-    ``failure`` says how the leg failed: "timeout", "Sun lost", "star lost"
-    or "propellant exhausted" ("" when not from a leg).
+    ``reason`` is that message, naming the mode and what failed. ``failure``
+    says how: a leg's "timeout", "Sun lost", "star lost" or "propellant
+    exhausted", or the turn check's "turn refused" ("" for none of these).
     """
 
     def __init__(self, reason, failure=""):
@@ -166,6 +167,10 @@ def fly_leg(m, name, step):
     """Hand the leg of a :class:`~allsky.sequencer.modes.Wait` step to the mission.
 
     Returns what ``m.leg`` returns (the samples kept by the leg).
+
+    ``m`` is the mission (:class:`~allsky.sequencer.host.Host`), ``name`` the
+    mode being flown (its durations, such as the settle time, depend on it) and
+    ``step`` the Wait.
     """
     watch = modes.WATCHES[step.watch].code
     cfg = m.cfg
@@ -185,26 +190,42 @@ def fly_leg(m, name, step):
 # by the mode's legs so far, by name.
 
 def clear_drift_counters(m, records):
-    """Clear drift counters 13, 15, 17 before the Mode 3 count."""
+    """Clear drift counters 13, 15, 17 before the Mode 3 count.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     m.state.drift_counters[:] = 0
     for numeral, axis in zip(DRIFT_COUNTERS, vocabulary.AXES):
         m.write_register(numeral, axis, 0.0, "deg/h", pulses=0)
 
 
 def clear_counters(m, records):
-    """Clear up/down counters 14, 16, 18 before a calibration turn or the target roll."""
+    """Clear up/down counters 14, 16, 18 before a calibration turn or the target roll.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     m.state.counters[:] = 0
     for numeral, axis in zip(COUNTERS, vocabulary.AXES):
         m.write_register(numeral, axis, 0.0, "arcsec", pulses=0)
 
 
 def roll_rate_positive(m, records):
-    """Set roll rate-command module 120 to roll in the positive direction."""
+    """Set roll rate-command module 120 to roll in the positive direction.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     m.state.rate_sign[RATE_SIGN["roll"]] = 1
 
 
 def yaw_rate_positive(m, records):
-    """Set yaw rate-command module 128 to yaw in the positive direction."""
+    """Set yaw rate-command module 128 to yaw in the positive direction.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     m.state.rate_sign[RATE_SIGN["yaw"]] = 1
 
 
@@ -217,6 +238,9 @@ def calibration_sequencer(m, records, axis):
     calibrated as two: with the turn check (``sequencer.turn_check_ppm`` >
     0) the number it accepted (:func:`check_turn`), without it the nearest
     to the count, whatever the count (:func:`turns_counted`).
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
     """
     s = m.state
     turns = 1
@@ -234,6 +258,8 @@ def turns_counted(m, axis) -> int:
 
     A scale-factor error is parts per thousand at most, far from the half
     turn that would make the nearest whole number of turns a wrong one.
+
+    ``m`` is the mission (:class:`~allsky.sequencer.host.Host`).
     """
     k = 0 if axis == "roll" else 2
     angle_arcsec = abs(float(m.state.counters[k])) * m.pulse_weight_arcsec
@@ -247,6 +273,8 @@ def turn_verdict(m, axis):
     counter (14 or 18) is judged against -- one for the patent's sequencer,
     the nearest whole number (at least one) with ``sequencer.recovery`` --,
     the counted angle [deg] and its departure from that many turns [ppm].
+
+    ``m`` is the mission (:class:`~allsky.sequencer.host.Host`).
     """
     k = 0 if axis == "roll" else 2
     angle_arcsec = abs(float(m.state.counters[k])) * m.pulse_weight_arcsec
@@ -275,6 +303,9 @@ def check_turn(m, records, axis):
     than the check from one full turn (from the nearest whole number of
     turns with ``sequencer.recovery``) is not a turn, whatever the optics
     saw: a wrong star met on the way, or a turn flown on past a missed one.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
 
     Raises
     ------
@@ -334,6 +365,9 @@ def withhold_calibration(m, records):
     """Fly Mode 6 uncalibrated if so configured: register 23 neutral, S1-S3 open.
 
     Only when the scenario says so (``m.apply_calibration`` false).
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
     """
     if not m.apply_calibration:
         m.state.word23[:] = wr.neutral_computed()
@@ -346,6 +380,9 @@ def load_register_24(m, records):
 
     The angles are computed on the ground (``m.program_target()``) unless
     the mission already holds them.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
     """
     if m.programmed_roll_deg is None:
         m.program_target()
@@ -356,20 +393,32 @@ def load_register_24(m, records):
 
 
 def start_roll_computation(m, records):
-    """Clear CPU 22's work words and compute the first roll error (counter 14 at zero)."""
+    """Clear CPU 22's work words and compute the first roll error (counter 14 at zero).
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     s = m.state
     s.cpu[:] = 0.0
     cpu.target_step(0, 0.0, s.word23, s.word24, s.cpu)
 
 
 def roll_rate_toward_target(m, records):
-    """Set roll rate-command module 120 to the direction of the programmed roll."""
+    """Set roll rate-command module 120 to the direction of the programmed roll.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     s = m.state
     s.rate_sign[RATE_SIGN["roll"]] = 1 if s.word24[wr.PROGRAMMED_ROLL] >= 0 else -1
 
 
 def preset_counters(m, records):
-    """Preset counters 16 and 18 so the corrected pitch and yaw start Mode 6-2 at zero."""
+    """Preset counters 16 and 18 so the corrected pitch and yaw start Mode 6-2 at zero.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     s = m.state
     pitch_arcsec, yaw_arcsec = cpu.mode6_preset_arcsec(s.word23, s.cpu)
     s.counters[1] = round(pitch_arcsec / m.pulse_weight_arcsec)
@@ -380,14 +429,22 @@ def preset_counters(m, records):
 
 
 def start_yaw_computation(m, records):
-    """CPU 22 computes the yaw, then the pitch error from preset counters 18 and 16."""
+    """CPU 22 computes the yaw, then the pitch error from preset counters 18 and 16.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     s = m.state
     cpu.target_step(2, s.counters[2] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)
     cpu.target_step(1, s.counters[1] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)
 
 
 def yaw_rate_toward_target(m, records):
-    """Set yaw rate-command module 128 to the direction of CPU 22's yaw error."""
+    """Set yaw rate-command module 128 to the direction of CPU 22's yaw error.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     s = m.state
     s.rate_sign[RATE_SIGN["yaw"]] = 1 if s.cpu[cpu.ERROR_YAW] >= 0 else -1
 
@@ -396,6 +453,9 @@ def record_hold_start(m, records):
     """Note the true attitude, time and pointing error at the start of the hold.
 
     Kept in ``m.hold`` (plain numbers, so a snapshot can save them).
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
     """
     s = m.state
     m.hold = {"start_time_s": float(s.time_s[0]),
@@ -411,6 +471,9 @@ def measure_hold(m, records):
     quaternions rotate inertial into body coordinates,
     :mod:`allsky.vehicle.quaternion`), in arcsec per minute of hold about
     roll, pitch and yaw.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
     """
     s = m.state
     h = m.hold
@@ -442,6 +505,9 @@ def turn_to_next_target(m, records):
     turn's roll; its yaw word stays zero while the vehicle rolls, so that
     CPU 22 holds the yaw where it is (:func:`load_turn_yaw` loads the yaw
     once the roll has settled).
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
     """
     held = (np.asarray(m.held_axes, dtype=float) if m.held_axes is not None else
             targeting.attitude_after(m.programmed_roll_deg, m.programmed_yaw_deg))
@@ -457,7 +523,11 @@ def turn_to_next_target(m, records):
 
 
 def load_turn_yaw(m, records):
-    """Load register 24's yaw word with the yaw of the turn to the next target."""
+    """Load register 24's yaw word with the yaw of the turn to the next target.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
+    """
     m.state.word24[wr.PROGRAMMED_YAW] = m.turn_yaw_deg * units.DEG2ARCSEC
     m.write_register("24", "yaw", m.turn_yaw_deg, "deg")
 
@@ -468,6 +538,9 @@ def next_target(m, records):
     The mission closes the record of the target just flown and clears the
     programmed angles and the hold's measurements for the next
     (``m.next_target()``); the calibration is left as it is.
+
+    An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
+    ``records`` the samples the mode's legs kept, by name (not read).
     """
     m.next_target()
 

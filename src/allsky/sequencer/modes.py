@@ -41,8 +41,8 @@ from allsky.sequencer import legs
 class Operate(NamedTuple):
     """Close and open switches of the bank, by number (coupled pairs named together)."""
 
-    close: tuple = ()
-    open_: tuple = ()
+    close: tuple = ()  #: numbers of the switches closed
+    open_: tuple = ()  #: numbers of the switches opened
 
 
 class Wait(NamedTuple):
@@ -69,8 +69,8 @@ class Wait(NamedTuple):
 class Do(NamedTuple):
     """A named action (key of :data:`ACTIONS`) with its arguments."""
 
-    action: str
-    args: tuple = ()
+    action: str  #: key of :data:`ACTIONS` (and of the master sequencer's functions)
+    args: tuple = ()  #: passed to the action after ``(m, records)`` (an axis, for some)
     #: key of :data:`CONDITIONS`: the action is flown only when the scenario asks for it
     #: ("" = always); skipped, it leaves no trace
     when: str = ""
@@ -247,7 +247,7 @@ ACTIONS = vocabulary.ACTIONS
 
 
 def action_text(step: Do) -> str:
-    """The words of an action step, its arguments filled in."""
+    """The words of action ``step`` (a :class:`Do`), its arguments filled in."""
     return ACTIONS[step.action].format(*step.args)
 
 
@@ -534,8 +534,9 @@ DIRECT_REPLACES = {"direct": "6-1"}
 def with_hold(plan, cfg) -> tuple:
     """``plan`` with the hold on target appended if ``cfg.target.hold_s`` > 0.
 
-    A plan that already ends with the hold, or a scenario without one, is
-    returned unchanged, so a plan given in full is flown as given.
+    ``plan`` is a sequence of mode names, ``cfg`` the scenario. A plan that
+    already ends with the hold, or a scenario without one, is returned
+    unchanged, so a plan given in full is flown as given.
     """
     plan = tuple(plan)
     if cfg.target.hold_s > 0 and plan[-1:] != (HOLD_MODE,):
@@ -564,17 +565,18 @@ def next_target_modes(plan, how) -> tuple:
 
 
 def target_count(cfg) -> int:
-    """How many targets the scenario flies: the length of ``target.sequence``, else 1."""
+    """How many targets scenario ``cfg`` flies: ``target.sequence``'s length, else 1."""
     return len(cfg.target.sequence) if cfg.target.sequence is not None else 1
 
 
 def mission_plan(plan, cfg) -> tuple:
     """Every mode a mission flies: ``plan`` for the first target, then the others.
 
-    The hold follows each target's 6-2 when ``target.hold_s`` > 0
-    (:func:`with_hold`); each target after the first of ``target.sequence``
-    is flown as :func:`next_target_modes` says for ``sequencer.between_targets``.
-    A plan that already holds a move to a next target is returned as given.
+    ``plan`` is a sequence of mode names, ``cfg`` the scenario. The hold
+    follows each target's 6-2 when ``target.hold_s`` > 0 (:func:`with_hold`);
+    each target after the first of ``target.sequence`` is flown as
+    :func:`next_target_modes` says for ``sequencer.between_targets``. A plan
+    that already holds a move to a next target is returned as given.
     """
     first = with_hold(plan, cfg)
     n = target_count(cfg)
@@ -589,13 +591,19 @@ CPU_PROGRAMS = ("target roll", "target", "target dither")
 
 
 def cpu_modes(table=MODE_TABLE) -> tuple:
-    """Names of the modes in which CPU 22 forms attitude errors (its program runs)."""
+    """Names of the modes in which CPU 22 forms attitude errors (its program runs).
+
+    ``table`` is the mode table searched (:class:`Mode` entries).
+    """
     return tuple(m.name for m in table if any(
         isinstance(s, Wait) and s.program in CPU_PROGRAMS for s in m.steps))
 
 
 def signal_mask(signals) -> int:
-    """Settle mask of the frame loop: bit ``SIG_*`` set for each named signal."""
+    """Settle mask of the frame loop: bit ``SIG_*`` set for each named signal.
+
+    ``signals`` are keys of :data:`SIGNALS`.
+    """
     mask = 0
     for name in signals:
         mask |= 1 << SIGNALS[name].code

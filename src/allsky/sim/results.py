@@ -46,10 +46,13 @@ def fly_calibrating(m, cal_modes, on_start=None, on_end=None, hooks=None):
     """Fly ``m`` to its end, measuring its calibration modes ``cal_modes`` on the way.
 
     The excursion is measured from the attitude at the start of the first
-    calibration mode to the end of the last. ``on_start(m)`` runs as the
-    first begins; ``on_end(m)`` after the last, and the flight stops there
-    if it returns False. ``hooks`` (:class:`allsky.sim.mission.Hooks`) are
-    passed to each mode flown (a study recording the legs).
+    calibration mode to the end of the last. ``m`` is the mission
+    (:class:`allsky.sim.mission.Mission`) and ``cal_modes`` the names of its
+    calibration modes in flight order. ``on_start``, if given, is called as
+    ``on_start(m)`` as the first begins; ``on_end`` as ``on_end(m)`` after the
+    last, and the flight stops there if it returns False. ``hooks``
+    (:class:`allsky.sim.mission.Hooks`) are passed to each mode flown (a study
+    recording the legs).
 
     Returns
     -------
@@ -119,7 +122,8 @@ def warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
     """What a reader of the summary must not miss, one sentence each.
 
     The sentences of :func:`timed_warnings`, in the order of the times they
-    name.
+    name; ``summary``, ``journal``, ``describe`` and
+    ``settle_threshold_arcsec`` are as there.
     """
     return [w["text"] for w in timed_warnings(summary, journal, describe,
                                               settle_threshold_arcsec)]

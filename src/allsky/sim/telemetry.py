@@ -22,5 +22,9 @@ def header() -> list:
 
 
 def switch_closed(table: np.ndarray, k: int) -> np.ndarray:
-    """Boolean series: is on/off switch Sk closed in each row."""
+    """Boolean series: is on/off switch Sk closed in each row.
+
+    ``table`` is a telemetry table (rows of :data:`COLUMNS`) and ``k`` the
+    switch number.
+    """
     return (table[:, INDEX["switches"]].astype(np.int64) >> (k - 1)) & 1 == 1

@@ -144,9 +144,10 @@ def warm_up(loops=("plain",), lock=True) -> bool:
     Flies one short mission per loop of ``loops`` (:data:`LOOPS`; about 0.1 s
     each once compiled). The plain loop has one compiled form for every plan
     and scenario on the jets without faults, so it covers ``allsky run``,
-    ``step``, ``compare`` and ``montecarlo``; ``"any"`` adds the wheels and
-    the faults. ``lock=False`` compiles without the machine's lock (a build
-    compiling the loops side by side).
+    ``step``, ``compare`` and ``montecarlo``; ``"any"`` adds the wheels and the
+    faults. With ``lock`` a loop that needs compiling compiles under the
+    machine's lock (:func:`compile_once`); ``lock=False`` compiles without it
+    (a build compiling the loops side by side).
     """
     from allsky.jit import load_numba
     from allsky.sim import frame_loop

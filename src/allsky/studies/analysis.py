@@ -260,11 +260,26 @@ def axis_loops(inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
                position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s) -> dict:
     """Every loop of :func:`loop_transfer`, as ``{name: L(s)}``.
 
-    Names run from ``"position roll"`` to ``"rate yaw"``.
+    Names run from ``"position roll"`` to ``"rate yaw"``: the position loops
+    of the three axes first, then the rate-command loops of
+    :data:`RATE_LOOP_AXES`.
 
-    Parameters are those of :func:`loop_transfer` (without ``axis``). The
-    position loops of the three axes come first, then the rate-command
-    loops of :data:`RATE_LOOP_AXES`.
+    Parameters
+    ----------
+    inertia_kg_m2 : array_like, shape (3, 3)
+        [kg m^2] Full inertia tensor, body axes (roll, pitch, yaw).
+    torque_n_m : array_like, shape (3,)
+        [N m] Jet couple torque per axis.
+    full_on_v : float
+        [V] PWPF full-on voltage ``U_m``.
+    pwpf_time_constant_s : float
+        [s] PWPF filter time constant (0: no lag).
+    position_gain_v_per_arcsec : array_like, shape (3,)
+        [V/arcsec] Control amplifier position gains.
+    rate_gain_v_per_arcsec_s : array_like, shape (3,)
+        [V/(arcsec/s)] Control amplifier rate gains.
+    frame_s : float
+        [s] Frame (0: no delay).
     """
     args = (inertia_kg_m2, torque_n_m, full_on_v, pwpf_time_constant_s,
             position_gain_v_per_arcsec, rate_gain_v_per_arcsec_s, frame_s)
@@ -554,7 +569,7 @@ def pwpf_static_characteristic(filter_gain, time_constant_s, on_threshold_v, off
 
 
 def scenario_pwpf_arguments(cfg) -> dict:
-    """Keyword arguments of :func:`pwpf_static_characteristic` from a loaded scenario."""
+    """Keyword arguments of :func:`pwpf_static_characteristic` from scenario ``cfg``."""
     return {"filter_gain": cfg.pwpf.filter_gain, "time_constant_s": cfg.pwpf.time_constant_s,
             "on_threshold_v": cfg.pwpf.on_threshold_v,
             "off_threshold_v": cfg.pwpf.off_threshold_v, "full_on_v": cfg.pwpf.full_on_v,
@@ -564,14 +579,16 @@ def scenario_pwpf_arguments(cfg) -> dict:
 # -- a scenario's analysis ------------------------------------------------------
 
 def scenario_loops(cfg) -> dict:
-    """The loop transfer functions of a scenario: :func:`axis_loops` of its parameters."""
+    """Loop transfer functions of scenario ``cfg``: :func:`axis_loops` of its values."""
     return axis_loops(**scenario_loop_arguments(cfg))
 
 
 def frequency_responses(loops: dict, omega_rad_s) -> dict:
-    """``{name: (omega, |L(j omega)|, phase, unwrapped)}`` of each loop.
+    """``{name: (omega, |L(j omega)|, phase)}`` of each loop, phase unwrapped.
 
-    Units: omega [rad/s], ``|L(j omega)|`` [-], phase [deg].
+    ``loops`` are ``{name: L(s)}`` (:func:`axis_loops`), evaluated at the
+    angular frequencies ``omega_rad_s`` [rad/s]. Units: omega [rad/s],
+    ``|L(j omega)|`` [-], phase [deg].
     """
     w = np.asarray(omega_rad_s, dtype=float)
     out = {}
@@ -584,6 +601,8 @@ def frequency_responses(loops: dict, omega_rad_s) -> dict:
 
 def analyze(cfg) -> dict:
     """Loop margins and PWPF static characteristic of a scenario (``allsky analyze``).
+
+    ``cfg`` is the loaded scenario.
 
     Returns
     -------

@@ -98,8 +98,10 @@ def slew_tracking_error_arcsec(scale_factor_error_ppm, target) -> float | None:
     turned. It is largest on arrival, before the tracker pulls it in:
     ``dSF_roll |roll| (+) dSF_yaw |yaw|`` (root sum of squares; the two
     turns are about orthogonal axes) for the target's roll and yaw turns
-    (``target`` of the mission summary). Once held on the tracker both
-    methods point to the optical hold's jitter. None without a target.
+    (``target`` of the mission summary). ``scale_factor_error_ppm`` holds the
+    method's errors by axis (``"roll"``, ``"yaw"``) [ppm]. Once held on the
+    tracker both methods point to the optical hold's jitter. None without a
+    target.
     """
     roll, yaw = target.get("programmed_roll_deg"), target.get("programmed_yaw_deg")
     if roll is None or yaw is None:
@@ -110,7 +112,11 @@ def slew_tracking_error_arcsec(scale_factor_error_ppm, target) -> float | None:
 
 
 def load_cross_coupling(word23, cross_coupling) -> None:
-    """Put the cross-coupling words ``{"roll_into_pitch": ...}`` into register 23."""
+    """Put the cross-coupling words ``{"roll_into_pitch": ...}`` into register 23.
+
+    ``cross_coupling`` holds the four words by name [-]; ``word23`` is
+    register 23, written in place.
+    """
     slots = {"roll_into_pitch": wr.ROLL_INTO_PITCH, "roll_into_yaw": wr.ROLL_INTO_YAW,
              "yaw_into_pitch": wr.YAW_INTO_PITCH, "yaw_into_roll": wr.YAW_INTO_ROLL}
     for name, slot in slots.items():
@@ -120,7 +126,8 @@ def load_cross_coupling(word23, cross_coupling) -> None:
 def fly_pair(args, on_flight=None):
     """Legacy and dither missions for one seed: ``(scenario_dict, seed)`` -> metrics.
 
-    ``on_flight(name)``, if given, after each mission flown.
+    ``args`` is that pair (a campaign's job). ``on_flight``, if given, is
+    called as ``on_flight(name)`` after each mission flown.
     """
     return _fly_pair(args, on_flight)[0]
 
@@ -223,11 +230,11 @@ def _stats(values):
 def label_percentiles(result: dict) -> dict:
     """A copy of a :func:`compare` result whose statistics name their percentile.
 
-    Every statistic (``{"mean", "std", "p95"}``) also carries ``p95_abs``,
-    the same number under a name that says it is a percentile of the
-    absolute values, and ``statistics`` (:data:`STATISTICS`) explains the
-    keys. ``p95`` stays, for scripts that read it. ``allsky compare --json``
-    writes this.
+    ``result`` is left as it is. Every statistic (``{"mean", "std", "p95"}``)
+    also carries ``p95_abs``, the same number under a name that says it is a
+    percentile of the absolute values, and ``statistics`` (:data:`STATISTICS`)
+    explains the keys. ``p95`` stays, for scripts that read it.
+    ``allsky compare --json`` writes this.
     """
     def walk(value):
         if isinstance(value, dict):
@@ -303,6 +310,10 @@ def predicted(cfg, legacy_time_s=None, drift_sigma_deg_h=None) -> dict:
     ``j^2 = (sigma_d^2 - N^2/T_d) T_d^2 / 2`` the jitter it shows, per axis
     and vehicle (the jets' limit cycle, or on the wheels the tail of the
     settle the counts start and end on; docs/comparison.md).
+
+    ``cfg`` is the scenario; ``legacy_time_s`` the mean flown durations of
+    the roll and yaw counts, ``{"roll": T_c, "yaw": T_c}`` [s] (None: a 360
+    deg turn at the rate command plus 20 %).
     """
     n_arw = cfg.gyro.arw_deg_rt_h * 60.0  # arcsec/sqrt(s)
     d = cfg.dither
@@ -344,7 +355,7 @@ def _hold_terms(n_arw, t_d, drift_sigma=None):
 
 
 def on_vehicle(cfg, vehicle=None):
-    """The scenario flown on ``vehicle``: "jets", "wheels" or None (as it says).
+    """Scenario ``cfg`` flown on ``vehicle``: "jets", "wheels" or None (as it says).
 
     The vehicle is ``actuators.kind``: both methods fly the same one.
     """
@@ -507,9 +518,10 @@ def flights_per_seed(methods) -> int:
 def fly_methods(args, on_flight=None):
     """:func:`fly_pair` and the requested further methods for one seed.
 
-    ``(scenario_dict, seed, methods)`` -> metrics by section: with
-    ``"kalman"`` the filter's two flights (:func:`fly_three`), with
-    ``"smoother"`` the smoother's (:func:`smoother_metrics`).
+    ``args`` is ``(scenario_dict, seed, methods)`` -> metrics by section:
+    with ``"kalman"`` the filter's two flights (:func:`fly_three`), with
+    ``"smoother"`` the smoother's (:func:`smoother_metrics`). ``on_flight`` as
+    for :func:`fly_pair`.
     """
     from allsky.config import scenario_from_dict
 
@@ -529,7 +541,8 @@ def fly_methods(args, on_flight=None):
 def fly_three(args, on_flight=None):
     """:func:`fly_pair` and the Kalman filter's two flights for one seed.
 
-    ``(scenario_dict, seed)`` -> metrics by method. ``kalman``: the filter
+    ``args`` is ``(scenario_dict, seed)`` -> metrics by method, ``on_flight``
+    as for :func:`fly_pair`. ``kalman``: the filter
     through the legacy Modes 3-5, ``kalman_dither``: through Mode 3 and the
     dither hold; each loads its estimate into register 23 and the drift
     counters and flies Mode 6 with it (:func:`allsky.studies.kalman_mekf.fly`).
@@ -539,6 +552,8 @@ def fly_three(args, on_flight=None):
 
 def kalman_metrics(cfg, plan_name, cross_coupling=None) -> dict:
     """The other methods' rows for the filter flown on ``plan_name``'s manoeuvres.
+
+    ``cfg`` is the scenario, at the run's seed.
 
     ``pointing_error_same_misalignment_arcsec`` flies Mode 6 a second time
     from the end of the calibration, register 23's cross-coupling words
@@ -589,7 +604,8 @@ def _mode6_twice(f, cross_coupling):
 def smoother_metrics(cfg, cross_coupling=None) -> dict:
     """The other methods' rows for the smoother over the legacy Modes 3-5.
 
-    As :func:`kalman_metrics`: ``filter_sigma`` (the smoother's own 1-sigma),
+    ``cfg`` and ``cross_coupling`` as for :func:`kalman_metrics`, which it
+    follows: ``filter_sigma`` (the smoother's own 1-sigma),
     ``nees`` at the end of Mode 5 (exact rotation error), ``filter_s`` (its
     wall time) and ``iterations`` (Gauss-Newton passes).
     """
@@ -615,7 +631,8 @@ def smoother_metrics(cfg, cross_coupling=None) -> dict:
 def smoother_section(result, rows) -> None:
     """Add ``smoother`` to a :func:`compare` result, in place.
 
-    As :func:`kalman_sections` does for the filter.
+    As :func:`kalman_sections` does for the filter: ``result`` gets the
+    section, made from ``rows``, the per-seed rows of the runs.
     """
     _filter_section(result, rows, "smoother")
 
@@ -635,7 +652,9 @@ def crlb_sections(result, rows) -> None:
     result, the bound of the manoeuvres it calibrates from
     (:data:`allsky.studies.crlb.METHOD_MANOEUVRE`) under the method's own
     keys (``scale_factor_error_ppm``, ``cross_coupling_error_arcsec``,
-    ``drift_error_deg_h``), to set beside its measured spread.
+    ``drift_error_deg_h``), to set beside its measured spread. ``result``
+    gets both, made from ``rows``, the per-seed rows of the runs (each with
+    its ``crlb``).
     """
     have = [r["crlb"] for r in rows if r.get("crlb")]
     if not have:
@@ -659,6 +678,9 @@ def crlb_sections(result, rows) -> None:
 
 def kalman_sections(result, rows) -> None:
     """Add ``kalman`` and ``kalman_dither`` to a :func:`compare` result, in place.
+
+    ``result`` gets the sections, made from ``rows``, the per-seed rows of
+    the runs (:func:`fly_three`).
 
     One run: its metrics. Several: the statistics of :func:`_aggregate`, the
     drift errors' too, ``filter_sigma`` as the RMS over the runs of the

@@ -46,6 +46,9 @@ STATES = ("att_roll", "att_pitch", "att_yaw", "drift_roll", "drift_pitch", "drif
 def run_statistics(m, est: km.Estimate) -> dict:
     """One run's consistency figures: errors at the leg ends, innovation sums.
 
+    ``m`` is the mission flown (its truth) and ``est`` the filter's
+    :class:`~allsky.studies.kalman_mekf.Estimate` over it.
+
     Returns ``z2`` (checkpoints, 15), ``nees`` (checkpoints,), ``blocks``
     (block -> (checkpoints,)), ``modes`` (the mode of each checkpoint),
     ``nis_sum``, ``nis_count`` (per output) and ``corr`` (per output: the
@@ -85,7 +88,7 @@ class Report(NamedTuple):
     """Consistency over runs drawn from the prior (:func:`campaign`)."""
 
     runs: int  #: runs that reached the end of their calibration
-    aborted: int
+    aborted: int  #: runs that did not (no estimate to test)
     nees_mean: np.ndarray  #: (checkpoints,) mean NEES of all 15 states at each leg end
     nees_bounds: tuple  #: two-sided 95 % bounds of that mean
     blocks_mean: dict  #: block -> (checkpoints,) mean block NEES
@@ -104,7 +107,11 @@ def _chi2_bounds(dof, n):
 
 
 def summarise(stats: list, aborted: int = 0) -> Report:
-    """Pool per-run :func:`run_statistics` into a :class:`Report`."""
+    """Pool per-run :func:`run_statistics` into a :class:`Report`.
+
+    ``stats`` are the runs' figures (at least one); ``aborted`` counts the
+    runs that gave none, carried into the report.
+    """
     n = len(stats)
     width = min(s["nees"].size for s in stats)
 
@@ -155,7 +162,9 @@ def campaign(cfg, runs=50, seed=0, plan_name="legacy", prior: km.Prior = km.DEFA
     are the ``k``-th draw from ``prior`` (generator seeded with ``seed``,
     :func:`allsky.studies.kalman_mekf.draw_truth`), otherwise the
     scenario's own (not a chi-square test of the states the data do not
-    show).
+    show). ``cfg`` is the scenario, ``plan_name`` the plan whose calibration
+    the filter follows ("legacy" or "dither") and ``workers`` the processes
+    that fly the runs.
     """
     rng = np.random.default_rng(seed)
     data = cfg.as_dict()
@@ -173,7 +182,7 @@ def campaign(cfg, runs=50, seed=0, plan_name="legacy", prior: km.Prior = km.DEFA
 
 
 def report_dict(r: Report) -> dict:
-    """A :class:`Report` as JSON-ready data."""
+    """Report ``r`` (:class:`Report`) as JSON-ready data."""
     return {"runs": r.runs, "aborted": r.aborted,
             "nees": {"mean": r.nees_mean.tolist(), "bounds_95": list(r.nees_bounds),
                      "states": km.N_STATE},

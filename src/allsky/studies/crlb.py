@@ -100,7 +100,14 @@ def dcm_many(q) -> np.ndarray:
 
 
 def atan2_rows(s, num, num_sign, den):
-    """Rows ``J x s`` of ``atan2(num_sign s[num], s[den])`` for body vectors (n, 3)."""
+    """Rows ``J x s`` of ``atan2(num_sign s[num], s[den])`` for body vectors (n, 3).
+
+    ``s`` holds the unit vectors (Sun or star) in body axes, one per row;
+    ``num`` and ``den`` are the component indices of the angle's numerator
+    and denominator and ``num_sign`` (+1 or -1) the numerator's sign. ``J``
+    is the angle's gradient with respect to ``s``: the row ``J x s`` gives
+    the output's change [rad] for a small body rotation [rad].
+    """
     u = num_sign * s[:, num]
     v = s[:, den]
     d2 = u * u + v * v
@@ -113,7 +120,10 @@ def atan2_rows(s, num, num_sign, den):
 def linearise(model: km.FilterModel, samples: km.Samples, params_true) -> Linearisation:
     """The linear model of the samples along the truth.
 
-    The truth is ``samples.truth_q`` and ``params_true``.
+    ``samples`` are the recorded samples
+    (:class:`~allsky.studies.kalman_mekf.Samples`), their true attitude
+    ``samples.truth_q`` the truth with ``params_true``; ``model`` is the
+    filter's (its noises and the stars of the tracker's window).
 
     ``params_true`` (12) is :func:`~allsky.studies.kalman_mekf.true_parameters`:
     drift [rad/s] and ``E``. The attitude rows of every optical output are
@@ -230,6 +240,8 @@ def _riccati(dt_s, u, c, rot, h, valid, rvar, arw2, rrw2, P, tmat, ph):
 def measurement_variances(model: km.FilterModel) -> np.ndarray:
     """[rad^2] Variance of sun pitch, sun yaw, tracker yaw, tracker pitch per sample.
 
+    From ``model``, the filter's :class:`~allsky.studies.kalman_mekf.FilterModel`.
+
     The optics' white noise and the counters' readout error (the attitude
     the counters carry is off by it at every sample: ``docs/kalman.md``,
     "Rate-integrating gyro with readout noise").
@@ -243,8 +255,9 @@ def bound_covariance(model: km.FilterModel, lin: Linearisation,
                      prior: km.Prior | None = None) -> np.ndarray:
     """The Cramer-Rao bound (15 x 15) of the error states at the last sample.
 
-    ``prior`` is the (weak) prior the recursion starts from; None:
-    :func:`weak_prior`.
+    ``model`` gives the noises, ``lin`` (:func:`linearise`) the linear model
+    along the truth, and ``prior`` is the (weak) prior the recursion starts
+    from; None: :func:`weak_prior`.
     """
     P = km.prior_covariance(weak_prior() if prior is None else prior)
     _riccati(lin.dt_s, np.ascontiguousarray(lin.u_rad), np.ascontiguousarray(lin.c),
@@ -258,6 +271,12 @@ def bound_covariance(model: km.FilterModel, lin: Linearisation,
 def bound(model: km.FilterModel, samples: km.Samples, params_true,
           prior: km.Prior | None = None) -> dict:
     """The Cramer-Rao bound of the calibration's quantities from ``samples``.
+
+    ``model`` is the filter's (its noises), ``params_true`` the 12 true
+    parameters (:func:`truth_of`) the model is linearised about and ``prior``
+    the weak prior the recursion starts from (None: :func:`weak_prior`). A
+    bound above :data:`UNOBSERVABLE_FRACTION` of the weak prior's own sigma is
+    reported as None: the data do not show that quantity.
 
     Returns
     -------
@@ -285,8 +304,10 @@ def bound(model: km.FilterModel, samples: km.Samples, params_true,
 def truth_of(m, samples: km.Samples) -> np.ndarray:
     """The true parameter vector (12): constant gyro and integrator drift, and E.
 
-    The drift's random walk is left out of the linearisation point: over a
-    sample it moves the increments by far less than their noise.
+    Read from mission ``m``'s parameters, constant over the flight, so the
+    same for every stretch of ``samples`` it recorded (``samples`` is not
+    read). The drift's random walk is left out of the linearisation point:
+    over a sample it moves the increments by far less than their noise.
     """
     drift = (np.asarray(m.params.gyro.drift_arcsec_s, dtype=float)
              + np.asarray(m.params.vfc.integrator_drift_arcsec_s, dtype=float))
@@ -297,8 +318,9 @@ def mission_bounds(m, legs_flown, manoeuvres, prior: km.Prior | None = None) -> 
     """:func:`bound` for each manoeuvre ``name -> modes`` the mission recorded.
 
     ``legs_flown`` are the legs a :class:`~allsky.studies.kalman_mekf.LegRecorder`
-    kept of mission ``m``'s flight. A manoeuvre whose modes were not flown
-    (an aborted mission) is left out.
+    kept of mission ``m``'s flight, ``manoeuvres`` maps each manoeuvre's name
+    to its modes, and ``prior`` is passed to :func:`bound`. A manoeuvre whose
+    modes were not flown (an aborted mission) is left out.
     """
     model = km.filter_model(m)
     out = {}
@@ -325,6 +347,8 @@ def recording_config(cfg):
 def fly_recording(cfg, plan_name, modes):
     """Fly ``plan_name`` through its calibration, recording every frame of ``modes``.
 
+    ``cfg`` is the scenario; ``plan_name`` "legacy" or "dither".
+
     Returns the :class:`~allsky.studies.kalman_mekf.Recorded` mission and
     legs, stopped after the plan's calibration modes (Mode 6 not flown).
     """
@@ -341,8 +365,9 @@ def fly_recording(cfg, plan_name, modes):
 def flown_bounds(cfg, manoeuvres=None) -> dict:
     """The bound of every manoeuvre of :data:`MANOEUVRES` (or ``manoeuvres``).
 
-    Flies each plan needed once, recording every frame of the modes its
-    manoeuvres use, and evaluates each manoeuvre on its own data.
+    Flies scenario ``cfg`` once per plan needed, recording every frame of
+    the modes its manoeuvres use, and evaluates each manoeuvre on its own
+    data. ``manoeuvres`` names keys of :data:`MANOEUVRES`.
     """
     wanted = MANOEUVRES if manoeuvres is None else {k: MANOEUVRES[k] for k in manoeuvres}
     out = {}
@@ -359,8 +384,10 @@ def flown_bounds(cfg, manoeuvres=None) -> dict:
 def information_ratio(a: dict, b: dict, group="scale_factor_ppm", key="roll") -> float | None:
     """The information of manoeuvre ``a`` over that of ``b``, on one quantity.
 
-    The ratio of the variances' inverses, ``(sigma_b / sigma_a)^2``; None if
-    either does not show it.
+    ``a`` and ``b`` are bounds (:func:`bound`); the quantity is ``key``
+    (``"roll"``) of ``group`` (``"scale_factor_ppm"``). The ratio of the
+    variances' inverses, ``(sigma_b / sigma_a)^2``; None if either does not
+    show it.
     """
     sa, sb = a[group][key], b[group][key]
     if sa is None or sb is None:
@@ -371,7 +398,8 @@ def information_ratio(a: dict, b: dict, group="scale_factor_ppm", key="roll") ->
 def rms_bounds(bounds: list) -> dict | None:
     """The RMS over runs of per-run bounds.
 
-    The same keys; None where any run has None.
+    ``bounds`` are the runs' :func:`bound` dicts; the result has the same
+    groups and keys, None where any run has None (None for no runs).
     """
     if not bounds:
         return None

@@ -32,7 +32,11 @@ from allsky.studies.compare import predicted
 
 
 def point_overrides(cfg, amplitude_urad, record_s) -> list:
-    """``--set`` strings of one grid point: ``amplitude_urad`` on each dithered axis."""
+    """``--set`` strings of one grid point: ``amplitude_urad`` on each dithered axis.
+
+    ``amplitude_urad`` [urad] goes on the axes scenario ``cfg`` dithers (the
+    others stay at 0); ``record_s`` [s] is the record length.
+    """
     amp = [float(amplitude_urad) if a != 0.0 else 0.0 for a in cfg.dither.amplitude_urad]
     return [f"dither.amplitude_urad=[{amp[0]!r},{amp[1]!r},{amp[2]!r}]",
             f"dither.record_s={float(record_s)!r}"]
@@ -63,7 +67,10 @@ def _calibrate(cfg, plan):
 
 
 def fly_legacy(args):
-    """Legacy reference of one seed: ``(scenario_dict, seed)`` -> figures and words."""
+    """Legacy reference of one seed: ``(scenario_dict, seed)`` -> figures and words.
+
+    ``args`` is that pair, a job of the sweep's campaign.
+    """
     data, seed = args
     cfg = scenario_from_dict(data, [f"mission.seed={seed}"])
     _, s, t_cal, excursion, prop = _calibrate(cfg, LEGACY_PLAN)
@@ -79,8 +86,10 @@ def fly_legacy(args):
 def fly_dither(args):
     """One grid point and seed: ``(scenario_dict, overrides, seed, words)`` -> figures.
 
-    ``words`` are the legacy cross-coupling words of the seed (None: the
-    estimate with misalignment known is not formed).
+    ``args`` is that tuple, a job of the sweep's campaign: ``overrides`` are
+    the point's ``--set`` strings (:func:`point_overrides`), ``words`` the
+    legacy cross-coupling words of the seed (None: the estimate with
+    misalignment known is not formed).
     """
     data, overrides, seed, words = args
     cfg = scenario_from_dict(data, [*overrides, f"mission.seed={seed}"])
@@ -138,7 +147,10 @@ def crossover(points, legacy_rms_ppm, key="scale_factor_rms_error_same_misalignm
     Returns ``{record_s: {axis: {"amplitude_urad": ..., "time_s": ...,
     "max_excursion_arcsec": ..., "bracketed": ...}}}`` (costs interpolated
     the same way); ``bracketed`` is False when the smallest amplitude of the
-    grid already gets there (the crossover is at most that point).
+    grid already gets there (the crossover is at most that point). ``key``
+    names the points' figure compared: the RMS error with the legacy
+    misalignment known, or ``"scale_factor_rms_error_ppm"`` for the dither's
+    own register 23.
     """
     out = {}
     for t in sorted({p["record_s"] for p in points}):

@@ -205,6 +205,9 @@ def pseudo_inverse_reach(axes, torque_max_n_m, momentum_max_n_m_s) -> dict:
     ``|(A+ v)_i| <= L_i`` (:func:`allsky.vehicle.wheels.pseudo_inverse_envelope`):
     torques it delivers without scaling, momenta it holds with every wheel
     within its limit (the wheels' momenta being ``A+`` of the body's).
+    ``axes`` are the wheels' unit spin axes, (n, 3) in body axes;
+    ``torque_max_n_m`` [N m] and ``momentum_max_n_m_s`` [N m s] each wheel's
+    limits, one number for all or one per wheel.
     """
     from allsky.vehicle.wheels import pseudo_inverse_envelope
 
@@ -259,6 +262,8 @@ def scenario_envelopes(cfg, beta_deg=None, torque_max_n_m=None,
 
 def flown_dither_check(cfg) -> dict:
     """The scenario's dither feed-forward torque in its actuators' envelopes.
+
+    ``cfg`` is the scenario; its ``[dither]``, vehicle, jets and wheels are read.
 
     The torque the dither method asks of the actuators over its record:
     ``J_est a(t)`` with every axis dithered at once at its amplitude and

@@ -41,7 +41,11 @@ MATRIX_MODES = MODES
 
 
 def fault_entry(kind: str, mode: str) -> dict:
-    """The ``[[faults]]`` table of the matrix's case (kind, start mode)."""
+    """The ``[[faults]]`` table of the matrix's case: fault ``kind`` from ``mode``.
+
+    ``kind`` is a key of :data:`MATRIX_FAULTS`, ``mode`` the name of the mode
+    whose start the fault waits for.
+    """
     return {"kind": kind, **MATRIX_FAULTS[kind], "start_mode": mode}
 
 
@@ -81,7 +85,11 @@ def _fly(job):
 
 
 def died_case(job, reason) -> dict:
-    """The row of a case whose worker died twice flying it (``worker_died``)."""
+    """The row of a case whose worker died twice flying it (``worker_died``).
+
+    ``job`` is the case's ``(scenario_dict, kind, mode)`` and ``reason`` why
+    the worker died, in words.
+    """
     _, kind, mode = job
     fault = describe(fault_entry(kind, mode)) if kind is not None else None
     return {"kind": kind, "mode": mode, "fault": fault, "status": "worker_died",
@@ -129,7 +137,10 @@ def fault_matrix(cfg, kinds=None, modes=None, workers=1, on_progress=None) -> di
 
 
 def tally(rows) -> dict:
-    """Cases by status (complete, aborted, error) and by outcome."""
+    """Cases by status (complete, aborted, error, worker_died) and by outcome.
+
+    ``rows`` are the matrix's case rows (:func:`fly_case`, :func:`died_case`).
+    """
     by_status, by_outcome = {}, {}
     for r in rows:
         by_status[r["status"]] = by_status.get(r["status"], 0) + 1

@@ -106,7 +106,7 @@ class FilterModel(NamedTuple):
 
 
 def filter_model(m: Mission) -> FilterModel:
-    """The :class:`FilterModel` of a mission's scenario and sky."""
+    """The :class:`FilterModel` of mission ``m``'s scenario and sky."""
     cfg, p = m.cfg, m.params
     return FilterModel(
         arw_rad_rt_s=cfg.gyro.arw_deg_rt_h * units.DEG2RAD / math.sqrt(units.HOUR_S),
@@ -141,8 +141,8 @@ class LegData(NamedTuple):
     """One leg's telemetry and the state at its two ends."""
 
     mode: str  #: the mode the leg belongs to
-    start: LegEnd
-    end: LegEnd
+    start: LegEnd  #: the state as the leg began
+    end: LegEnd  #: the state as it ended
     rows: np.ndarray  #: the leg's telemetry rows (COLUMNS)
 
 
@@ -193,8 +193,8 @@ class LegRecorder:
 class Recorded(NamedTuple):
     """A mission and the legs a :class:`LegRecorder` kept of its flight."""
 
-    mission: Mission
-    recorder: LegRecorder
+    mission: Mission  #: the mission, to be flown with ``recorder.hooks``
+    recorder: LegRecorder  #: the recorder attached to it
 
     @property
     def legs_flown(self) -> list:
@@ -642,7 +642,7 @@ def run_filter(time_s, dt_s, gyro, sun, trk, sun0, sun_rate, stars, noise, q, p,
 class Estimate(NamedTuple):
     """The filter's run over a mission's samples."""
 
-    samples: Samples
+    samples: Samples  #: the samples filtered (those after the initialising one)
     q: np.ndarray  #: (n, 4) attitude estimates
     params: np.ndarray  #: (n, 12) drift [rad/s], E's diagonal [-], E's off-diagonal [rad]
     #: (n, 15) 1-sigma of each error state; the attitude's with the present counter
@@ -668,7 +668,10 @@ def triad(model: FilterModel, t_s, sun_row, trk_row) -> np.ndarray:
     """Attitude quaternion from one Sun and one star measurement (TRIAD, Sun first).
 
     The star is the one of the window whose angle from the Sun matches the
-    measured one best.
+    measured one best. ``model`` gives the Sun's path and the window's stars,
+    ``t_s`` [s] is the sample's epoch, ``sun_row`` the sun sensor's (pitch,
+    yaw [rad], valid) and ``trk_row`` the tracker's (yaw, pitch [rad],
+    valid), as rows of :class:`Samples`.
     """
     sb, tb = _body_vectors(sun_row, trk_row)
     si = model.sun0_inertial + model.sun_rate_inertial * t_s
@@ -686,7 +689,7 @@ def triad(model: FilterModel, t_s, sun_row, trk_row) -> np.ndarray:
 
 
 def prior_covariance(prior: Prior = DEFAULT_PRIOR) -> np.ndarray:
-    """Diagonal initial covariance of the 15 error states."""
+    """Diagonal initial covariance of the 15 error states, from ``prior``'s sigmas."""
     sig = np.concatenate([
         np.full(3, prior.attitude_arcsec * units.ARCSEC2RAD),
         np.full(3, prior.drift_deg_h * units.DEG_H2ARCSEC_S * units.ARCSEC2RAD),
@@ -696,7 +699,7 @@ def prior_covariance(prior: Prior = DEFAULT_PRIOR) -> np.ndarray:
 
 
 def noise_vector(model: FilterModel) -> np.ndarray:
-    """The ``noise`` argument of :func:`run_filter` from a :class:`FilterModel`."""
+    """The ``noise`` argument of :func:`run_filter`, from the filter's ``model``."""
     return np.array([model.arw_rad_rt_s**2, model.rrw_rad_s_rt_s**2,
                      model.sun_noise_rad**2 + model.readout_rad**2,
                      model.tracker_noise_rad**2 + model.readout_rad**2, GATE_SIGMA**2,
@@ -706,9 +709,11 @@ def noise_vector(model: FilterModel) -> np.ndarray:
 def estimate(model: FilterModel, samples: Samples, prior: Prior = DEFAULT_PRIOR) -> Estimate:
     """Initialise from the first sample seeing Sun and star, and filter the rest.
 
-    The attitude starts at :func:`triad`, drift, scale factors and
-    misalignments at zero, the covariance at :func:`prior_covariance`. The
-    covariance is kept at every leg end (``samples.leg_end``).
+    ``model`` is the filter's design (:func:`filter_model`) and ``samples``
+    its input (:func:`samples_from_legs`). The attitude starts at
+    :func:`triad`, drift, scale factors and misalignments at zero, the
+    covariance at :func:`prior_covariance` of ``prior``. The covariance is
+    kept at every leg end (``samples.leg_end``).
     """
     both = np.flatnonzero((samples.sun[:, VALID] > 0.5) & (samples.tracker[:, VALID] > 0.5))
     if both.size == 0:
@@ -740,7 +745,7 @@ def estimate(model: FilterModel, samples: Samples, prior: Prior = DEFAULT_PRIOR)
 
 
 def sensitivity(params) -> np.ndarray:
-    """The gyro sensitivity ``S = (I + E)^-1`` of a parameter vector (12)."""
+    """The gyro sensitivity ``S = (I + E)^-1`` of parameter vector ``params`` (12)."""
     e = np.zeros((3, 3))
     for a in range(3):
         for j in range(3):
@@ -764,7 +769,8 @@ def calibration(params) -> dict:
     and yaw, the four ``cross_coupling`` factors of register 23 (counts on
     the other axis per unit true angle), as
     :meth:`allsky.sim.mission.Mission.calibration` and
-    :func:`allsky.hardware.gyro.perfect_calibration` give them.
+    :func:`allsky.hardware.gyro.perfect_calibration` give them. ``params`` is
+    the estimate's parameter vector (12: drift [rad/s], then ``E``).
     """
     v = _register_values(params)
     return {"drift_deg_h": dict(zip(AXES, (float(d) for d in v[0:3]))),
@@ -778,6 +784,8 @@ def load(m: Mission, params) -> None:
     Scale factors and cross-coupling factors go into register 23; the drift
     goes into the drift counters as the count the drift DACs 7/9/11 turn
     into that rate (rounded to one count, clipped to the DAC's range).
+    ``m`` is the mission, changed in place; ``params`` the estimate's
+    parameter vector (12).
     """
     cal = calibration(params)
     w = m.state.word23
@@ -801,7 +809,8 @@ def sigmas(params, cov) -> dict:
     counted), ``cross_coupling_arcsec`` (register 23's four),
     ``gyro_scale_factor_ppm`` per gyro and ``misalignment_arcsec`` (``M[i, j]``
     by ``"i,j"``), through the Jacobian of ``S = (I + E)^-1`` (central
-    differences).
+    differences). ``params`` is the parameter vector (12) and ``cov`` the
+    15 x 15 error covariance (its parameter block is used).
     """
     p = np.asarray(params, dtype=float)
     jac = np.empty((18, 12))
@@ -824,7 +833,11 @@ def sigmas(params, cov) -> dict:
 
 
 def true_parameters(m: Mission, bias_rad_s) -> np.ndarray:
-    """The parameter vector (12) the filter should find, with the drift ``bias_rad_s``."""
+    """The parameter vector (12) the filter should find, with the drift ``bias_rad_s``.
+
+    ``E`` comes from mission ``m``'s true gyro sensitivity; ``bias_rad_s`` is
+    the (3,) true drift [rad/s].
+    """
     e = np.linalg.inv(np.asarray(m.params.gyro.sensitivity)) - np.eye(3)
     out = np.empty(12)
     out[0:3] = bias_rad_s
@@ -837,7 +850,8 @@ def true_parameters(m: Mission, bias_rad_s) -> np.ndarray:
 def rotation_error(a_est, a_true):
     """Rotation vectors ``e`` with ``A_true = exp(-[e x]) A_est``, exactly (n, 3).
 
-    To first order ``A_true = (I - [e x]) A_est``, the filter's attitude
+    ``a_est`` and ``a_true`` are body-from-inertial matrices, (3, 3) or (n, 3,
+    3). To first order ``A_true = (I - [e x]) A_est``, the filter's attitude
     error; this is the whole rotation, right at any angle below 180 deg.
     """
     r = a_true @ np.swapaxes(a_est, -1, -2)
@@ -854,6 +868,9 @@ def rotation_error(a_est, a_true):
 def errors_at(m: Mission, est: Estimate, k: int):
     """The true error state (15) at checkpoint sample ``k`` (true minus estimated).
 
+    ``est`` is the filter's :class:`Estimate` over mission ``m`` (flown with
+    its samples' truth).
+
     The attitude error is the whole rotation from the estimate to the truth,
     ``A_true = exp(-[e x]) A_est`` (:func:`rotation_error`): the half skew
     part of ``A_true A_est^T``, the small-angle form, is short of the angle
@@ -868,7 +885,11 @@ def errors_at(m: Mission, est: Estimate, k: int):
 
 
 def nees(m: Mission, est: Estimate) -> np.ndarray:
-    """Normalised estimation error squared at each checkpoint (leg end), shape (c,)."""
+    """Normalised estimation error squared at each checkpoint (leg end), shape (c,).
+
+    ``est`` is the filter's :class:`Estimate` over mission ``m``
+    (:func:`errors_at`).
+    """
     out = np.empty(est.checkpoints.size)
     for c, k in enumerate(est.checkpoints):
         e = errors_at(m, est, int(k))
@@ -879,7 +900,7 @@ def nees(m: Mission, est: Estimate) -> np.ndarray:
 class Flight(NamedTuple):
     """A mission whose calibration is the filter's, and what it measured."""
 
-    mission: Mission
+    mission: Mission  #: the mission flown
     estimate: Estimate  #: None when the mission aborted before the calibration ended
     time_s: float  #: [s] duration of the plan's calibration modes
     durations: dict  #: [s] each calibration mode's duration
@@ -897,7 +918,8 @@ def fly(cfg, plan_name="legacy", prior: Prior = DEFAULT_PRIOR, through_mode6=Tru
     modes, its estimate replaces what the plan stored (register 23, drift
     counters) and the mission flies Mode 6 with it. Calibration time,
     excursion and propellant are measured as :mod:`allsky.studies.compare`
-    measures them. Without ``through_mode6`` the flight ends after the
+    measures them. ``cfg`` is the scenario and ``prior`` the filter's
+    :class:`Prior`. Without ``through_mode6`` the flight ends after the
     calibration; without ``truth`` the samples carry no truth (no NEES).
     """
     import time
@@ -940,7 +962,7 @@ class Observability(NamedTuple):
 
 
 def observability(est: Estimate) -> Observability:
-    """Sigmas of scale factors, misalignments and drift of an :class:`Estimate`."""
+    """Sigmas of scale factors, misalignments and drift of ``est`` (:class:`Estimate`)."""
     sg = est.sigma  # first order: sigma(sf_i) = sigma(E_ii), sigma(M_ij) = sigma(E_ij)
     return Observability(est.samples.time_s, est.samples.mode,
                          sg[:, SF:SF + 3] * units.FRACTION2PPM,
@@ -961,7 +983,10 @@ class Consistency(NamedTuple):
 
 
 def draw_truth(prior: Prior, rng) -> list:
-    """``--set`` overrides: drift, scale factors, misalignments drawn from ``prior``."""
+    """``--set`` overrides: drift, scale factors, misalignments drawn from ``prior``.
+
+    ``rng`` is the numpy Generator drawn from; each call takes the next draw.
+    """
     drift = rng.normal(0.0, prior.drift_deg_h, 3)
     sf = rng.normal(0.0, prior.scale_factor_ppm, 3)
     mis = rng.normal(0.0, prior.misalignment_arcsec, (3, 3))
@@ -977,8 +1002,10 @@ def consistency(cfg, runs=50, seed=0, plan_name="legacy", prior: Prior = DEFAULT
     """Fly ``runs`` missions with gyro errors drawn from ``prior``; NEES of each.
 
     Run ``k`` flies mission seed ``cfg.mission.seed + k`` with the errors of
-    the ``k``-th draw of a generator seeded with ``seed``. With ``workers`` >
-    1 the missions are flown in that many processes.
+    the ``k``-th draw of a generator seeded with ``seed``. ``cfg`` is the
+    scenario and ``plan_name`` the plan whose calibration the filter follows
+    ("legacy" or "dither"). With ``workers`` > 1 the missions are flown in
+    that many processes.
     """
     from scipy.stats import chi2
 

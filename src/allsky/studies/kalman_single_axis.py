@@ -326,6 +326,8 @@ def steady_state_post(model: AxisModel, quantized=True) -> np.ndarray:
     ``P_dd^+ = R (1 - xi^-2)`` and ``P_db^+ = (R/dt) S_u / xi`` (Farrenkopf's
     table with ``R = sigma_n^2 + sigma_e^2``; the drift angle has the opposite
     sign of the attitude error, so its covariance with the bias is positive).
+    ``model`` is the axis's :class:`AxisModel`; ``quantized`` as for
+    :func:`closed_form` (with the counter's readout noise ``sigma_e``).
     """
     acc = closed_form(model, quantized)
     var_r = model.sigma_n_rad**2 + (model.sigma_e_rad**2 if quantized else 0.0)

@@ -45,14 +45,15 @@ from allsky.studies.kalman_mekf import load as load_calibration
 class Case(NamedTuple):
     """One wrong model: what the filter assumes or reads."""
 
-    name: str
+    name: str  #: the case in words, its key in the results (``catalog 20"``)
     group: str  #: noise, tracker, sun, catalog
     value: float  #: the group's figure: a scale, an angle [arcsec]
     gyro_noise_scale: float = 1.0  #: ARW and RRW the filter assumes, x
     optics_noise_scale: float = 1.0  #: sun and tracker noise the filter assumes, x
     tracker_rotation_arcsec: tuple = (0.0, 0.0, 0.0)  #: tracker frame off body (x, y, z)
     sun_bias_arcsec: float = 0.0  #: added to both sun sensor outputs
-    catalog_error_arcsec: float = 0.0  #: the tracked star's catalog direction off by
+    #: [arcsec] every catalog star of the window displaced by this angle, across itself
+    catalog_error_arcsec: float = 0.0
 
 
 def _cases():
@@ -90,7 +91,11 @@ def _rotation(v_arcsec):
 
 
 def wrong_model(model: km.FilterModel, case: Case) -> km.FilterModel:
-    """The filter's :class:`~allsky.studies.kalman_mekf.FilterModel` under ``case``."""
+    """The filter's :class:`~allsky.studies.kalman_mekf.FilterModel` under ``case``.
+
+    ``model`` is the filter's right model
+    (:func:`~allsky.studies.kalman_mekf.filter_model`).
+    """
     stars = np.array(model.stars_inertial, dtype=float)
     if case.catalog_error_arcsec:
         # Every star of the window displaced by the angle, about an axis across it.
@@ -110,7 +115,9 @@ def wrong_model(model: km.FilterModel, case: Case) -> km.FilterModel:
 def wrong_samples(samples: km.Samples, case: Case) -> km.Samples:
     """The samples as the filter reads them under ``case``.
 
-    The tracker's outputs turned by its misalignment, the sun sensor's biased.
+    ``samples`` are the flight's
+    (:class:`~allsky.studies.kalman_mekf.Samples`), left as they are. The
+    tracker's outputs turned by its misalignment, the sun sensor's biased.
     """
     sun, trk = samples.sun.copy(), samples.tracker.copy()
     if any(case.tracker_rotation_arcsec):
@@ -145,6 +152,8 @@ def _pointing(history, arrays, params=None):
 def run_seed(job) -> dict | None:
     """One seed, ``(scenario_dict, seed, cases)``: per case errors, sigmas, pointing.
 
+    ``job`` is that tuple (``cases`` the :class:`Case` entries). None when the
+    seed's mission aborted before the end of its calibration.
     ``legacy_pointing_arcsec``: Mode 6 with the legacy turns' own calibration,
     which no case changes.
     """
@@ -196,7 +205,11 @@ class Study(NamedTuple):
 
 
 def study(cfg, runs=20, workers=1, cases=CASES) -> Study:
-    """:func:`run_seed` over ``runs`` seeds from ``cfg.mission.seed``, pooled."""
+    """:func:`run_seed` over ``runs`` seeds from ``cfg.mission.seed``, pooled.
+
+    ``cfg`` is the scenario, ``cases`` the :class:`Case` entries flown and
+    ``workers`` the processes that fly the seeds (1: this one).
+    """
     data = cfg.as_dict()
     jobs = [(data, int(cfg.mission.seed) + k, cases) for k in range(runs)]
     if workers > 1:
@@ -223,7 +236,7 @@ def study(cfg, runs=20, workers=1, cases=CASES) -> Study:
 
 
 def study_dict(s: Study) -> dict:
-    """A :class:`Study` as JSON-ready data."""
+    """Study ``s`` (:class:`Study`) as JSON-ready data."""
     return {"runs": s.runs, "cases": [c._asdict() for c in s.cases], "rms": s.rms,
             "sigma": s.sigma, "nees": s.nees, "pointing_arcsec": s.pointing,
             "legacy_pointing_arcsec": s.legacy_pointing}

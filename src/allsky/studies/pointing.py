@@ -54,7 +54,7 @@ def true_storage(m):
 def line_of_sight_error_arcsec(m) -> np.ndarray:
     """[arcsec] The roll axis's error from the target as a vector, ``t x x``.
 
-    Inertial axes.
+    Inertial axes, for mission ``m`` as it stands (its attitude and target).
 
     Its length is the sine of the pointing error (the pointing error to
     1e-9 at these angles).
@@ -78,8 +78,9 @@ def _fly_mode6(history, arrays, word23, drift_counters):
 def decompose(history, arrays) -> dict | None:
     """The final pointing of a calibrated mission, taken apart (module docstring).
 
-    ``history, arrays`` is the :meth:`~allsky.sim.mission.Mission.snapshot`
-    at the end of the calibration, before Mode 6.
+    ``history`` and ``arrays`` are the two parts of the
+    :meth:`~allsky.sim.mission.Mission.snapshot` taken at the end of the
+    calibration, before Mode 6.
 
     Returns
     -------

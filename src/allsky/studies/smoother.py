@@ -63,7 +63,10 @@ class Smoothed(NamedTuple):
 
 
 def qmul(p, q):
-    """Row-wise quaternion product ``p (x) q`` (the filter's ``_compose`` convention)."""
+    """Row-wise quaternion product ``p (x) q`` (the filter's ``_compose`` convention).
+
+    ``p`` and ``q`` are (n, 4) arrays of ``[w, x, y, z]`` rows.
+    """
     w, x, y, z = p[:, 0], p[:, 1], p[:, 2], p[:, 3]
     dw, dx, dy, dz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     return np.column_stack((w * dw - x * dx - y * dy - z * dz, w * dx + x * dw + y * dz - z * dy,
@@ -318,11 +321,15 @@ def _pass(model, s, gyro, qn, pn, x0, P0, gate2):
 
 def smooth(model: km.FilterModel, samples: km.Samples, prior: km.Prior = km.DEFAULT_PRIOR,
            max_iterations=MAX_ITERATIONS) -> Smoothed:
-    """Smooth ``samples`` (all of a record's calibration modes) with :data:`prior`.
+    """Smooth ``samples`` (all of a record's calibration modes) with ``prior``.
 
-    The filter (:func:`allsky.studies.kalman_mekf.estimate`) gives the
-    first nominal; the record starts at its initial sample (the first to
-    see Sun and star), whose attitude by TRIAD is the prior's mean.
+    ``model`` is the filter's design
+    (:func:`allsky.studies.kalman_mekf.filter_model`) and ``max_iterations``
+    the most Gauss-Newton passes (fewer once the corrections fall below
+    :data:`CONVERGED_SIGMA` sigmas). The filter
+    (:func:`allsky.studies.kalman_mekf.estimate`) gives the first nominal; the
+    record starts at its initial sample (the first to see Sun and star), whose
+    attitude by TRIAD is the prior's mean.
     """
     est = km.estimate(model, samples, prior)
     first = est.first
@@ -358,12 +365,12 @@ def smooth(model: km.FilterModel, samples: km.Samples, prior: km.Prior = km.DEFA
 class Flight(NamedTuple):
     """A legacy mission whose calibration is the smoother's."""
 
-    mission: Mission
+    mission: Mission  #: the mission flown
     smoothed: Smoothed  #: None when the mission aborted before the end of Mode 5
     time_s: float  #: [s] calibration time (Modes 4-5)
     durations: dict  #: [s] per calibration mode
-    excursion_arcsec: float
-    propellant_kg: float
+    excursion_arcsec: float  #: [arcsec] largest excursion during the calibration modes
+    propellant_kg: float  #: [kg] used by the calibration modes
     smoother_s: float  #: [s] wall time of building the samples and smoothing
     bounds: dict  #: :func:`allsky.studies.crlb.mission_bounds` of the same record
 
@@ -371,7 +378,10 @@ class Flight(NamedTuple):
 def fly(cfg, prior: km.Prior = km.DEFAULT_PRIOR, through_mode6=True, bounds=None) -> Flight:
     """Fly the legacy plan, smooth Modes 3-5 (every frame), then fly Mode 6 with it.
 
-    ``bounds`` (manoeuvre name -> modes) also evaluates
+    ``cfg`` is the scenario (flown recording every frame) and ``prior`` the
+    smoother's :class:`~allsky.studies.kalman_mekf.Prior`; without
+    ``through_mode6`` the flight ends after the calibration. ``bounds``
+    (manoeuvre name -> modes) also evaluates
     :func:`allsky.studies.crlb.mission_bounds` on the same record before
     Mode 6. Calibration time, excursion and propellant as
     :mod:`allsky.studies.compare` measures them.
@@ -404,7 +414,9 @@ def fly(cfg, prior: km.Prior = km.DEFAULT_PRIOR, through_mode6=True, bounds=None
 def errors(m, sm: Smoothed) -> np.ndarray:
     """True minus smoothed error state (15) at the last sample.
 
-    The attitude as the exact rotation (:func:`rotation_error`), then the parameters.
+    The attitude as the exact rotation (:func:`rotation_error`), then the
+    parameters. ``sm`` is the :class:`Smoothed` result over mission ``m``'s
+    samples (with their truth).
     """
     s = sm.samples
     k = s.time_s.size - 1

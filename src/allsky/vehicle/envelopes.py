@@ -81,9 +81,9 @@ class Envelope:
     def support(self, direction) -> np.ndarray:
         """Support function ``h(d) = sum_i L_i |d . g_i|``, one (3,) or many (k, 3) ``d``.
 
-        Not normalised: ``h`` is positively homogeneous of degree 1, so for a
-        unit ``d`` it is the largest component along ``d`` of any reachable
-        vector.
+        ``direction`` is ``d``, in body axes. Not normalised: ``h`` is
+        positively homogeneous of degree 1, so for a unit ``d`` it is the
+        largest component along ``d`` of any reachable vector.
         """
         d = np.asarray(direction, dtype=float)
         return np.abs(d @ self.axes.T) @ self.limits
@@ -250,7 +250,7 @@ def make_envelope(axes, limit) -> Envelope:
 
 
 def single_failures(envelope: Envelope) -> list:
-    """The envelope with each actuator failed in turn: ``[envelope.without(i) for i]``."""
+    """``envelope`` with each actuator failed in turn: ``[envelope.without(i) for i]``."""
     return [envelope.without(i) for i in range(len(envelope.limits))]
 
 
@@ -258,8 +258,9 @@ def worst_failure(torque: Envelope, momentum: Envelope) -> int:
     """Index of the single failure leaving the smallest torque inscribed radius.
 
     Ties (within :data:`TIE_RTOL`, as symmetric arrays give) go to the smaller
-    momentum radius, then to the lowest index. Both envelopes must describe
-    the same axes.
+    momentum radius, then to the lowest index. The ``torque`` [N m] and
+    ``momentum`` [N m s] envelopes (:func:`make_envelope`) must describe the
+    same axes.
     """
     if torque.axes.shape != momentum.axes.shape or not np.array_equal(torque.axes,
                                                                       momentum.axes):

@@ -15,7 +15,10 @@ from allsky.jit import njit, njit_alloc
 
 @njit_alloc
 def dcm_body_from_inertial(q):
-    """Direction-cosine matrix of a unit quaternion ``[w, x, y, z]``."""
+    """Direction-cosine matrix (body from inertial) of unit quaternion ``q``.
+
+    ``q`` is ``[w, x, y, z]``, the module's convention.
+    """
     w, x, y, z = q[0], q[1], q[2], q[3]
     c = np.empty((3, 3))
     c[0, 0] = w * w + x * x - y * y - z * z
@@ -34,7 +37,9 @@ def dcm_body_from_inertial(q):
 def rotate_to_body(q, v_inertial, out_body):
     """Write ``dcm_body_from_inertial(q) @ v_inertial`` into ``out_body``.
 
-    Nothing is allocated.
+    ``q`` is a unit quaternion ``[w, x, y, z]``, ``v_inertial`` a (3,) vector
+    in inertial axes and ``out_body`` the (3,) array that receives it in body
+    axes, in any unit. Nothing is allocated.
     """
     w, x, y, z = q[0], q[1], q[2], q[3]
     a, b, c = v_inertial[0], v_inertial[1], v_inertial[2]
@@ -48,7 +53,10 @@ def rotate_to_body(q, v_inertial, out_body):
 
 @njit_alloc
 def body_axis_inertial(q, axis):
-    """Inertial components of body axis ``axis`` (0=x roll, 1=y pitch, 2=z yaw)."""
+    """Inertial components of body axis ``axis`` (0=x roll, 1=y pitch, 2=z yaw).
+
+    ``q`` is the attitude, a unit quaternion ``[w, x, y, z]``.
+    """
     c = dcm_body_from_inertial(q)
     return c[axis, :].copy()
 
@@ -62,7 +70,7 @@ def from_axis_angle(axis, angle_rad):
 
 
 def multiply(p, q):
-    """Hamilton product ``p (x) q`` of two ``[w, x, y, z]`` quaternions."""
+    """Hamilton product ``p (x) q`` of quaternions ``p``, ``q``, each ``[w, x, y, z]``."""
     pw, px, py, pz = p
     qw, qx, qy, qz = q
     return np.array([
@@ -76,7 +84,7 @@ def multiply(p, q):
 def from_dcm(c):
     """Unit quaternion ``[w, x, y, z]`` (w >= 0) of a body-from-inertial DCM.
 
-    Shepperd's method.
+    ``c`` is the (3, 3) rotation matrix. Shepperd's method.
     """
     c = np.asarray(c, dtype=float)
     tr = np.trace(c)
@@ -103,7 +111,7 @@ def from_dcm(c):
 
 
 def random_unit(rng):
-    """Quaternion uniform over the rotation group, from a numpy Generator.
+    """Quaternion uniform over the rotation group, from numpy Generator ``rng``.
 
     Shoemake's (1992) construction from three uniform deviates.
     """

@@ -54,18 +54,26 @@ def test_every_job_once_in_any_order():
 
 
 def test_jobs_are_drawn_as_workers_come_free():
-    drawn = []
+    """Never more than two jobs per worker ahead of the caller, however the workers race.
+
+    Each worker holds one job; a wait collects at most one finished job per worker,
+    and each free worker is handed its next before those are yielded. So at any
+    yield, jobs drawn - results yielded <= 2 x workers: memory flat in the runs.
+    """
+    drawn, workers = [], 2
 
     def jobs():
-        for k in range(10):
+        for k in range(200):
             drawn.append(k)
             yield k, k
 
-    pool = WorkerPool(_square, 2)
-    it = pool.results(jobs())
-    next(it)
-    assert len(drawn) <= 3  # two handed out, one more when the first came back
+    pool = WorkerPool(_square, workers)
+    ahead = []
+    for n, (key, result) in enumerate(pool.results(jobs()), start=1):
+        assert result == key * key
+        ahead.append(len(drawn) - n)
     pool.close()
+    assert len(ahead) == 200 and max(ahead) <= 2 * workers - 1
 
 
 def test_a_worker_killed_mid_job_is_replaced_and_the_job_flown_again(tmp_path):

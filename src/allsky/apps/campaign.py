@@ -355,7 +355,7 @@ class _ProgressBar:
 
 
 def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=False,
-                 progress=False, on_note=None) -> dict:
+                 progress=False, on_note=None, on_progress=None) -> dict:
     """Fly a Monte Carlo campaign, recording each run in ``out`` as it finishes.
 
     Parameters
@@ -381,6 +381,10 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
     on_note : callable, optional
         ``on_note(text)`` with a line worth telling that is not an error (exact
         duplicate lines left out of the results when resuming).
+    on_progress : callable, optional
+        ``on_progress(done, total)`` in place of the ``progress`` bar (a
+        notebook's, :func:`allsky.montecarlo`), as
+        :func:`~allsky.studies.montecarlo.run_campaign` calls it.
 
     Returns
     -------
@@ -408,19 +412,20 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
     else:
         done = []
     results = ResultsFile(out / RESULTS, columns(cfg)) if out is not None else None
-    bar = _ProgressBar(progress)
+    bar = _ProgressBar(progress) if on_progress is None else None
     try:
         return montecarlo.run_campaign(cfg, runs, workers=workers, scheduler=scheduler,
                                        done=done,
                                        on_row=None if results is None else results.write,
-                                       on_progress=bar)
+                                       on_progress=on_progress if bar is None else bar)
     except montecarlo.ClusterLost as e:
         saved = (f"the runs finished are saved in {out / RESULTS}; --resume --out {out} "
                  "continues the campaign" if out is not None else
                  "nothing was saved (no --out DIR)")
         raise montecarlo.ClusterLost(f"{e}; {saved}") from None
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if results is not None:
             results.close()
 

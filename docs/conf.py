@@ -94,8 +94,11 @@ html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
     "header_links_before_dropdown": 3,
-    # The tutorials' replays and tables get the page's whole width.
-    "secondary_sidebar_items": {"**": ["page-toc"], "tutorials/*": []},
+    # The tutorials' replays and tables get the page's whole width (names after the
+    # pattern: the last match wins).
+    "secondary_sidebar_items": {"**": ["page-toc"], **{
+        f"tutorials/{name}": [] for name in ("first_mission", "calibration_comparison",
+                                             "faults_and_campaigns")}},
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
 }

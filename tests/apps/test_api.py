@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 import allsky
 from allsky.apps import api, campaign, cli, telemetry_files
+from allsky.apps.output import OutputError
 from allsky.config import ConfigError, load_scenario
 from allsky.sim import frame_loop, mission, recorder
 from allsky.studies import compare as compare_study
@@ -356,6 +357,16 @@ def test_montecarlo_rows_are_the_campaign_record(tmp_path):
     more = allsky.montecarlo(runs=5, workers=1, out=out, resume=True, progress=False)
     assert list(more["run"]) == [0, 1, 2, 3, 4]
     assert more.iloc[:3].equals(df)
+
+
+def test_montecarlo_arguments_are_checked(tmp_path):
+    with pytest.raises(ValueError, match="resume=True needs out=DIR"):
+        allsky.montecarlo(runs=2, resume=True)
+    with pytest.raises(ValueError, match="runs=0"):
+        allsky.montecarlo(runs=0)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OutputError, match="not a directory"):
+        allsky.montecarlo(runs=2, out=tmp_path / "file" / "mc")
 
 
 def test_montecarlo_interrupted_keeps_the_runs_finished(monkeypatch):

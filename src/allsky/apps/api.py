@@ -888,6 +888,8 @@ def montecarlo(runs: int, scenario: str | os.PathLike | Scenario | Mapping | Non
     runs = int(runs)
     if runs < 1:
         raise ValueError(f"runs={runs}: at least 1")
+    if resume and out is None:
+        raise ValueError("resume=True needs out=DIR: the campaign directory to continue")
     check_output("out", out, directory=True)
     cfg = _scenario(scenario, set, disperse)
     if scheduler is None:

@@ -201,13 +201,15 @@ class _Frames(HTMLParser):
             self.frames.append(dict(attrs))
 
 
-def test_replay_is_an_inline_sandboxed_frame_holding_the_whole_page(flight):
+def test_replay_is_an_inline_frame_holding_the_whole_page(flight):
     replay = flight.replay()
     parser = _Frames()
     parser.feed(replay._repr_html_())
     [frame] = parser.frames
     assert frame["srcdoc"] == replay.html  # the attribute unescapes to the page itself
-    assert frame["sandbox"] == "allow-scripts"  # no same origin: the notebook is safe
+    # Not sandboxed: Chromium's renderer hung on the site's page with a sandboxed one
+    # (docs/design.md); the page's own CSP keeps it from making any request.
+    assert "sandbox" not in frame
     page = replay.html
     assert page.startswith("<!DOCTYPE html>")
     assert "default-src 'none'" in page and "connect-src 'none'" in page

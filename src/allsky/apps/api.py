@@ -196,10 +196,11 @@ class Replay:
     """The replay page of a flight: shown inline in Jupyter, or saved as a file.
 
     The page is :func:`allsky.apps.replay.render_html` of the flight: one
-    self-contained HTML file that makes no network request. Inline it is an
-    ``<iframe srcdoc>``, sandboxed to run its own scripts only, inside the
-    notebook's own page (no server, no file beside the notebook); its
-    ``window.allsky`` API (docs/replay.md) works inside the frame.
+    self-contained HTML file that makes no network request (its own
+    Content-Security-Policy forbids any). Inline it is an ``<iframe
+    srcdoc>`` inside the notebook's own page: no server, no file beside the
+    notebook; its ``window.allsky`` API (docs/replay.md) works inside the
+    frame.
 
     Parameters
     ----------
@@ -218,7 +219,7 @@ class Replay:
 
     def _repr_html_(self) -> str:
         return (f'<iframe class="allsky-replay" title="allsky mission replay" '
-                f'sandbox="allow-scripts" srcdoc="{html.escape(self.html, quote=True)}" '
+                f'srcdoc="{html.escape(self.html, quote=True)}" '
                 f'style="width: 100%; height: {self.height_px}px; border: 1px solid #ccc">'
                 "</iframe>")
 

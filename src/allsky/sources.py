@@ -2,7 +2,7 @@
 
 Read at start-up (a few milliseconds, without numba): :func:`source_stamp`
 keys numba's on-disk cache (:mod:`allsky.jit_cache`) and the loop compiled
-ahead of time (:mod:`allsky.sim.aot`).
+ahead of time (:mod:`allsky.aot`).
 """
 
 import functools

@@ -385,7 +385,7 @@ class _ProgressBar:
 
 
 def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=False,
-                 progress=False, on_note=None) -> dict:
+                 progress=False, on_note=None, on_progress=None) -> dict:
     """Fly a Monte Carlo campaign, recording each run in ``out`` as it finishes.
 
     Parameters
@@ -411,6 +411,10 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
     on_note : callable, optional
         ``on_note(text)`` with a line worth telling that is not an error (exact
         duplicate lines left out of the results when resuming).
+    on_progress : callable, optional
+        ``on_progress(done, total)`` in place of the ``progress`` bar (a
+        notebook's, :func:`allsky.montecarlo`), as
+        :func:`~allsky.studies.montecarlo.run_campaign` calls it.
 
     Returns
     -------
@@ -437,7 +441,8 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
         raise CampaignError("--runs N is needed to start a campaign")
     made = _Made(out)  # before the lock makes the directory
     lock = _DirectoryLock(out) if out is not None else None
-    results, bar, rows, failed = None, _ProgressBar(progress), [0], True
+    results, rows, failed = None, [0], True
+    bar = _ProgressBar(progress) if on_progress is None else None
     try:
         if out is not None:
             runs, done = open_campaign(cfg, runs, out, resume, on_note)
@@ -451,7 +456,7 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
 
         result = montecarlo.run_campaign(cfg, runs, workers=workers, scheduler=scheduler,
                                          done=done, on_row=None if results is None else on_row,
-                                         on_progress=bar)
+                                         on_progress=on_progress if bar is None else bar)
         failed = False
         return result
     except KeyboardInterrupt:
@@ -464,7 +469,8 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
                  else "nothing was saved (no --out DIR)")
         raise montecarlo.ClusterLost(f"{e}; {saved}") from None
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if results is not None:
             results.close()
         if failed and out is not None and not resume and rows[0] == 0:

@@ -107,7 +107,7 @@ def count_floor_ppm(pulse_weight_arcsec: float) -> float:
 def comparison_figure(result, pulse_weight_arcsec: float):
     """Scale-factor error against calibration time for both methods (log-log).
 
-    Legacy: |error| of each complete run, roll and yaw, at its calibration
+    Legacy: ``|error|`` of each complete run, roll and yaw, at its calibration
     time. Values below :func:`count_floor_ppm` (exact counts, down to 0) are
     drawn at that floor as open down-triangles and counted on the figure, so
     that the axis spans the methods' errors, not a lucky count's 1e-10 ppm.
@@ -463,7 +463,7 @@ def format_kalman(result) -> str:
 def three_way_figure(result):
     """Scale-factor errors and final pointing of the three methods (log scale).
 
-    Left: |scale-factor error| of every complete run, roll and yaw, per
+    Left: ``|scale-factor error|`` of every complete run, roll and yaw, per
     method, with each method's predicted 1-sigma as a bar. Right: the final
     pointing error of every run (Mode 6 flown with each method's register 23).
     ``result`` is :func:`allsky.studies.compare.compare`'s, flown with the

@@ -2,7 +2,7 @@
 
 * ``docs/configuration.md``: every scenario key with its unit (from the
   key's suffix), default (the packaged default scenario), what it accepts
-  (:func:`allsky.config.scenario.allowed`) and its meaning (the comment beside the key
+  (:func:`allsky.config.schema.allowed`) and its meaning (the comment beside the key
   in ``scenarios/default.toml``).
 * ``docs/cli.md``: the ``--help`` of every command.
 * ``docs/blocks.md``: every patent numeral, its block, module and function

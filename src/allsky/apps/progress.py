@@ -47,37 +47,45 @@ def _fixed_size(stream):
             FALLBACK_SIZE[1] if size.lines <= 0 else None)
 
 
-def fly(m, quiet=False, stream=None):
+def fly(m, quiet=False, stream=None, bar=None):
     """Fly the remaining modes of ``m`` with a progress line; return its summary.
 
     ``m`` is the :class:`~allsky.sim.mission.Mission`. With ``quiet`` no line
-    is shown; ``stream`` is where it goes (default ``sys.stderr``, which, when
-    it is not a terminal, gets the compile note alone).
+    and no note is shown; ``stream`` is where the terminal line goes (default
+    ``sys.stderr``, which, when it is not a terminal, gets the compile note
+    alone). ``bar``: a tqdm class to draw the progress with instead of the
+    terminal line, shown wherever it draws (:class:`tqdm.notebook.tqdm` in
+    Jupyter).
     """
     stream = stream or sys.stderr
     if quiet:
         return m.run()
     first = frame_loop_needs_compiling(m.params)
-    live = stream is not sys.stderr or stream.isatty()
+    live = bar is not None or stream is not sys.stderr or stream.isatty()
     if not live:  # no line to show it in: the note alone, once
         if first:
             print(f"allsky: {COMPILE_NOTE}", file=stream, flush=True)
         return m.run()
-    from tqdm import tqdm
-
     from allsky.sim.mission import Hooks
 
-    columns, lines = _fixed_size(stream)
-    with tqdm(total=len(m.plan), initial=m.next_mode, unit="mode", file=stream,
-              leave=False, dynamic_ncols=columns is None and lines is None, ncols=columns,
-              nrows=lines,
-              bar_format="{desc} |{bar}| {n_fmt}/{total_fmt} modes [{elapsed}]") as bar:
+    bar_format = "{desc} |{bar}| {n_fmt}/{total_fmt} modes [{elapsed}]"
+    if bar is None:
+        from tqdm import tqdm
+
+        columns, lines = _fixed_size(stream)
+        line = tqdm(total=len(m.plan), initial=m.next_mode, unit="mode", file=stream,
+                    leave=False, dynamic_ncols=columns is None and lines is None,
+                    ncols=columns, nrows=lines, bar_format=bar_format)
+    else:
+        line = bar(total=len(m.plan), initial=m.next_mode, unit="mode", leave=False,
+                   bar_format=bar_format)
+    with line:
 
         def describe(first_use=False):
             name = m.plan[m.next_mode]
             note = f" ({COMPILE_NOTE})" if first_use else ""
-            bar.set_description_str(f"Mode {name} {MODE_TITLE[name]}, "
-                                    f"t = {m.state.time_s[0]:.0f} s{note}")
+            line.set_description_str(f"Mode {name} {MODE_TITLE[name]}, "
+                                     f"t = {m.state.time_s[0]:.0f} s{note}")
 
         hooks = Hooks(pause_every_s=PROGRESS_EVERY_S, on_pause=lambda mm, what: describe(),
                       on_slice=lambda mm, what: describe())
@@ -85,5 +93,5 @@ def fly(m, quiet=False, stream=None):
             describe(first_use=first)
             first = False
             m.run_mode(hooks)
-            bar.update(1)
+            line.update(1)
     return m.summary()

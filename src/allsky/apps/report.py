@@ -2,6 +2,7 @@
 
 import json
 import sys
+from typing import NamedTuple
 
 from allsky.apps import telemetry_files
 from allsky.sim.journal import DRIFT_DAC
@@ -179,6 +180,57 @@ def write_outputs(outputs) -> tuple[list, list]:
     return written, failed
 
 
+class Flown(NamedTuple):
+    """A mission flown by :func:`fly_drawn`: whole, or up to an interruption."""
+
+    mission: object  #: the :class:`allsky.sim.mission.Mission`, as it stopped
+    summary: dict  #: its summary; ``dispersions`` holds the values drawn, when any were
+    interrupted: bool  #: stopped by Ctrl-C (or SIGTERM) before the end
+
+
+def fly_drawn(cfg, drawn, telemetry=True, fly=None, plan=None) -> Flown:
+    """Fly a scenario whose dispersions were drawn; Ctrl-C keeps the part flown.
+
+    The one flight of ``allsky run`` and of :func:`allsky.fly`.
+
+    Parameters
+    ----------
+    cfg : allsky.config.Scenario
+        The scenario with its dispersions drawn
+        (:func:`allsky.config.dispersions.disperse`).
+    drawn : dict
+        The values drawn; the summary carries them as ``dispersions``.
+    telemetry : bool
+        Record telemetry.
+    fly : callable, optional
+        ``fly(mission) -> summary``: how to fly it (a progress line,
+        :func:`allsky.apps.progress.fly`); default :meth:`Mission.run
+        <allsky.sim.mission.Mission.run>`.
+    plan : tuple of str, optional
+        The modes to fly (:data:`allsky.sequencer.modes.PLANS`); default the
+        patent's.
+
+    Returns
+    -------
+    Flown
+        After a Ctrl-C (KeyboardInterrupt) or SIGTERM turned into one, the
+        mission as it stopped and the summary of the part flown, with
+        ``interrupted`` True.
+    """
+    from allsky.sim.mission import LEGACY_PLAN, Mission
+
+    m = Mission(cfg, telemetry=telemetry, plan=LEGACY_PLAN if plan is None else plan)
+    interrupted = False
+    try:
+        summary = m.run() if fly is None else fly(m)
+    except KeyboardInterrupt:
+        interrupted = True
+        summary = m.summary()
+    if drawn:
+        summary["dispersions"] = drawn
+    return Flown(m, summary, interrupted)
+
+
 def run_from_cli(cfg, args) -> int:
     """``allsky run``: fly, report, write --json, --telemetry, --plots and --html.
 
@@ -200,7 +252,6 @@ def run_from_cli(cfg, args) -> int:
     )
     from allsky.apps.progress import fly
     from allsky.config.dispersions import disperse, format_drawn
-    from allsky.sim.mission import Mission
 
     json_path = getattr(args, "json", None)
     to_stdout = json_path == "-"  # machine output: the JSON alone on stdout
@@ -218,15 +269,9 @@ def run_from_cli(cfg, args) -> int:
     cfg, drawn = disperse(cfg)  # the scenario's [dispersions], drawn for its mission.seed
     if drawn:
         say(format_drawn(cfg.mission.seed, drawn) + "\n")
-    m = Mission(cfg, telemetry=bool(tlm_path or plots_dir or html_path))
-    interrupted = False
-    try:
-        summary = fly(m, quiet=quiet)
-    except KeyboardInterrupt:
-        interrupted = True
-        summary = m.summary()
-    if drawn:
-        summary["dispersions"] = drawn
+    m, summary, interrupted = fly_drawn(cfg, drawn,
+                                        telemetry=bool(tlm_path or plots_dir or html_path),
+                                        fly=lambda mission: fly(mission, quiet=quiet))
     say(format_report(summary, tracker_star(cfg)))
     outputs = []
     if to_stdout:

@@ -125,7 +125,7 @@ class State(NamedTuple):
     wheel_h: np.ndarray
     #: (4,) int64 momentum unloader: [unloading 0/1, frames fired per body axis]
     wheel_unload: np.ndarray
-    wheel_peak_fraction: np.ndarray  #: (1,) largest |h_i| / limit_i of any wheel so far
+    wheel_peak_fraction: np.ndarray  #: (1,) largest ``|h_i| / limit_i`` of any wheel so far
     #: (3,) [-] unit vector to the target being flown (the true error's reference)
     target_inertial: np.ndarray
     #: (3,) [s] time each axis's modulator 34-36 has held a valve open since ejection

@@ -46,9 +46,9 @@ from typing import NamedTuple
 import numpy as np
 
 #: Sine of the angle below which two unit axes count as parallel; also the
-#: largest |n . g| for an axis g to count as lying in the plane of normal n.
+#: largest ``|n . g|`` for an axis g to count as lying in the plane of normal n.
 PLANE_TOL = 1e-9
-#: Largest |n . u| taken as zero when finding the facet a ray leaves through,
+#: Largest ``|n . u|`` taken as zero when finding the facet a ray leaves through,
 #: so a direction in a flat envelope's plane is not stopped by its +-p faces.
 RAY_TOL = 1e-12
 #: Relative tolerance on the inscribed radius under which two single failures

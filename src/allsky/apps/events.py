@@ -33,6 +33,8 @@ LOOK_FOR = {
     "6-2": "3-D view and sky map: the vehicle yaws by the programmed yaw onto the target; "
            "the Sun and star leave the sensors and the gyros alone hold the attitude.",
     "hold": "CPU 22 errors: the gyros alone hold the target; any drift left shows here.",
+    "standby": "CPU 22 errors: the gyros alone hold the target until the ground commands "
+               "otherwise; any drift left shows here.",
     "dither": "Sensor traces: small sinusoidal turns in roll and yaw; the gyro counts are "
               "compared with the optics to measure the scale factors.",
 }
@@ -117,6 +119,8 @@ def event_text(e) -> str:
         return f"fault: {e['text']} {'begins' if e['active'] else 'ends'}"
     if kind == "abort":
         return f"ABORTED: {e['reason']}"
+    if kind == "ground_command":
+        return f"ground command: {e['text']}"
     return kind
 
 
@@ -173,7 +177,8 @@ def page_log(events) -> list:
             row["reason"] = {"star_lock": "the star tracker",
                              "lock_rejected": "the tracker's cone-angle check",
                              "lock_dropped": "the tracker's bright gate",
-                             "saturation": "a saturation", "fault": "an injected fault"}[kind]
+                             "saturation": "a saturation", "fault": "an injected fault",
+                             "ground_command": "commanded from the ground"}[kind]
         out.append(row)
     return out
 

@@ -173,12 +173,13 @@ def page_log(events) -> list:
             row["reason"] = f"written in Mode {mode}"
         elif kind == "abort":
             continue  # the aborted mode's row says it
+        elif kind == "ground_command":
+            row.update(text=e["text"], reason="commanded from the ground")
         else:
             row["reason"] = {"star_lock": "the star tracker",
                              "lock_rejected": "the tracker's cone-angle check",
                              "lock_dropped": "the tracker's bright gate",
-                             "saturation": "a saturation", "fault": "an injected fault",
-                             "ground_command": "commanded from the ground"}[kind]
+                             "saturation": "a saturation", "fault": "an injected fault"}[kind]
         out.append(row)
     return out
 

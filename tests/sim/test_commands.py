@@ -82,9 +82,8 @@ def test_a_flight_paused_at_random_boundaries_is_the_flight(cfg, plain):
 def test_the_loop_with_faults_flies_the_fault_free_mission_until_the_onset(cfg, plain):
     """The general frame loop (faults in the scenario) against the plain one, bit for bit."""
     onset = 640.0
-    scenario = load_scenario(overrides=[
-        f'faults=[{{kind="gyro_scale_factor_step", axis="roll", size_ppm=300, '
-        f'start_s={onset}}}]'])
+    fault = f'{{kind="gyro_scale_factor_step", axis="roll", size_ppm=300, start_s={onset}}}'
+    scenario = load_scenario(overrides=[f"faults=[{fault}]"])
     m = Mission(scenario)
     m.run()
     a, b = plain.telemetry(), m.telemetry()

@@ -231,7 +231,7 @@ def _sky(cfg, summary, targets) -> dict:
 
 
 def sky_data(cfg, summary, targets) -> dict:
-    """Sun, catalog, ``targets`` and tracker slit; ``summary`` names the stars (or None)."""
+    """Sun, catalog, ``targets`` and the tracker's slit (``summary``: its stars, or None)."""
     from allsky.vehicle import sky
 
     date = cfg.mission.date_utc
@@ -431,7 +431,7 @@ def _vehicle(cfg, table) -> dict:
 
 
 def vehicle_data(cfg, flown_wheels=False) -> dict:
-    """The vehicle's actuators: the scenario's (``flown_wheels``: a record says wheels)."""
+    """The vehicle's actuators: the scenario's, or wheels if ``flown_wheels``."""
     if cfg.actuators.kind != "wheels" and not flown_wheels:
         return {"kind": "jets"}
     return {"kind": "wheels", "axes": [list(map(float, a)) for a in cfg.wheels.axes],
@@ -624,7 +624,7 @@ def page_title(data) -> str:
 
 
 def page_script(live=False) -> str:
-    """The page's one script: its modules in one scope, nothing global but ``window.allsky``.
+    """The page's script: its modules in one scope, nothing global but window.allsky.
 
     The replay decodes its data block at once; a live page (``live``) runs
     ``ground.js``, which boots the same modules when the session's data has

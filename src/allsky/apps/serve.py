@@ -1,4 +1,4 @@
-"""``allsky serve``: fly a mission live in the browser, command it, replay it exactly.
+"""``allsky serve``: fly a mission live in the browser, command it, fly it again.
 
 The mission flies in a thread of its own (:class:`Flight`): in slices of
 :data:`SLICE_WALL_S` of wall time, each as many frames as the speed asks

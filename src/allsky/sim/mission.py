@@ -758,7 +758,7 @@ class Mission:
         return self.next_mode if self._in_mode else None
 
     def amend(self, cfg, retarget=False) -> None:
-        """Fly on with scenario ``cfg`` from this frame boundary: a ground command's change.
+        """Fly on with scenario ``cfg`` from this frame boundary (a ground command).
 
         What a command changes of the scenario mid-flight: a fault added (its
         ``start_s`` onset armed) or ended (its ``duration_s``), star tracker

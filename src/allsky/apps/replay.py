@@ -231,7 +231,7 @@ def _sky(cfg, summary, targets) -> dict:
 
 
 def sky_data(cfg, summary, targets) -> dict:
-    """Sun, catalog, ``targets`` and the tracker's slit (``summary``: its stars, or None)."""
+    """Sun, catalog, ``targets`` and slit; ``summary`` names the stars (or None)."""
     from allsky.vehicle import sky
 
     date = cfg.mission.date_utc

@@ -343,7 +343,11 @@ class Server:
 
     async def _shutdown(self):
         for c in list(self.clients):
+            c.closed = True
             try:
+                await self._flush(c)
+                # The rest of the journal, whether or not it acknowledged the last update.
+                await c.ws.send_str(json.dumps(self._update(c), allow_nan=False))
                 await c.ws.send_str(json.dumps({"type": "ended", "written": self.written or [],
                                                 "session": self.session}))
                 await c.ws.close()
@@ -440,7 +444,8 @@ class Server:
 
         if not self._origin_ok(request):
             return web.Response(status=403, text="403: forbidden: a page of another origin\n")
-        ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=64 * 1024)
+        # No per-message compression: on a loopback or a classroom LAN it costs CPU for nothing.
+        ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=64 * 1024, compress=False)
         await ws.prepare(request)
         client = _Client(ws, self._token_of(request) == "command")
         try:
@@ -536,6 +541,11 @@ class Server:
             client.page_sent = self.page_version
         return msg
 
+    async def _flush(self, client):
+        """Send a client the replies to its commands, in order."""
+        while client.outbox:
+            await client.ws.send_str(json.dumps(client.outbox.pop(0), allow_nan=False))
+
     async def _sender(self, client):
         """Send a client its updates: one at a time, each after the last was acknowledged."""
         ws = client.ws
@@ -551,23 +561,23 @@ class Server:
             while not client.closed:
                 await client.wake.wait()
                 client.wake.clear()
-                while client.outbox:
-                    await ws.send_str(json.dumps(client.outbox.pop(0), allow_nan=False))
-                if not client.acked:
+                await self._flush(client)
+                if not client.acked or client.closed:
                     continue
                 wait = UPDATE_EVERY_S - (time.monotonic() - last)
-                if wait > 0:
-                    await asyncio.sleep(wait)
-                if client.closed:
-                    return
+                if wait > 0:  # not yet: woken again then (or by a reply before)
+                    self.loop.call_later(wait, client.wake.set)
+                    continue
                 msg = self._update(client)
                 last = time.monotonic()
                 client.acked = False
                 await ws.send_str(json.dumps(msg, allow_nan=False))
-                while client.outbox:
-                    await ws.send_str(json.dumps(client.outbox.pop(0), allow_nan=False))
         except (ConnectionError, RuntimeError):
             return
+        except Exception as e:  # noqa: BLE001 - one line on stderr; the session goes on
+            print(f"allsky: serve: a client's updates stopped: {type(e).__name__}: {e}",
+                  file=sys.stderr)
+            await ws.close()
 
 
 def _listen(host, port):

@@ -78,6 +78,7 @@
       }
     }
     if (msg.session) { session = msg.session; clients = msg.clients; status(); }
+    settle();
     ack();
   }
 
@@ -95,12 +96,22 @@
     if (page) faultList(page);
   }
 
+  // Commands applied whose entries have not yet reached the page's journal.
+  const arriving = [];
+  function settle() {
+    for (let k = arriving.length - 1; k >= 0; k--) {
+      const a = arriving[k];
+      if (journal.some((e) => JSON.stringify(e) === a.key)) { arriving.splice(k, 1); a.resolve(a.entry); }
+    }
+  }
+
   function answered(msg) {
     const p = pending[msg.id];
     delete pending[msg.id];
     if (msg.type === "done") {
       say(`${msg.entry.text}: at ${msg.entry.t_s.toFixed(2)} s`);
-      if (p) p.resolve(msg.entry);
+      // The promise resolves once the entry is in the journal the page holds.
+      if (p) { arriving.push({ key: JSON.stringify(msg.entry), entry: msg.entry, resolve: p.resolve }); settle(); }
     } else {
       say(`refused: ${msg.error}`, true);
       if (p) p.reject(new Error(msg.error));

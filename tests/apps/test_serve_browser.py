@@ -74,7 +74,7 @@ def test_a_page_of_another_origin_cannot_open_the_session_s_websocket(driver, li
     page = b"<!DOCTYPE html><title>elsewhere</title>"
 
     class Elsewhere(http.server.BaseHTTPRequestHandler):
-        def do_GET(self):  # noqa: N802 - the http.server API
+        def do_GET(self):
             self.send_response(200)
             self.send_header("Content-Type", "text/html")
             self.end_headers()
@@ -151,7 +151,7 @@ def test_the_live_page_commands_the_mission_and_the_log_flies_it_again(driver, l
     # The end button, and its dialog.
     driver.find_element("id", "g-end").click()
     driver.find_element("id", "g-end-now").click()
-    code, out, err = s.finish()
+    code, _, err = s.finish()
     assert code == 0, err
     wait_for(driver, "return document.getElementById('live-badge').textContent === 'ENDED'")
     assert "command log" in driver.find_element("id", "g-result").text
@@ -182,6 +182,6 @@ def test_the_live_page_can_reach_nothing_but_its_session(driver, tmp_path):
                                       (e) => done(e.violatedDirective + " " + e.blockedURI));
             try { new WebSocket("ws://127.0.0.1:9/"); } catch (e) { done("threw " + e.name); }
             fetch("/?token=x").catch(() => {});""")
-        assert blocked.startswith("connect-src ws://127.0.0.1:9") or blocked.startswith("threw")
+        assert blocked.startswith(("connect-src ws://127.0.0.1:9", "threw"))
     finally:
         with_session.kill()

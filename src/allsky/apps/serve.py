@@ -129,6 +129,7 @@ class Flight:
         self._page_at = -math.inf
         self._anchor = (time.monotonic(), 0.0)
         self._frame_s = float(cfg.mission.frame_s)
+        self._wall_s, self._since = 0.0, None
 
     # -- the thread ----------------------------------------------------------------
     def start(self):
@@ -155,11 +156,26 @@ class Flight:
         self._take()
         self._publish()
         if where == "finished":  # the flight stands still: wait for a command
+            self._clock(False)
             self._take(block=True)
             self._publish()
             return True
-        self._wait()
+        self._wait()  # before the first mode too: paced, paused or waiting for a client
         return True
+
+    def _clock(self, flying):
+        """Keep the wall time the flight has flown (paused, alone or finished: none)."""
+        now = time.monotonic()
+        if flying and self._since is None:
+            self._since = now
+        elif not flying and self._since is not None:
+            self._wall_s += now - self._since
+            self._since = None
+
+    def wall_s(self) -> float:
+        """[s] wall time the flight has flown so far (not paused, not waiting)."""
+        return self._wall_s + (time.monotonic() - self._since if self._since is not None
+                               else 0.0)
 
     def _alone(self):
         return self.pause_when_alone and self.clients == 0
@@ -171,7 +187,9 @@ class Flight:
                 if self._take(block=True, timeout=0.2):
                     self._publish()
                 self._anchor = (time.monotonic(), self.m.now_s())
+                self._clock(False)
                 continue
+            self._clock(True)
             wall, t0 = self._anchor
             remaining = wall + (self.m.now_s() - t0) / self.speed - time.monotonic()
             if remaining <= 0.0:
@@ -230,7 +248,7 @@ class Flight:
                 "ended": self.station.ended, "faults": len(m.cfg.faults),
                 "plan": list(m.plan), "next_mode": m.next_mode,
                 "in_flight": m.mode_in_flight is not None,
-                "bright_gate": bool(m.cfg.star_tracker.bright_gate),
+                "bright_gate": bool(m.cfg.star_tracker.bright_gate), "wall_s": self.wall_s(),
                 "window": list(m.cfg.star_tracker.magnitude_window)}
 
     def page_state(self) -> dict:

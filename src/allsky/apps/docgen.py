@@ -347,12 +347,28 @@ def saturations_reference() -> str:
     return "\n".join(lines) + "\n"
 
 
+def ground_commands_reference() -> str:
+    """The ground commands and their fields (:data:`allsky.vocabulary.GROUND_COMMANDS`)."""
+    from allsky.vocabulary import GROUND_COMMANDS
+
+    def fields(k):
+        need = ", ".join(f"`{f}`" for f in k.fields)
+        may = ", ".join(f"`{f}`" for f in k.optional)
+        return "; ".join(x for x in (need, f"optional {may}" if may else "") if x) or "none"
+
+    lines = ["| `kind` | acts on | fields | what it does |", "|---|---|---|---|"]
+    lines += [f"| `{k.name}` | {k.acts_on} | {fields(k)} | {k.meaning} |"
+              for k in GROUND_COMMANDS]
+    return "\n".join(lines) + "\n"
+
+
 PAGES = {"configuration.md": config_reference, "cli.md": cli_reference,
          "blocks.md": blocks_reference}
 #: Generated sections inside hand-written pages: page -> {section name: generator}.
 SECTIONS = {"theory_of_operation.md": {"modes": mode_reference, "wiring": wiring_reference},
             "architecture.md": {"layers": architecture.layers_table},
-            "journal.md": {"kinds": journal_reference, "saturations": saturations_reference}}
+            "journal.md": {"kinds": journal_reference, "saturations": saturations_reference},
+            "ground_control.md": {"commands": ground_commands_reference}}
 
 
 def fill_sections(text: str, sections: dict) -> str:

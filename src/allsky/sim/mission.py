@@ -811,6 +811,9 @@ class Mission:
                                                star_tracker.REFUSED + star_tracker.N_REFUSED))
         for slot in slots:
             lock[slot] = index(lock[slot])
+        if int(lock[star_tracker.HELD]) == star_tracker.FALSE_TARGET:
+            # A glint held is judged again against the new window from the next frame.
+            lock[star_tracker.HELD] = star_tracker.NONE
         seen = s.journal_seen[journal.SEEN_STAR]
         s.journal_seen[journal.SEEN_STAR] = -1.0 if index(seen) == star_tracker.NONE \
             else index(seen)

@@ -51,7 +51,9 @@ def driver():
 def live(tmp_path_factory):
     out = tmp_path_factory.mktemp("live")
     paths = {k: out / f"live.{k}" for k in ("json", "parquet", "toml")}
-    s = Session("--speed", "100", "--json", str(paths["json"]), "--telemetry",
+    # The clock waits for the page: the mission has not flown past Mode 6 when it comes.
+    s = Session("--speed", "100", "--pause-when-alone", "--json", str(paths["json"]),
+                "--telemetry",
                 str(paths["parquet"]), "--save-commands", str(paths["toml"]))
     try:
         yield s, paths
@@ -105,6 +107,10 @@ def test_the_live_page_commands_the_mission_and_the_log_flies_it_again(driver, l
     wait_for(driver, READY)
     assert driver.title.startswith("allsky live: default")
     wait_for(driver, "return window.allsky.session().t_s > 150")
+    # Paused first: the commands below act at the boundary the clock stands at.
+    driver.find_element("id", "g-pause").click()
+    wait_for(driver, "return window.allsky.session().paused")
+    assert driver.find_element("id", "g-pause").get_attribute("aria-pressed") == "true"
     # A tracker dropout, with the page's controls.
     driver.find_element("css selector", "#g-more summary").click()
     from selenium.webdriver.support.ui import Select
@@ -134,9 +140,13 @@ def test_the_live_page_commands_the_mission_and_the_log_flies_it_again(driver, l
     assert refused == "not holding on a target: nothing to proceed from"
     commands = [e for e in driver.execute_script("return window.allsky.journal()")
                 if e["kind"] == "ground_command"]
-    assert [c["command"] for c in commands] == ["fault", "target", "speed"]
+    assert [c["command"] for c in commands] == ["pause", "fault", "target", "speed"]
+    assert len({c["t_s"] for c in commands}) == 1  # all at the boundary the clock stood at
+    driver.find_element("id", "g-pause").click()  # resume
+    wait_for(driver, "return !window.allsky.session().paused")
     # The event log shows them, and the page follows the newest row.
-    log = driver.find_element("id", "events").text
+    log = wait_for(driver, "const t = document.getElementById('events').textContent;"
+                           "return t.includes('Ground: speed x200') && t")
     assert "Ground: inject tracker dropout for 3 s (fault 0)" in log
     assert "Ground: new target Vega" in log
     assert driver.execute_script("return window.allsky.isFollowing()")
@@ -146,6 +156,10 @@ def test_the_live_page_commands_the_mission_and_the_log_flies_it_again(driver, l
     wait_for(driver, READY)
     again = driver.execute_script("return window.allsky.journal()")
     assert again[: len(before)] == before
+    # Uploaded before Mode 6, the new target replaced the one to be flown.
+    before_6 = commands[2]["t_s"] < min([r["start_s"] for r in driver.execute_script(
+        "return window.allsky.timeline()") if r["mode"] == "6-1"] or [float("inf")])
+    assert before_6
     assert driver.execute_script("return window.allsky.targets()[0].name") == "Vega"
     assert driver.execute_script("return window.allsky.range()[0]") == pytest.approx(0.1)
     # The end button, and its dialog.

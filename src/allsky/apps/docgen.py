@@ -348,7 +348,7 @@ def saturations_reference() -> str:
 
 
 def ground_commands_reference() -> str:
-    """The ground commands and their fields (:data:`allsky.vocabulary.GROUND_COMMANDS`)."""
+    """The ground commands and their fields (``allsky.vocabulary.GROUND_COMMANDS``)."""
     from allsky.vocabulary import GROUND_COMMANDS
 
     def fields(k):

@@ -127,6 +127,7 @@ class Flight:
         self._rows = 0
         self._events = 0
         self._page_at = -math.inf
+        self._stale = False  #: journal entries published since the page's state was made
         self._anchor = (time.monotonic(), 0.0)
         self._frame_s = float(cfg.mission.frame_s)
         self._wall_s, self._since = 0.0, None
@@ -159,6 +160,9 @@ class Flight:
             self._clock(False)
             self._take(block=True)
             self._publish()
+            if not m.finished:  # a command flies it again: paced, or held while paused
+                self._anchor = (time.monotonic(), m.now_s())
+                self._wait()
             return True
         self._wait()  # before the first mode too: paced, paused or waiting for a client
         return True
@@ -184,8 +188,8 @@ class Flight:
         """Pace the flight to the wall clock; hold it while paused (or alone)."""
         while True:
             if self.station.paused or self._alone():
-                if self._take(block=True, timeout=0.2):
-                    self._publish()
+                self._take(block=True, timeout=0.2)
+                self._publish()  # the page's state catches up with the commands taken
                 self._anchor = (time.monotonic(), self.m.now_s())
                 self._clock(False)
                 continue
@@ -234,9 +238,11 @@ class Flight:
         self._events += len(events)
         now = time.monotonic()
         page = None
-        if force or (events and now - self._page_at >= PAGE_EVERY_S) or now - self._page_at > 2:
+        self._stale = self._stale or bool(events)
+        if force or (self._stale and now - self._page_at >= PAGE_EVERY_S) \
+                or now - self._page_at > 2:
             page = self.page_state()
-            self._page_at = now
+            self._page_at, self._stale = now, False
         self.publish({"rows": rows, "events": events, "session": self.session(), "page": page,
                       "final": self.done.is_set() or self.station.ended})
 

@@ -85,7 +85,9 @@ def test_a_page_of_another_origin_cannot_open_the_session_s_websocket(driver, li
         def log_message(self, *args):
             pass
 
-    other = http.server.HTTPServer(("127.0.0.1", 0), Elsewhere)
+    # Threaded: a connection the browser opens ahead and leaves idle holds no other request.
+    other = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Elsewhere)
+    other.daemon_threads = True
     threading.Thread(target=other.serve_forever, daemon=True).start()
     try:
         driver.get(f"http://127.0.0.1:{other.server_address[1]}/")

@@ -123,7 +123,6 @@ class Flight:
         self.thread = threading.Thread(target=self._run, name="allsky-flight", daemon=True)
         self.done = threading.Event()
         self.error = None  #: an exception that ended the flight's thread
-        self.ended_by = None  #: who ended the session ("page", "signal")
         self._rows = 0
         self._events = 0
         self._page_at = -math.inf
@@ -345,7 +344,11 @@ class Server:
             return
         self.loop = asyncio.new_event_loop()
         asyncio.set_event_loop(self.loop)
-        app = web.Application(middlewares=[self._guard], client_max_size=64 * 1024)
+        @web.middleware
+        async def guard(request, handler):
+            return await self._guard(request, handler)
+
+        app = web.Application(middlewares=[guard], client_max_size=64 * 1024)
         app.router.add_get("/", self._get_page)
         app.router.add_get("/ws", self._get_ws)
         runner = web.AppRunner(app, access_log=None, handle_signals=False)
@@ -434,21 +437,20 @@ class Server:
         name, _, port = host.rpartition(":")
         return port == str(self.port) and is_loopback(name)
 
-    async def _guard(self, app, handler):
+    async def _guard(self, request, handler):
+        """Every request: the token, and on loopback this machine's name; then safe headers."""
         from aiohttp import web
 
-        async def guarded(request):
-            if self._token_of(request) is None:
-                return web.Response(status=403, text="403: forbidden: this allsky session needs "
-                                    "its token (the URL allsky serve printed)\n")
-            if not self._host_ok(request):
-                return web.Response(status=403, text="403: forbidden: not this session's host\n")
-            response = await handler(request)
-            response.headers["Referrer-Policy"] = "no-referrer"
-            response.headers["X-Content-Type-Options"] = "nosniff"
-            response.headers["Cache-Control"] = "no-store"
-            return response
-        return guarded
+        if self._token_of(request) is None:
+            return web.Response(status=403, text="403: forbidden: this allsky session needs "
+                                "its token (the URL allsky serve printed)\n")
+        if not self._host_ok(request):
+            return web.Response(status=403, text="403: forbidden: not this session's host\n")
+        response = await handler(request)
+        response.headers["Referrer-Policy"] = "no-referrer"
+        response.headers["X-Content-Type-Options"] = "nosniff"
+        response.headers["Cache-Control"] = "no-store"
+        return response
 
     async def _get_page(self, request):
         from aiohttp import web
@@ -741,7 +743,6 @@ def run_from_cli(cfg, args) -> int:
         if signalled:  # a second one: stop now
             raise KeyboardInterrupt
         signalled.append(signum)
-        flight.ended_by = "signal"
         flight.commands.put(({"kind": "end"}, (None, None)))
 
     before = {sig: signal.signal(sig, end_by_signal) for sig in (signal.SIGINT, signal.SIGTERM)}

@@ -15,6 +15,8 @@ scenario (``allsky config show|check``) starts without NumPy.
   functions are :data:`allsky.sequencer.master_sequencer.ACTIONS`).
 * :data:`EVENT_KINDS` and :data:`SATURATIONS`: what the mission's journal
   records (:mod:`allsky.sim.journal`).
+* :data:`GROUND_COMMANDS`: what the ground may command during a flight
+  (``allsky serve``, ``allsky run --commands``; :mod:`allsky.sim.commands`).
 """
 
 from typing import NamedTuple
@@ -49,6 +51,11 @@ MODES = (
     ModeWord("recycle", 6.5, "next target: every mode again, calibration included"),
     ModeWord("direct", 6.6, "next target: the roll from the target held, on the gyros alone "
                             "(Mode 6-2's yaw follows)"),
+    ModeWord("standby", 6.7, "hold on target until a ground command ends the hold"),
+    ModeWord("references", 6.8, "back to the Sun and the star by ground command, the target "
+                                "and the calibration kept"),
+    ModeWord("restart", 6.9, "every mode again by ground command, from an open switch bank, "
+                             "the target kept"),
     ModeWord("dither", 7.0, "dither calibration (comparison method)"),
 )
 #: Mode name -> telemetry code.
@@ -188,6 +195,9 @@ EVENT_KINDS = (
     EventKind("lock_dropped", 11, "`star` (the star, or `stray light`, the tracker held), "
                                   "`magnitude` (the light in its slit), `gate_magnitude` (the "
                                   "bright gate: the magnitude window's bright end), `in_use`"),
+    EventKind("ground_command", 12, "`command` (its kind: one of the ground commands), the "
+                                    "command's fields, `text` (in words); a `fault` command "
+                                    "also `fault` (its index in `[[faults]]`)"),
 )
 #: Journal kind name -> :class:`EventKind`.
 EVENT_KIND = {k.name: k for k in EVENT_KINDS}
@@ -201,3 +211,58 @@ SATURATIONS = {
     "wheel_unloading": (("wheels", "39", "40", "41"),
                         "the jets unload the wheels' momentum"),
 }
+
+
+class CommandKind(NamedTuple):
+    """A kind of ground command: what it needs and what it acts on."""
+
+    name: str  #: the command's ``kind``
+    fields: tuple  #: the fields it needs, in this order
+    optional: tuple  #: the fields it may have beyond those
+    acts_on: str  #: "session" (the live clock), "hardware" or "sequencer" (master sequencer 20)
+    meaning: str  #: what it does, in words (docs/ground_control.md)
+
+
+#: What the ground may command during a flight (:mod:`allsky.sim.commands` applies them, at
+#: a frame boundary; each is a ``ground_command`` entry of the journal).
+GROUND_COMMANDS = (
+    CommandKind("pause", (), (), "session",
+                "stop the live clock at this frame boundary; the flight goes on from it, bit "
+                "for bit, at `resume`"),
+    CommandKind("resume", (), (), "session", "start the live clock again"),
+    CommandKind("speed", ("speed",), (), "session",
+                "fly at `speed` times real time (a live session; what is flown does not change)"),
+    CommandKind("fault", ("fault_kind",), ("duration_s",), "hardware",
+                "inject a fault now: `fault_kind` and the fields of that kind of `[[faults]]`, "
+                "optional `duration_s`; exactly the `[[faults]]` entry with `start_s` = now"),
+    CommandKind("clear_fault", ("fault",), (), "hardware",
+                "end fault number `fault` (its index in `[[faults]]`, from 0) now: its "
+                "`duration_s` becomes the time it has acted"),
+    CommandKind("tracker_window", ("magnitude_window",), (), "hardware",
+                "set star tracker 105's magnitude window [bright, faint] (mag); a star it "
+                "held outside the new window is lost"),
+    CommandKind("bright_gate", ("enabled",), (), "hardware",
+                "enable or disable star tracker 105's bright gate"),
+    CommandKind("target", (), ("star", "ra_deg", "dec_deg"), "sequencer",
+                "upload register 24's programmed angles for a new target (`star`, or "
+                "`ra_deg` and `dec_deg`): it replaces the target while the vehicle has not "
+                "begun Mode 6; else it is flown next, from the target being flown, by "
+                "`sequencer.between_targets`"),
+    CommandKind("hold", (), (), "sequencer",
+                "hold on the target until a command ends the hold (`proceed`, `target`, "
+                "`reacquire`, `recycle`): now if on target, else once the target is reached"),
+    CommandKind("proceed", (), (), "sequencer",
+                "end the hold on target and go on with the plan"),
+    CommandKind("reacquire", (), (), "sequencer",
+                "end the mode being flown; acquire the Sun and the star again (Modes 1 and 2, "
+                "the calibration kept), then fly that mode again or, from Mode 6 on, the "
+                "target again"),
+    CommandKind("recycle", (), (), "sequencer",
+                "end the mode being flown; every mode again from Mode 1, calibration included, "
+                "then the target again"),
+    CommandKind("end", (), (), "session",
+                "end the session at this frame boundary (the outputs are those of the flight "
+                "so far)"),
+)
+#: Command kind name -> :class:`CommandKind`.
+GROUND_COMMAND = {k.name: k for k in GROUND_COMMANDS}

@@ -45,7 +45,7 @@ SPEC_CLOSED_AT_END = {
 }
 TELEMETRY_CODES = {"1": 1.0, "2": 2.0, "3": 3.0, "4": 4.0, "5": 5.0, "6-1": 6.1, "6-2": 6.2,
                    "hold": 6.3, "reacquire": 6.4, "recycle": 6.5, "direct": 6.6,
-                   "dither": 7.0}
+                   "standby": 6.7, "references": 6.8, "restart": 6.9, "dither": 7.0}
 
 
 def test_every_mode_of_every_plan_is_in_the_table():

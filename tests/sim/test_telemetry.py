@@ -310,7 +310,7 @@ def _shuffled(t):
     (_set("time", -0.1, 0), "row 1 (line 3), column 'time [s]': -0.1: mission time is >= 0"),
     (_shuffled, "column 'time [s]': "),
     (_set("mode", 9.0), ("row 6 (line 8), column 'mode [-]': 9.0 is not a mode code (1, 2, 3, 4, "
-                        "5, 6.1, 6.2, 6.3, 6.4, 6.5, 6.6, 7)")),
+                        "5, 6.1, 6.2, 6.3, 6.4, 6.5, 6.6, 6.7, 6.8, 6.9, 7)")),
     (_set("mode", 6.15), "6.15 is not a mode code"),
     (_set("q_w", 1e308), "row 6 (line 8), column 'q_w [-]': quaternion [1e+308, "),
     (_set("q_x", 0.01), "is not of unit norm (within 1e-06)"),

@@ -3,7 +3,10 @@
 Commands::
 
     allsky run [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--telemetry PATH] [--plots DIR]
-               [--html PATH]
+               [--html PATH] [--commands FILE]
+    allsky serve [SCENARIO] [--set KEY=VALUE ...] [--host HOST] [--port PORT] [--speed X]
+                 [--no-browser] [--save-commands FILE] [--allow-remote] [--pause-when-alone]
+                 [--json PATH] [--telemetry PATH] [--html PATH]
     allsky plot TELEMETRY [--out DIR] [--summary SUMMARY.json]
     allsky replay TELEMETRY [--summary JSON] --html PATH [--scenario SCENARIO] [--set KEY=VALUE]
     allsky analyze [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--plot PNG]
@@ -134,6 +137,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--html", metavar="PATH",
                      help="write the mission replay: one self-contained HTML page, offline "
                           "(docs/replay.md)")
+    _ground_control(sub, scenario_args, run)
 
     step = sub.add_parser(
         "step", help="fly the mission stop by stop, showing the hardware at each stop",
@@ -443,6 +447,56 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _ground_control(sub, scenario_args, run):
+    """``allsky serve`` and ``allsky run --commands`` (docs/ground_control.md)."""
+    run.add_argument("--commands", metavar="FILE",
+                     help="fly a saved session again, exactly: the command log of allsky serve "
+                          "--save-commands (its scenario, unless SCENARIO is given; --set "
+                          "applies over it)")
+    serve = sub.add_parser(
+        "serve", help="fly the mission live in the browser and command it (ground control)",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Fly the mission live, paced to the wall clock, and show it in the "
+                    "browser as the replay does: the diagram, traces, sky map, 3-D view and "
+                    "event log as they happen. From the page (or window.allsky.command) "
+                    "pause, resume and change the speed; inject any fault kind and clear it; "
+                    "upload a new target; command the sequencer to hold, proceed, reacquire "
+                    "or recycle; set the tracker's magnitude window or its bright gate. "
+                    "Every command is a journal entry at the frame boundary it acted at. "
+                    "Prints one line, 'allsky: serving http://HOST:PORT/?token=TOKEN'; "
+                    "ending the session (the page's end button, Ctrl-C) writes what allsky run "
+                    "writes, and --save-commands the command log, which 'allsky run --commands "
+                    "FILE' flies again exactly (docs/ground_control.md).",
+        epilog="examples:\n"
+               "  allsky serve                                   # the default mission\n"
+               "  allsky serve voyager1-wrong-star --speed 50    # a scenario, faster\n"
+               "  allsky serve --save-commands class.toml --json class.json\n"
+               "  allsky run --commands class.toml              # the same flight again\n"
+               "  allsky serve --host 0.0.0.0 --allow-remote --pause-when-alone  # a classroom")
+    scenario_args(serve)
+    serve.add_argument("--host", default="127.0.0.1",
+                       help="address to listen on (default 127.0.0.1: this machine only; any "
+                            "other needs --allow-remote)")
+    serve.add_argument("--port", type=int, default=0,
+                       help="port to listen on (default 0: any free port)")
+    serve.add_argument("--speed", type=_positive_float, default=20.0, metavar="X",
+                       help="fly at X times real time (default 20); the page changes it")
+    serve.add_argument("--no-browser", action="store_true",
+                       help="do not open the page; the printed URL opens it")
+    serve.add_argument("--save-commands", metavar="FILE",
+                       help="at the end, write the command log (TOML) for allsky run --commands")
+    serve.add_argument("--allow-remote", action="store_true",
+                       help="allow a --host beyond this machine (anyone who reaches it with the "
+                            "link can command the mission; the page says so)")
+    serve.add_argument("--pause-when-alone", action="store_true",
+                       help="stop the clock while no page watches (default: fly on)")
+    serve.add_argument("--json", metavar="PATH", help="at the end, write the summary as JSON")
+    serve.add_argument("--telemetry", metavar="PATH",
+                       help="at the end, write the telemetry (.csv or .parquet), every row")
+    serve.add_argument("--html", metavar="PATH",
+                       help="at the end, write the replay page of the session (.html)")
+
+
 class _ModeListFormatter(argparse.RawDescriptionHelpFormatter):
     """Help whose ``{modes}`` lists the mode table's names, read when help is shown."""
 
@@ -590,6 +644,8 @@ def _run(cfg, args) -> int:
         from allsky.apps.faults import scenarios_from_cli as run_from_cli
     elif args.command == "warm-up":
         from allsky.apps.warm import run_from_cli
+    elif args.command == "serve":
+        from allsky.apps.serve import run_from_cli
     else:
         from allsky.apps.report import run_from_cli
 

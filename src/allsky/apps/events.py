@@ -36,6 +36,8 @@ LOOK_FOR = {
     "direct": "3-D view and CPU 22 errors: from the target it holds, the vehicle rolls by the "
               "programmed turn on the gyros alone (no optics), then Mode 6-2 yaws onto the "
               "next target.",
+    "standby": "CPU 22 errors: the gyros alone hold the target until the ground commands "
+               "otherwise; any drift left shows here.",
     "dither": "Sensor traces: small sinusoidal turns in roll and yaw; the gyro counts are "
               "compared with the optics to measure the scale factors.",
 }
@@ -124,6 +126,8 @@ def event_text(e) -> str:
         return f"fault: {e['text']} {'begins' if e['active'] else 'ends'}"
     if kind == "abort":
         return f"ABORTED: {e['reason']}"
+    if kind == "ground_command":
+        return f"ground command: {e['text']}"
     return kind
 
 
@@ -178,6 +182,8 @@ def page_log(events) -> list:
             row["reason"] = f"written in Mode {mode}"
         elif kind == "abort":
             continue  # the aborted mode's row says it
+        elif kind == "ground_command":
+            row.update(text=e["text"], reason="commanded from the ground")
         else:
             row["reason"] = {"star_lock": "the star tracker",
                              "lock_rejected": "the tracker's cone-angle check",

@@ -63,6 +63,8 @@ RUNS = tuple(c.name for c in COLUMNS if c.replay == recorder.RUNS)
 #: The page's parts, inlined in this order.
 STYLE_FILES = ("replay.css",)
 SCRIPT_FILES = ("util.js", "diagram.js", "vehicle3d.js", "skymap.js", "traces.js", "main.js")
+#: The live page's additions (``allsky serve``): its controls, their style and script.
+GROUND_HTML, GROUND_STYLE, GROUND_SCRIPT = "ground.html", "ground.css", "ground.js"
 
 
 def _delta(ints) -> list:
@@ -117,6 +119,11 @@ def _encode_columns(table) -> dict:
            "valves": ["".join("012"[int(v) + 1] for v in table[:, INDEX[c]])
                       for c in ("valve_roll", "valve_pitch", "valve_yaw")]}
     return out
+
+
+def encode_rows(table) -> dict:
+    """Rows of telemetry encoded as the page's ``columns`` (a live page appends them)."""
+    return _encode_columns(np.asarray(table, dtype=np.float64))
 
 
 def _first_numeral_block(numeral):
@@ -224,6 +231,11 @@ def target_at(targets, t_s) -> dict:
 
 def _sky(cfg, summary, targets) -> dict:
     """Sun, catalog, targets and tracker slit for the sky map and the 3-D view."""
+    return sky_data(cfg, summary, targets)
+
+
+def sky_data(cfg, summary, targets) -> dict:
+    """Sun, catalog, ``targets`` and slit; ``summary`` names the stars (or None)."""
     from allsky.vehicle import sky
 
     date = cfg.mission.date_utc
@@ -302,6 +314,11 @@ def describe_scenario(path=None, overrides=()) -> dict:
 
 def _mission(cfg, summary, scenario) -> dict:
     """The mission's identity for the page: scenario, date, seed, vehicle."""
+    return mission_data(cfg, summary, scenario)
+
+
+def mission_data(cfg, summary, scenario) -> dict:
+    """Who flew what (``scenario``), the date and seed (``summary``'s, else ``cfg``'s)."""
     scenario = dict(scenario or {"name": None, "title": "", "description": "",
                                  "overrides": []})
     seed = (summary or {}).get("seed", cfg.mission.seed)
@@ -414,7 +431,11 @@ def _vehicle(cfg, table) -> dict:
     """The vehicle's actuators: jets, or reaction wheels (from the scenario or the record)."""
     wheel_cols = [INDEX[f"wheel_h_{a}"] for a in "xyz"]
     h = table[:, wheel_cols]
-    flown_wheels = bool(np.nan_to_num(np.abs(h)).max(initial=0.0) > 0.0)
+    return vehicle_data(cfg, bool(np.nan_to_num(np.abs(h)).max(initial=0.0) > 0.0))
+
+
+def vehicle_data(cfg, flown_wheels=False) -> dict:
+    """The vehicle's actuators: the scenario's, or wheels if ``flown_wheels``."""
     if cfg.actuators.kind != "wheels" and not flown_wheels:
         return {"kind": "jets"}
     return {"kind": "wheels", "axes": [list(map(float, a)) for a in cfg.wheels.axes],
@@ -450,9 +471,15 @@ def mode_runs(table):
 
 
 def _config(cfg, table) -> dict:
-    el = cfg.electronics
     t = table[:, INDEX["time"]]
     interval = float(np.median(np.diff(t))) if len(t) > 1 else float(cfg.mission.frame_s)
+    return config_data(cfg, interval)
+
+
+def config_data(cfg, interval_s) -> dict:
+    """The scenario's numbers the page uses; ``interval_s`` [s] between telemetry rows."""
+    el = cfg.electronics
+    interval = float(interval_s)
     return {"pulse_weight_arcsec": float(el.vfc_pulse_weight_arcsec),
             "register_lsb_arcsec": float(el.register_lsb_arcsec),
             "register_bits": int(el.register_bits), "drift_dac_bits": int(el.drift_dac_bits),
@@ -493,21 +520,45 @@ def replay_data(table, summary=None, cfg=None, scenario=None) -> dict:
     if table.ndim != 2 or len(table) == 0:
         raise ValueError("the replay needs a telemetry table with at least one row")
     timeline = _timeline(table, summary, cfg)
+    config = _config(cfg, table)
+    t_end_s = float(table[-1, INDEX["time"]])
+    journal = (summary or {}).get("events")
+    flown = journal_data(cfg, summary, timeline, t_end_s)
+    targets, locked = flown.pop("targets"), flown.pop("locked")
+    sky = _sky(cfg, summary, targets)
+    sky["locked"] = locked
+    return {"format": DATA_FORMAT, "columns": _encode_columns(table), **flown,
+            "diagram": diagram(), "sky": sky, "config": config,
+            "mission": _mission(cfg, summary, scenario), "vehicle": _vehicle(cfg, table),
+            "notes": notes(config, journal is not None)}
+
+
+def journal_data(cfg, summary, timeline, t_end_s) -> dict:
+    """What the page shows from the journal and the summary: the parts a flight grows.
+
+    ``cfg`` is the scenario flown, ``summary`` the mission's summary (None:
+    not known), ``timeline`` its mode timeline (:func:`replay_data` takes
+    it from the summary or the telemetry; a live session adds the mode in
+    flight) and ``t_end_s`` [s] the last telemetry row's time. Keys:
+    ``timeline``, ``modes`` (title, sentence and where to look, with the exit
+    texts flown), ``events`` (the event log with the warnings), ``journal``,
+    ``registers``, ``truth23``, ``summary``, ``ending``, ``warnings``,
+    ``faults``, ``tracker``, ``targets`` (each begun, when it was flown) and
+    ``locked`` (the star tracker 105 held).
+    """
     mode_info = {}
     for m in modes.MODE_TABLE:
-        exit_text = next((r["exit"] for r in timeline if r["mode"] == m.name),
+        exit_text = next((r["exit"] for r in timeline if r["mode"] == m.name and r["exit"]),
                          m.exit.format(cfg=cfg))
         mode_info[m.name] = {"code": m.code, "title": m.title,
                              "sentence": event_words.mode_sentence(m.name, exit_text),
                              "look": event_words.LOOK_FOR.get(m.name, "")}
-    config = _config(cfg, table)
     info = {k: summary.get(k) for k in ("status", "abort_reason", "propellant_kg",
                                         "mission_time_s", "seed", "locked_star",
                                         "reference_star")} if summary else None
     if summary:
         info["pointing_error_arcsec"] = (summary.get("target") or {}).get(
             "pointing_error_arcsec")
-    t_end_s = float(table[-1, INDEX["time"]])
     targets = _targets(cfg, summary, timeline, t_end_s)
     journal = (summary or {}).get("events")
     registers = _registers(journal)
@@ -516,15 +567,14 @@ def replay_data(table, summary=None, cfg=None, scenario=None) -> dict:
     log += [{"t_s": w["t_s"], "kind": "warning", "mode": _mode_at(timeline, w["t_s"]),
              "text": w["text"], "reason": "a warning of the summary"} for w in warnings]
     log.sort(key=lambda e: e["t_s"])  # stable: a warning after the entries of its time
-    return {"format": DATA_FORMAT, "columns": _encode_columns(table), "timeline": timeline,
-            "modes": mode_info, "events": log, "journal": journal or [],
-            "diagram": diagram(), "sky": _sky(cfg, summary, targets),
-            "registers": registers, "truth23": _truth23(summary, cfg), "config": config,
-            "summary": info, "mission": _mission(cfg, summary, scenario),
+    return {"timeline": timeline, "modes": mode_info, "events": log, "journal": journal or [],
+            "registers": registers, "truth23": _truth23(summary, cfg), "summary": info,
             "ending": _ending(summary, journal or [], t_end_s), "warnings": warnings,
             "faults": _faults(cfg, summary, journal or [], t_end_s),
             "tracker": _tracker(journal or []) if journal is not None else None,
-            "vehicle": _vehicle(cfg, table), "notes": notes(config, journal is not None)}
+            "targets": [{k: t[k] for k in ("name", "vec", "start_s", "end_s")}
+                        for t in targets],
+            "locked": (summary or {}).get("locked_star")}
 
 
 def _mode_at(timeline, t_s):
@@ -581,28 +631,54 @@ def page_title(data) -> str:
     ending = data.get("ending") or {}
     status = {"complete": "complete", "aborted": "ABORTED"}.get(ending.get("status"), "")
     date = (m.get("date_utc") or "")[:10]
-    parts = [f"allsky replay: {m.get('name') or 'mission'}"]
+    what = "allsky live" if data.get("live") else "allsky replay"
+    parts = [f"{what}: {m.get('name') or 'mission'}"]
     if status:
         parts.append(status)
     parts.append(", ".join(x for x in (date, f"seed {m['seed']}" if "seed" in m else "") if x))
     return " \u2014 ".join(p for p in parts if p)
 
 
-def render_html(data) -> str:
-    """The page: template, style and scripts inlined, ``data`` as a JSON block."""
-    style = "\n".join(_asset(n) for n in STYLE_FILES)
-    # One scope for the page's modules, nothing global but window.allsky.
-    script = ("(function () {\n\"use strict\";\n" + "\n".join(_asset(n) for n in SCRIPT_FILES)
-              + "\n})();\n")
+def page_script(live=False) -> str:
+    """The page's script: its modules in one scope, nothing global but window.allsky.
+
+    The replay decodes its data block at once; a live page (``live``) runs
+    ``ground.js``, which boots the same modules when the session's data has
+    come over the WebSocket.
+    """
+    modules = "\n".join(_asset(n) for n in SCRIPT_FILES)
+    if not live:
+        return ("(function () {\n\"use strict\";\n"
+                "const D = JSON.parse(document.getElementById(\"allsky-data\").textContent);\n"
+                + modules + "\n})();\n")
+    return ("(function () {\n\"use strict\";\nfunction boot(D) {\n" + modules
+            + "\nreturn { app: APP, appendColumns: appendColumns, setJournal: setJournal, data: D };"
+            "\n}\n"
+            + _asset(GROUND_SCRIPT) + "\n})();\n")
+
+
+def render_html(data, connect=None) -> str:
+    """The page: template, style and scripts inlined, ``data`` as a JSON block.
+
+    With ``connect`` (a live session's WebSocket origin, ``ws://host:port``)
+    the page is the live one (:mod:`allsky.apps.serve`): the ground's
+    controls and script, and a Content-Security-Policy that lets it reach
+    that origin and nothing else.
+    """
+    live = connect is not None
+    style = "\n".join(_asset(n) for n in STYLE_FILES + ((GROUND_STYLE,) if live else ()))
+    script = page_script(live)
     payload = json.dumps(data, separators=(",", ":"), allow_nan=False)
     # Inside <script>, "</" would end the block; JSON allows the escaped form.
     payload = payload.replace("</", "<\\/")
+    reach = connect or "'none'"
     csp = (f"default-src 'none'; script-src {_csp_hash(script)}; style-src "
-           f"{_csp_hash(style)}; img-src data:; connect-src 'none'; base-uri 'none'; "
-           "form-action 'none'")
+           f"{_csp_hash(style)}; img-src data:; connect-src {reach}; "
+           "base-uri 'none'; form-action 'none'")
     page = _asset("replay.html")
     for key, value in (("CSP", csp), ("TITLE", html.escape(page_title(data))),
-                       ("STYLE", style), ("DATA", payload), ("SCRIPT", script)):
+                       ("STYLE", style), ("GROUND", _asset(GROUND_HTML) if live else ""),
+                       ("DATA", payload), ("SCRIPT", script)):
         page = page.replace("{{" + key + "}}", value, 1)
     return page
 

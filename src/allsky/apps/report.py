@@ -231,6 +231,34 @@ def fly_drawn(cfg, drawn, telemetry=True, fly=None, plan=None) -> Flown:
     return Flown(m, summary, interrupted)
 
 
+def session_log(args, cfg) -> tuple:
+    """``(scenario, commands)`` of ``allsky run --commands FILE``.
+
+    The log's own scenario unless SCENARIO was given (``args.scenario``),
+    with ``--set`` over it; the commands checked against it.
+    """
+    from allsky.config import scenario_from_dict
+    from allsky.sim import commands
+
+    scenario, raw = commands.read_log(args.commands)
+    if scenario is not None and getattr(args, "scenario", None) is None:
+        cfg = scenario_from_dict(scenario, getattr(args, "overrides", ()))
+    return cfg, commands.validate_log(raw, cfg)
+
+
+def fly_commands(m, log, path) -> dict:
+    """Fly ``m`` with a saved session's commands (:func:`session_log`); its summary."""
+    from allsky.config import ConfigError
+    from allsky.sim import commands
+
+    try:
+        commands.fly_log(m, log)
+    except commands.Refused as e:
+        raise ConfigError(None, rule=f"--commands {path}: at t = {m.now_s():.2f} s: {e}"
+                          ) from None
+    return m.summary()
+
+
 def run_from_cli(cfg, args) -> int:
     """``allsky run``: fly, report, write --json, --telemetry, --plots and --html.
 
@@ -266,12 +294,19 @@ def run_from_cli(cfg, args) -> int:
         telemetry_files.file_format(tlm_path)
     check_output("--plots", plots_dir, directory=True)
     check_output("--html", html_path, suffixes=(".html", ".htm"))
+    log = None
+    if getattr(args, "commands", None):  # a saved ground-control session, flown again
+        cfg, log = session_log(args, cfg)
     cfg, drawn = disperse(cfg)  # the scenario's [dispersions], drawn for its mission.seed
     if drawn:
         say(format_drawn(cfg.mission.seed, drawn) + "\n")
-    m, summary, interrupted = fly_drawn(cfg, drawn,
-                                        telemetry=bool(tlm_path or plots_dir or html_path),
-                                        fly=lambda mission: fly(mission, quiet=quiet))
+    def fly_it(mission):
+        if log is None:
+            return fly(mission, quiet=quiet)
+        return fly_commands(mission, log, args.commands)
+
+    m, summary, interrupted = fly_drawn(cfg, drawn, fly=fly_it,
+                                        telemetry=bool(tlm_path or plots_dir or html_path))
     say(format_report(summary, tracker_star(cfg)))
     outputs = []
     if to_stdout:
@@ -312,4 +347,5 @@ def run_from_cli(cfg, args) -> int:
         for e in failed:
             print(f"allsky: error: {e}", file=sys.stderr)
         return 2
-    return 0 if summary["status"] == "complete" else 1
+    # 0 complete, or a saved session's flight ended where its `end` command stood; 1 aborted
+    return 1 if summary["status"] == "aborted" else 0

@@ -226,6 +226,11 @@ def _toml_key(k: str) -> str:
     return k if BARE_KEY.fullmatch(k) else _toml_string(k)
 
 
+def toml_key(k: str) -> str:
+    """A key as TOML text: bare when it can be (``hold_s``), else quoted (``"a.b"``)."""
+    return _toml_key(k)
+
+
 def _toml_string(s: str) -> str:
     out = []
     for ch in s:

@@ -63,6 +63,16 @@ class ModeAbort(Exception):
         self.failure = failure
 
 
+class ModeInterrupted(Exception):
+    """A ground command ends the mode being flown, at a frame boundary.
+
+    The message is the command's words. The mission raises it inside a leg
+    (:meth:`allsky.sim.mission.Mission.replan`); :func:`run_mode` flies the
+    mode's ``on_command`` steps and lets it go on to the mission, which
+    ends the mode and flies the plan the command set.
+    """
+
+
 def run_mode(m, name) -> str:
     """Fly mode ``name`` of the mode table on mission ``m``; return its exit text.
 
@@ -77,9 +87,22 @@ def run_mode(m, name) -> str:
     ------
     ModeAbort
         A leg was not completed (timeout, Sun or star lost, propellant gone).
+    ModeInterrupted
+        A ground command ended the mode (its ``on_command`` steps flown).
     """
     mode = modes.BY_NAME[name]
     records = {}
+    try:
+        return _run_steps(m, name, mode, records)
+    except ModeInterrupted:
+        context = {"after": "a ground command", "then": ""}
+        for step in mode.on_command:
+            _fly_step(m, name, step, records, context)
+        raise
+
+
+def _run_steps(m, name, mode, records) -> str:
+    """The steps of ``mode`` in order, with the recoveries (:func:`run_mode`)."""
     recovery = bool(m.cfg.sequencer.recovery)
     tried = []  # (step index, recovery name) flown in this flight of the mode
     # What the sequencer last waited for: the reason the journal gives for a switch step.

@@ -16,6 +16,10 @@ next target, and the dither comparison mode of seed 000):
   analysis ...), flown always or only when the scenario asks for it
   (:data:`CONDITIONS`: the turn check).
 
+A ground command (:mod:`allsky.sequencer.ground`) may end the mode being
+flown at a frame boundary; the mode's ``on_command`` steps (switches and
+actions, no wait) are flown then (the hold measures itself).
+
 :func:`allsky.sequencer.master_sequencer.run_mode` walks a mode's steps;
 the actions are the functions of
 :data:`allsky.sequencer.master_sequencer.ACTIONS`. The documentation's
@@ -33,7 +37,7 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 from allsky import vocabulary
-from allsky.config.schema import HOLD_TIMEOUT_ALLOWANCE_S
+from allsky.config.schema import HOLD_TIMEOUT_ALLOWANCE_S, MISSION_MAX_S
 from allsky.hardware import switch_bank
 from allsky.sequencer import legs
 
@@ -107,12 +111,14 @@ class Mode(NamedTuple):
     steps: tuple  #: :class:`Operate`, :class:`Wait` and :class:`Do`, in order
     exit: str  #: exit text; ``{cfg.section.key}`` fields are filled from the scenario
     timeout: str = "mode timeout"  #: key of :data:`DURATIONS`: the time the mode is allowed
+    #: :class:`Operate` and :class:`Do` steps flown when a ground command ends the mode
+    on_command: tuple = ()
 
 
-def _mode(name, steps, exit, timeout="mode timeout") -> Mode:
+def _mode(name, steps, exit, timeout="mode timeout", on_command=()) -> Mode:
     """A :class:`Mode` with the code and title the vocabulary gives its name."""
     return Mode(name, vocabulary.MODE_CODE[name], vocabulary.MODE_TITLE[name], steps, exit,
-                timeout)
+                timeout, on_command)
 
 
 class Term(NamedTuple):
@@ -194,6 +200,14 @@ def _no_time_s(cfg, mode) -> float:
     return 0.0
 
 
+def _until_commanded_s(cfg, mode) -> float:
+    return MISSION_MAX_S
+
+
+def _until_commanded_timeout_s(cfg, mode) -> float:
+    return MISSION_MAX_S + HOLD_TIMEOUT_ALLOWANCE_S
+
+
 def _revolution_s(cfg, mode) -> float:
     return 360.0 / cfg.electronics.rate_command_deg_s
 
@@ -224,6 +238,11 @@ DURATIONS = {
     "hold timeout": Duration(f"`target.hold_s` + {HOLD_TIMEOUT_ALLOWANCE_S:g} s",
                              _hold_timeout_s),
     "no time": Duration("none: the mode flies no leg", _no_time_s),
+    "until commanded": Duration(f"until a ground command ends it, at most {MISSION_MAX_S:g} s "
+                                "(a day: the longest mission)", _until_commanded_s),
+    "until commanded timeout": Duration(f"{MISSION_MAX_S:g} s + "
+                                        f"{HOLD_TIMEOUT_ALLOWANCE_S:g} s",
+                                        _until_commanded_timeout_s),
     "target roll timeout": Duration("`sequencer.timeout_s` of Mode 6-1", _direct_s),
     "revolution": Duration("one revolution at the commanded rate: 360 deg / "
                            "`electronics.rate_command_deg_s`", _revolution_s),
@@ -463,7 +482,8 @@ MODE_TABLE = (
         Do("record_hold_start"),
         Wait("hold on target elapsed", "target", "elapsed", hold="hold"),
         Do("measure_hold"),
-    ), "held on target for {cfg.target.hold_s:g} s on the gyros", timeout="hold timeout"),
+    ), "held on target for {cfg.target.hold_s:g} s on the gyros", timeout="hold timeout",
+        on_command=(Do("measure_hold"),)),
     # Or it may move to a new target with new programmed angles. Those angles are measured
     # from the Sun-star reference attitude, so the vehicle first goes back to it: the Sun
     # (Mode 1) and the star (Mode 2), calibration kept; or it recycles through every mode.
@@ -495,6 +515,22 @@ MODE_TABLE = (
         Operate(open_=(11,)),
     ), "rolled toward the next target on the gyros; register 24 holds the turn's yaw",
         timeout="target roll timeout"),
+    # Ground commands (allsky.sequencer.ground): the hold on target a command ends, and the
+    # way back to the references for the target being flown before its Mode 6 begins (from
+    # Mode 6 on, a command flies the target again through "reacquire" or "recycle" above).
+    _mode("standby", (
+        Do("record_hold_start"),
+        Wait("a ground command", "target", "elapsed", hold="until commanded"),
+        Do("measure_hold"),
+    ), "held on target on the gyros until a ground command", timeout="until commanded timeout",
+        on_command=(Do("measure_hold"),)),
+    _mode("references", (
+        Operate(open_=(4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
+    ), "S4-S6 and S9-S19 open; S1-S3 as they were (drift DACs 7/9/11 and register 23 kept)",
+        timeout="no time"),
+    _mode("restart", (
+        Operate(open_=(1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19)),
+    ), "every switch open, as at ejection", timeout="no time"),
     _mode("dither", (
         Wait("dither record complete", "dither", "elapsed", hold="dither record",
              record="dither record"),
@@ -651,6 +687,9 @@ def check(table=MODE_TABLE) -> None:
         if mode.timeout not in DURATIONS:
             fail(mode, f"unknown timeout {mode.timeout!r}")
         _check_steps(mode, mode.steps, fail)
+        if any(isinstance(s, Wait) for s in mode.on_command):
+            fail(mode, "the steps flown when a command ends the mode must not wait")
+        _check_steps(mode, mode.on_command, fail)
         for i, step in enumerate(mode.steps):
             what = getattr(step, "what", None) or getattr(step, "action", "")
             for key in getattr(step, "retry", ()):

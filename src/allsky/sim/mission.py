@@ -37,6 +37,7 @@ from allsky.hardware import (
 from allsky.hardware.dac import dac
 from allsky.sequencer import dither, legs, modes
 from allsky.sequencer import master_sequencer as ms
+from allsky.sequencer.watch import sensors_in_use
 from allsky.sim import faults as sim_faults
 from allsky.sim import frame_loop, journal, results
 from allsky.sim import state as sim_state
@@ -78,7 +79,8 @@ class Hooks(NamedTuple):
 
     #: [s] of mission time between calls of ``on_pause`` inside legs (None: no pauses)
     pause_every_s: float | None = None
-    #: ``on_pause(m, leg_text)`` every ``pause_every_s`` (:mod:`allsky.apps.step`)
+    #: ``on_pause(m, leg_text)`` every ``pause_every_s`` (:mod:`allsky.apps.step`), and at
+    #: ``pause_at``
     on_pause: Callable | None = None
     #: ``on_slice(m, leg_text)`` after each slice of :data:`SLICE_FRAMES` frames or fewer
     #: (the progress line)
@@ -89,6 +91,10 @@ class Hooks(NamedTuple):
     #: ``after_leg(m, mode, leg_text, rows)``: after each leg (also one that failed), with
     #: the telemetry rows it recorded
     after_leg: Callable | None = None
+    #: ``pause_at(m) -> float``: [s] the mission time of the next call of ``on_pause``
+    #: inside a leg, asked again after each pause (a live session's slices, the times of a
+    #: saved session's commands: :mod:`allsky.sim.commands`)
+    pause_at: Callable | None = None
 
 
 #: No hooks: the flight straight through.
@@ -342,6 +348,7 @@ class Mission:
         self.params = build_params(cfg)
         #: [frames] per telemetry row when a leg records (the scenario's)
         self._telemetry_every = self.params.telemetry_every
+        self._telemetry = bool(telemetry)
         if not telemetry:
             self.params = self.params._replace(telemetry_every=0)
         self.state = ejection_state(cfg) if state is None else state
@@ -371,6 +378,14 @@ class Mission:
         self.pulse_weight_arcsec = float(cfg.electronics.vfc_pulse_weight_arcsec)
         self.apply_calibration = bool(cfg.calibration.apply)
         self._tlm = []
+        #: the telemetry of the leg in flight, slice by slice (:meth:`telemetry`)
+        self._leg_tlm = []
+        #: a ground command's words once it has ended the mode being flown (:meth:`replan`)
+        self._interrupt = None
+        #: the scenario was amended inside a leg (:meth:`amend`): the leg takes its parameters
+        self._amended = False
+        #: the star tracker 105 last held, by name, when a new magnitude window left it out
+        self._locked_before = h.get("locked_star_name")
         self._mode_deadline = None
         self._allowed_s = None
         self.mode_start_s = None  #: [s] when the mode being flown started
@@ -378,13 +393,19 @@ class Mission:
         self._hooks = NO_HOOKS
         #: What happened, in order (:class:`allsky.sim.journal.Journal`).
         self.journal = journal.Journal(h.get("events"))
-        trk = self.params.tracker
-        self._decoder = journal.Decoder(
+        self._decoder = self._new_decoder()
+        #: True while :meth:`run_mode` flies a mode
+        self._in_mode = False
+        self.state.target_inertial[:] = self.target_direction()
+
+    def _new_decoder(self) -> journal.Decoder:
+        """What the frame loop's journal rows name, for the scenario flown."""
+        cfg, trk = self.cfg, self.params.tracker
+        return journal.Decoder(
             tracker_star_names(cfg), cfg.as_dict().get("faults", []), fault_config.describe,
             self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S,
             trk.reference_cone_rad * units.RAD2DEG, float(cfg.star_tracker.cone_angle_check_deg),
             trk.bright_gate_mag if math.isfinite(trk.bright_gate_mag) else None)
-        self.state.target_inertial[:] = self.target_direction()
 
     # -- the seam: what master sequencer 20's steps use (sequencer.host.Host) -----
     def now_s(self) -> float:
@@ -459,16 +480,17 @@ class Mission:
                 params = params._replace(telemetry_every=(self._telemetry_every if record
                                                           else 0))
         every = params.telemetry_every
-        rows = math.ceil(leg.timeout_s / params.frame_s / every) + 1 if every else 0
+        # A slice's rows at most: the leg's rows are moved out after each slice (_run_leg).
+        rows = min(math.ceil(leg.timeout_s / params.frame_s / every) + 1,
+                   SLICE_FRAMES // every + 2) if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
         rec = np.empty((record_rows, frame_loop.N_REC))
         rec_filled = np.zeros(1, dtype=np.int64)
         code = self._run_leg(params, leg, what, buf, filled, rec, rec_filled)
-        if every:
-            self._tlm.append(buf[: filled[0]])
+        rows_flown = self._end_leg_telemetry(every)
         if hooks.after_leg is not None:
-            hooks.after_leg(self, self._mode, what, buf[: filled[0]])
+            hooks.after_leg(self, self._mode, what, rows_flown)
         if code == legs.EXIT_DONE:
             return rec[: rec_filled[0]]
         if code == legs.EXIT_TIMEOUT:
@@ -503,17 +525,23 @@ class Mission:
         self._allowed_s = self._mode_deadline - self.mode_start_s
 
     def _run_leg(self, params, leg, what, buf, filled, rec, rec_filled):
-        """The frame loop over one leg, in slices, pausing for ``on_pause`` if stepping asks.
+        """The frame loop over one leg, in slices, pausing for ``on_pause`` if asked.
 
         The compiled loop returns to Python at least every :data:`SLICE_FRAMES`
         frames, so that a signal (Ctrl-C) is honoured and ``on_slice`` (the
         progress line) hears of the mission time; a paused leg resumes bit for
-        bit, so slicing does not change the flight. If the flight is
-        interrupted (KeyboardInterrupt), the telemetry of the part of the leg
-        flown is kept (:meth:`telemetry`) before the interruption goes on.
+        bit, so slicing does not change the flight. After each slice the rows
+        recorded are moved out of ``buf`` (:meth:`telemetry` sees them). At a
+        pause ``on_pause`` may amend the scenario (:meth:`amend`: the leg flies
+        on with its parameters) or end the mode (:meth:`replan`: the leg ends
+        here with :class:`~allsky.sequencer.master_sequencer.ModeInterrupted`).
+        If the flight is interrupted (KeyboardInterrupt, or an exception of a
+        hook), the telemetry of the part of the leg flown is kept before the
+        exception goes on.
         """
         hooks = self._hooks
         every = hooks.pause_every_s if hooks.on_pause is not None else None
+        asked = hooks.pause_at if hooks.on_pause is not None else None
         dt = float(params.frame_s)
         try:
             while True:
@@ -522,22 +550,44 @@ class Mission:
                 if every:
                     # Next multiple of `every` in mission time, rounded to whole frames.
                     step_at = (math.floor(t / every + 1e-9) + 1) * every
+                if asked is not None:
+                    step_at = min(step_at, float(asked(self)))
                 slice_at = t + SLICE_FRAMES * dt
                 leg = leg._replace(pause_at_s=min(step_at, slice_at))
                 code, _ = frame_loop.run_leg(params, self.state, leg, buf, filled, rec,
                                              rec_filled)
                 self._drain_journal()
+                self._slice_telemetry(buf, filled)
                 if code != legs.EXIT_PAUSE:
                     return code
                 leg = leg._replace(resume=1)
                 if hooks.on_slice is not None:
                     hooks.on_slice(self, what)
-                if every and float(self.state.time_s[0]) >= step_at - 0.5 * dt:
+                if step_at < math.inf and float(self.state.time_s[0]) >= step_at - 0.5 * dt:
                     hooks.on_pause(self, what)
-        except KeyboardInterrupt:
-            if params.telemetry_every and filled[0]:
-                self._tlm.append(buf[: filled[0]].copy())
+                    if self._interrupt is not None:
+                        raise ms.ModeInterrupted(self._interrupt)
+                    if self._amended:  # a ground command changed the scenario
+                        params = self.params._replace(telemetry_every=params.telemetry_every)
+                        self._amended = False
+        except BaseException:
+            self._slice_telemetry(buf, filled)
             raise
+
+    def _slice_telemetry(self, buf, filled):
+        """Move the rows a slice recorded into the leg's telemetry."""
+        if filled[0]:
+            self._leg_tlm.append(buf[: filled[0]].copy())
+            filled[0] = 0
+
+    def _end_leg_telemetry(self, every):
+        """The leg's rows, kept as one piece of :meth:`telemetry`; returns them."""
+        rows = (np.vstack(self._leg_tlm) if self._leg_tlm
+                else np.empty((0, len(COLUMNS))))
+        self._leg_tlm = []
+        if every:
+            self._tlm.append(rows)
+        return rows
 
     def _drain_journal(self):
         """Move what the frame loop journaled into the journal."""
@@ -572,10 +622,12 @@ class Mission:
         self._allowed_s = self.mode_timeout_s(name)
         self.mode_start_s = start
         self._hooks = hooks or NO_HOOKS
+        self._in_mode = True
         self.note("mode_start", title=modes.MODE_TITLE[name],
                   target=self.target_log[-1]["name"],
                   waits_for=ms.next_wait(modes.BY_NAME[name].steps))
         sim_faults.on_mode_start(self.state.fault_state, self.cfg.faults, name, start)
+        ended = False
         try:
             exit_text = ms.run_mode(self, name)
         except ms.ModeAbort as e:
@@ -584,15 +636,23 @@ class Mission:
             exit_text = f"aborted: {reason}"
             self.status = "aborted"
             self.abort_reason = reason
+        except ms.ModeInterrupted as e:
+            exit_text = f"ended by ground command: {e}"
+            ended = True
         finally:
             self._hooks = NO_HOOKS
+            self._interrupt = None
+            self._in_mode = False
+            if self._leg_tlm:  # the part of a leg flown before an exception ended it
+                self._end_leg_telemetry(True)
         self.note("mode_end", exit=exit_text,
-                  status="aborted" if self.status == "aborted" else "done")
+                  status="aborted" if self.status == "aborted" else "ended" if ended
+                  else "done")
         if self.status == "aborted":
             self.note("abort", reason=self.abort_reason)
         rec = ModeRecord(name, start, float(self.state.time_s[0]), exit_text)
         self.timeline.append(rec)
-        if self.status == "running" and name == modes.TARGET_MODES[-1]:
+        if self.status == "running" and name == modes.TARGET_MODES[-1] and not ended:
             self.target_log[-1].update(self.on_target())
         self.next_mode += 1
         if self.status == "running" and self.next_mode == len(self.plan):
@@ -692,12 +752,122 @@ class Mission:
             cur["end_s"] = float(self.state.time_s[0])
         return out
 
+    # -- ground commands (allsky.sim.commands) ----------------------------------
+    @property
+    def mode_in_flight(self):
+        """Index in :attr:`plan` of the mode being flown; None between modes."""
+        return self.next_mode if self._in_mode else None
+
+    def amend(self, cfg, retarget=False) -> None:
+        """Fly on with scenario ``cfg`` from this frame boundary (a ground command).
+
+        What a command changes of the scenario mid-flight: a fault added (its
+        ``start_s`` onset armed) or ended (its ``duration_s``), star tracker
+        105's magnitude window and bright gate, the targets. The frame loop's
+        parameters are built again (:func:`build_params`, as for a scenario
+        that had the change from the start); a leg in flight goes on with
+        them. The tracker's memory is carried over by star name; a star it
+        held that the new window does not pass is lost, and the journal says
+        so. With ``retarget`` the target being flown becomes the new
+        scenario's at its index (``target.sequence``): a target whose Mode 6
+        has not begun.
+        """
+        old_names = tracker_star_names(self.cfg)
+        gate_before = self.params.tracker.bright_gate_mag
+        self.cfg = cfg
+        params = build_params(cfg)
+        self.params = params if self._telemetry else params._replace(telemetry_every=0)
+        self._amended = True
+        sim_faults.arm(self.state.fault_state, cfg.faults)
+        new_names = tracker_star_names(cfg)
+        if new_names != old_names:
+            self._carry_tracker(old_names, new_names)
+        if self.params.tracker.bright_gate_mag != gate_before:
+            self.state.tracker_lock[star_tracker.GATE] = 0.0
+        self._decoder = self._new_decoder()
+        if retarget:
+            start = self.target_log[-1]["start_s"]
+            self.target_log[-1] = new_target_record(cfg, self.target_index, start)
+            self.state.target_inertial[:] = self.target_direction()
+
+    def _carry_tracker(self, old_names, new_names) -> None:
+        """Star tracker 105's memory, from the star list ``old_names`` to ``new_names``."""
+        s = self.state
+        lock = s.tracker_lock
+
+        def index(k):
+            k = int(k)
+            if k < 0 or k >= len(old_names):  # nothing, or a glint
+                return k
+            return new_names.index(old_names[k]) if old_names[k] in new_names \
+                else star_tracker.NONE
+
+        held = int(lock[star_tracker.HELD])
+        if 0 <= held < len(old_names) and old_names[held] not in new_names:
+            star_in_use = _python(sensors_in_use)(s.switches, self.params.routing)[1]
+            self.note("star_lock", star=None, previous=old_names[held], cone_angle_deg=None,
+                      in_use=bool(star_in_use))
+        slots = (star_tracker.HELD, star_tracker.NEW_REFUSAL, star_tracker.DROPPED,
+                 star_tracker.NEW_DROP, *range(star_tracker.REFUSED,
+                                               star_tracker.REFUSED + star_tracker.N_REFUSED))
+        for slot in slots:
+            lock[slot] = index(lock[slot])
+        if int(lock[star_tracker.HELD]) == star_tracker.FALSE_TARGET:
+            # A glint held is judged again against the new window from the next frame.
+            lock[star_tracker.HELD] = star_tracker.NONE
+        seen = s.journal_seen[journal.SEEN_STAR]
+        s.journal_seen[journal.SEEN_STAR] = -1.0 if index(seen) == star_tracker.NONE \
+            else index(seen)
+        k = int(s.locked_star[0])
+        if k >= 0:
+            if index(k) < 0:
+                self._locked_before = old_names[k]
+            s.locked_star[0] = index(k)
+
+    def replan(self, plan, end_mode=False, reason="") -> None:
+        """Fly ``plan`` from the next mode on; with ``end_mode`` end the mode being flown.
+
+        A ground command's change of the plan (:mod:`allsky.sequencer.ground`):
+        ``plan`` is the whole plan, the modes flown and the one being flown
+        as they are. With ``end_mode`` the mode being flown ends at this
+        frame boundary, ``reason`` in its exit (its ``on_command`` steps
+        flown), and the plan goes on after it. A finished mission (complete
+        or aborted) flies again: its status is running and the abort reason
+        cleared (the journal and the timeline keep the abort).
+
+        Raises
+        ------
+        ValueError
+            ``plan`` changes a mode flown, or names a mode not in the table.
+        """
+        plan = tuple(plan)
+        kept = self.next_mode + (1 if self._in_mode else 0)
+        if plan[:kept] != tuple(self.plan[:kept]) or any(n not in modes.BY_NAME for n in plan):
+            raise ValueError(f"plan {plan} does not keep the modes flown {self.plan[:kept]}")
+        self.plan = plan
+        if end_mode and self._in_mode:
+            self._interrupt = reason or "ended"
+        if self.finished and self.next_mode < len(plan):
+            self.status = "running"
+            self.abort_reason = None
+
     # -- results ---------------------------------------------------------------
-    def telemetry(self) -> np.ndarray:
-        """The decimated telemetry recorded so far (this process), one row per record."""
-        if not self._tlm:
+    def telemetry(self, start_row=0) -> np.ndarray:
+        """The decimated telemetry recorded so far (this process), one row per record.
+
+        Mid-leg (a hook's view) the rows of the leg in flight are included;
+        ``start_row``: the rows from that one on (a live view's next rows).
+        """
+        pieces, skip = [], int(start_row)
+        for piece in (*self._tlm, *self._leg_tlm):
+            if skip >= len(piece):
+                skip -= len(piece)
+                continue
+            pieces.append(piece[skip:])
+            skip = 0
+        if not pieces:
             return np.empty((0, len(COLUMNS)))
-        return np.vstack(self._tlm)
+        return np.vstack(pieces)
 
     def pointing_error_arcsec(self) -> float:
         """True angle between the roll axis and the target being flown."""
@@ -707,7 +877,7 @@ class Mission:
     def locked_star(self):
         """Name of the star tracker 105 last held while in use; None before a lock."""
         k = int(self.state.locked_star[0])
-        return tracker_star_names(self.cfg)[k] if k >= 0 else None
+        return tracker_star_names(self.cfg)[k] if k >= 0 else self._locked_before
 
     def calibration(self) -> dict:
         """What the mission stored: the drift counted and applied, and register 23.
@@ -853,6 +1023,8 @@ class Mission:
         for key in ("turn_roll_deg", "turn_yaw_deg", "reference_sun_inertial", "held_axes"):
             if getattr(self, key) is not None:
                 history[key] = getattr(self, key)
+        if self._locked_before is not None:
+            history["locked_star_name"] = self._locked_before
         if len(self.target_log) > 1 or self.cfg.target.sequence is not None:
             history["targets"] = [dict(r) for r in self.target_log]
         arrays = {k: v.copy() for k, v in self.state._asdict().items()}

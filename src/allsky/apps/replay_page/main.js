@@ -2,27 +2,39 @@
 // keys, help, announcements and window.allsky.
 const APP = (function () {
   let t = T0, playing = false, speed = 50, lastFrame = null, currentEvent = -1, lastMode = "";
-  let lastStatus = "", lastAnnounced = "";
+  let lastStatus = "", lastAnnounced = "", stale = false;  // stale: the journal changed
+  // A live page follows the newest row until the user moves the clock back.
+  let follow = LIVE;
   const $ = (id) => document.getElementById(id);
   const scrub = $("scrub"), playBtn = $("btn-play"), speedSel = $("speed");
   const modeStarts = [];  // [row, name] of each run of the mode column
-  for (const [row, code] of C.runs.mode) modeStarts.push([row, modeName(code)]);
   const timing = { lastDrawMs: 0, draws: 0, parts: {} };
-  const WAITING = D.events.filter((e) => e.waiting !== undefined && e.waiting !== null);
+  let WAITING = [];
+  const landings = [];
+
+  function modeRuns() {
+    modeStarts.length = 0;
+    for (const [row, code] of C.runs.mode) modeStarts.push([row, modeName(code)]);
+  }
 
   // Mode boundaries to step to: the first telemetry row after each mode starts (the row at
   // the start time itself is written by the last frame of the mode before). A mode of no
   // duration has no row of its own: its step lands in the mode after it.
-  const landings = [];
-  for (const m of D.timeline) {
-    let lo = 0, hi = N - 1;
-    const ms = Math.round(m.start_s * 1000);
-    if (T_MS[hi] <= ms) continue;
-    if (ms <= T_MS[0]) { if (!landings.length) landings.push(T0); continue; }
-    while (lo < hi) { const mid = (lo + hi) >> 1; if (T_MS[mid] > ms) hi = mid; else lo = mid + 1; }
-    const ts = T_MS[lo] / 1000;
-    if (!landings.length || landings[landings.length - 1] < ts) landings.push(ts);
+  function findLandings() {
+    landings.length = 0;
+    for (const m of D.timeline) {
+      let lo = 0, hi = N - 1;
+      const ms = Math.round(m.start_s * 1000);
+      if (T_MS[hi] <= ms) continue;
+      if (ms <= T_MS[0]) { if (!landings.length) landings.push(T0); continue; }
+      while (lo < hi) { const mid = (lo + hi) >> 1; if (T_MS[mid] > ms) hi = mid; else lo = mid + 1; }
+      const ts = T_MS[lo] / 1000;
+      if (!landings.length || landings[landings.length - 1] < ts) landings.push(ts);
+    }
   }
+  modeRuns();
+  findLandings();
+  WAITING = D.events.filter((e) => e.waiting !== undefined && e.waiting !== null);
 
   function modeStartRow(i) {
     let r = 0;
@@ -47,7 +59,7 @@ const APP = (function () {
   function header(s, status) {
     const m = D.modes[s.mode] || { title: "unknown mode", sentence: "", look: "" };
     const badge = $("mode-badge");
-    if (s.mode !== lastMode || status !== lastStatus) {
+    if (s.mode !== lastMode || status !== lastStatus || stale) {
       $("mode-name").textContent = modeLabel(s.mode);
       const bgc = status === "aborted" ? "#b71c1c" : status === "complete" ? "#1b5e20"
         : modeColour(s.mode);
@@ -74,8 +86,8 @@ const APP = (function () {
   // The ending: a banner once the mission has ended (complete or aborted).
   function ending(status) {
     const el = $("ending");
-    if (status === lastStatus) return;
-    if (lastStatus && status !== "flying") announce(status === "aborted"
+    if (status === lastStatus && !stale) return;
+    if (lastStatus && status !== lastStatus && status !== "flying") announce(status === "aborted"
       ? `Mission aborted: ${D.ending.reason}` : "Mission complete");
     lastStatus = status;
     el.hidden = status === "flying";
@@ -184,8 +196,10 @@ const APP = (function () {
 
   // Event log: each row a button (keyboard: Tab, Enter), click to jump.
   const list = $("events"), items = [];
-  const KIND_WORD = { switch: "Switches: ", action: "Action: ", warning: "\u26a0 Warning: ", fault: "", abort: "" };
-  D.events.forEach((e, k) => {
+  const KIND_WORD = { switch: "Switches: ", action: "Action: ", warning: "\u26a0 Warning: ", fault: "", abort: "",
+    ground_command: "Ground: " };
+  let listed = [];  // the entries the list shows
+  function eventItem(e, k) {
     const li = document.createElement("li");
     const b = document.createElement("button");
     b.type = "button"; b.className = `ev kind-${e.kind}`;
@@ -200,8 +214,21 @@ const APP = (function () {
     b.addEventListener("click", () => seek(e.t_s));
     li.dataset.k = k; li.dataset.kind = e.kind;
     li.appendChild(b);
-    list.appendChild(li); items.push(li);
-  });
+    return li;
+  }
+  /** The list made the journal's log: rows added at the end, or made anew if earlier ones changed. */
+  function listEvents() {
+    const same = listed.length <= D.events.length && listed.every((e, k) => e.t_s === D.events[k].t_s
+      && e.text === D.events[k].text && e.kind === D.events[k].kind);
+    if (!same) { list.replaceChildren(); items.length = 0; listed = []; currentEvent = -2; }
+    for (let k = listed.length; k < D.events.length; k++) {
+      const li = eventItem(D.events[k], k);
+      list.appendChild(li); items.push(li);
+    }
+    if (listed.length !== D.events.length) currentEvent = -2;
+    listed = D.events.slice();
+  }
+  listEvents();
 
   function eventLog() {
     let cur = -1;
@@ -243,41 +270,47 @@ const APP = (function () {
   })();
 
   // Controls: the scrubber over the mode strip, with the faults, warnings and the ending.
-  scrub.min = T0; scrub.max = T1; scrub.step = D.config.interval_s;
   const strip = $("mode-strip"), marks = $("strip-marks");
   const frac = (x) => (x - T0) / Math.max(T1 - T0, 1e-9);
   const pos = (x) => `${100 * frac(x)}%`;
   const edge = (d, x) => { if (frac(x) > 0.98) d.classList.add("at-end"); else if (frac(x) < 0.02) d.classList.add("at-start"); };
-  for (const m of D.timeline) {
-    const d = document.createElement("div");
-    d.style.width = `${100 * (m.end_s - m.start_s) / Math.max(T1 - T0, 1e-9)}%`;
-    d.style.background = modeColour(m.mode);
-    d.title = `${modeLabel(m.mode)}: ${(D.modes[m.mode] || {}).title || ""} (${m.start_s.toFixed(1)}\u2013${m.end_s.toFixed(1)} s)`;
-    strip.appendChild(d);
+  let stripAt = 0;
+  function buildStrip() {
+    stripAt = performance.now();
+    scrub.min = T0; scrub.max = T1; scrub.step = D.config.interval_s;
+    strip.replaceChildren(); marks.replaceChildren();
+    for (const m of D.timeline) {
+      const d = document.createElement("div");
+      d.style.width = `${100 * (Math.min(m.end_s, T1) - m.start_s) / Math.max(T1 - T0, 1e-9)}%`;
+      d.style.background = modeColour(m.mode);
+      d.title = `${modeLabel(m.mode)}: ${(D.modes[m.mode] || {}).title || ""} (${m.start_s.toFixed(1)}\u2013${m.end_s.toFixed(1)} s)`;
+      strip.appendChild(d);
+    }
+    for (const f of D.faults) {
+      const d = document.createElement("div");
+      d.className = "fault-band";
+      d.style.left = pos(f.start_s);
+      d.style.width = `max(3px, ${100 * ((f.end_s === null ? T1 : f.end_s) - f.start_s) / Math.max(T1 - T0, 1e-9)}%)`;
+      d.title = `fault: ${f.text} (${f.start_s.toFixed(1)} s${f.end_s === null ? " to the end" : `\u2013${f.end_s.toFixed(1)} s`})`;
+      d.dataset.fault = f.kind;
+      marks.appendChild(d);
+    }
+    for (const w of D.warnings) {
+      const d = document.createElement("div");
+      d.className = "warning-mark"; d.style.left = pos(w.t_s); d.title = w.text; d.textContent = "\u26a0";
+      edge(d, w.t_s);
+      marks.appendChild(d);
+    }
+    if (D.ending && (D.ending.status === "aborted" || D.ending.status === "complete")) {
+      const d = document.createElement("div");
+      d.className = `end-mark ${D.ending.status}`; d.style.left = pos(D.ending.t_s);
+      d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}` : "mission complete";
+      d.textContent = D.ending.status === "aborted" ? "\u2716" : "\u2714";
+      edge(d, D.ending.t_s);
+      marks.appendChild(d);
+    }
   }
-  for (const f of D.faults) {
-    const d = document.createElement("div");
-    d.className = "fault-band";
-    d.style.left = pos(f.start_s);
-    d.style.width = `max(3px, ${100 * ((f.end_s === null ? T1 : f.end_s) - f.start_s) / Math.max(T1 - T0, 1e-9)}%)`;
-    d.title = `fault: ${f.text} (${f.start_s.toFixed(1)} s${f.end_s === null ? " to the end" : `\u2013${f.end_s.toFixed(1)} s`})`;
-    d.dataset.fault = f.kind;
-    marks.appendChild(d);
-  }
-  for (const w of D.warnings) {
-    const d = document.createElement("div");
-    d.className = "warning-mark"; d.style.left = pos(w.t_s); d.title = w.text; d.textContent = "\u26a0";
-    edge(d, w.t_s);
-    marks.appendChild(d);
-  }
-  if (D.ending && (D.ending.status === "aborted" || D.ending.status === "complete")) {
-    const d = document.createElement("div");
-    d.className = `end-mark ${D.ending.status}`; d.style.left = pos(D.ending.t_s);
-    d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}` : "mission complete";
-    d.textContent = D.ending.status === "aborted" ? "\u2716" : "\u2714";
-    edge(d, D.ending.t_s);
-    marks.appendChild(d);
-  }
+  buildStrip();
   scrub.addEventListener("input", () => seek(+scrub.value));
   playBtn.addEventListener("click", () => (playing ? pause() : play()));
   speedSel.addEventListener("change", () => { speed = +speedSel.value; });
@@ -333,7 +366,8 @@ const APP = (function () {
     const i = rowAt(t), s = rowState(i), status = statusAt(t);
     let a = performance.now();
     const lap = (name) => { const b = performance.now(); parts[name] = b - a; a = b; };
-    header(s, status); ending(status); registersLine(); truthLine(s); eventLog(); lap("text");
+    header(s, status); ending(status); stale = false;
+    registersLine(); truthLine(s); eventLog(); lap("text");
     DIAGRAM.update(s, t); lap("diagram");
     VEHICLE.draw(s, t); lap("vehicle");
     SKY.draw(s, t, modeStartRow(i)); lap("sky");
@@ -345,22 +379,46 @@ const APP = (function () {
     timing.draws += 1;
   }
 
-  /** Show mission time ``ts`` [s], coerced to a number and clamped; NaN/infinite: ignored. */
+  /** Show mission time ``ts`` [s], coerced to a number and clamped; NaN/infinite: ignored.
+   *  On a live page, a time before the newest row stops following it. */
   function seek(ts) {
     const v = Number(ts);
     if (Number.isFinite(v)) {
       t = Math.max(T0, Math.min(T1, v));
+      if (LIVE) follow = t >= T1 - 1e-9;
       redraw();
     }
     return state();
   }
+
+  /** A live page: show the newest row, and go on showing it as rows arrive. */
+  function live() { follow = true; pause(); t = T1; redraw(); return state(); }
+
+  // A live page: new rows move the clock when it follows; one drawing per animation frame.
+  let drawPending = false;
+  function soon() {
+    if (drawPending) return;
+    drawPending = true;
+    requestAnimationFrame(() => { drawPending = false; redraw(); });
+  }
+  ON_ROWS.push(() => {
+    modeRuns();
+    if (follow) t = T1;
+    if (performance.now() - stripAt > 1000) { findLandings(); buildStrip(); }
+    soon();
+  });
+  ON_JOURNAL.push(() => {
+    WAITING = D.events.filter((e) => e.waiting !== undefined && e.waiting !== null);
+    findLandings(); listEvents(); buildStrip(); stale = true;
+    soon();
+  });
 
   function frame(now) {
     if (!playing) return;
     if (lastFrame !== null) {
       t = Math.min(T1, t + (now - lastFrame) / 1000 * speed);
       redraw();
-      if (t >= T1) { pause(); return; }
+      if (t >= T1) { pause(); if (LIVE) follow = true; return; }
     }
     lastFrame = now;
     requestAnimationFrame(frame);
@@ -370,6 +428,7 @@ const APP = (function () {
     if (sp) { speed = +sp; speedSel.value = String(speed); }
     if (playing) return;
     if (t >= T1) t = T0;
+    follow = false;
     playing = true; lastFrame = null; playBtn.textContent = "pause \u23f8";
     playBtn.setAttribute("aria-pressed", "true");
     requestAnimationFrame(frame);
@@ -393,7 +452,8 @@ const APP = (function () {
 
   window.addEventListener("resize", () => redraw());
   return { seek: seek, redraw: redraw, play: play, pause: pause, state: state, timing: timing,
-    isPlaying: () => playing, speed: () => speed, landings: () => landings.slice() };
+    isPlaying: () => playing, speed: () => speed, landings: () => landings.slice(),
+    live: live, isFollowing: () => follow };
 })();
 
 window.allsky = {
@@ -418,7 +478,12 @@ window.allsky = {
   timing: APP.timing,
   ready: false,
 };
-APP.seek(T0);
+if (LIVE) {
+  /** A live page: show the newest row and follow it (moving the clock back stops that). */
+  window.allsky.live = APP.live;
+  window.allsky.isFollowing = APP.isFollowing;
+}
+if (LIVE) APP.live(); else APP.seek(T0);
 window.allsky.ready = true;
 /** [ms] from the start of navigation to the page's first full drawing. */
 window.allsky.readyAt_ms = performance.now();

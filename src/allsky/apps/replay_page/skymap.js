@@ -3,12 +3,17 @@ const SKY = (function () {
   const canvas = document.getElementById("sky");
   let bg = null, bgKey = "";
   // +x (instrument, sun sensor) and +z (tracker boresight) of every row, as RA/Dec.
-  const XRD = new Float32Array(2 * N), ZRD = new Float32Array(2 * N);
-  for (let i = 0; i < N; i++) {
-    const c = dcm([cont("q_w", i), cont("q_x", i), cont("q_y", i), cont("q_z", i)]);
-    const x = radec(c[0]), z = radec(c[2]);
-    XRD[2 * i] = x[0]; XRD[2 * i + 1] = x[1]; ZRD[2 * i] = z[0]; ZRD[2 * i + 1] = z[1];
+  const XRD = [], ZRD = [];
+  function extend(i0) {
+    for (let i = i0; i < N; i++) {
+      const c = dcm([cont("q_w", i), cont("q_x", i), cont("q_y", i), cont("q_z", i)]);
+      const x = radec(c[0]), z = radec(c[2]);
+      XRD[2 * i] = x[0]; XRD[2 * i + 1] = x[1]; ZRD[2 * i] = z[0]; ZRD[2 * i + 1] = z[1];
+    }
   }
+  extend(0);
+  ON_ROWS.push(extend);
+  ON_JOURNAL.push(() => { bg = null; });  // the window's stars may have changed
   const SLIT = slitOutlineBody(3);
   const PAD = 30, BOTTOM = 16;
 

@@ -8,13 +8,9 @@ const TRACES = (function () {
   const unsym = (y) => Math.sign(y) * LIN * (Math.pow(10, Math.abs(y)) - 1);
   const LOG_FLOOR = 0.05;  // arcsec: the log strip's floor
   const lg = (v) => Math.log10(Math.max(LOG_FLOOR, v));
-  // Where each signal applies, per row, computed once.
-  const flags = (f) => { const a = new Uint8Array(N); for (let i = 0; i < N; i++) a[i] = f(i) ? 1 : 0; return a; };
-  const SUN_ON = flags((i) => runValue(C.runs.sun_present, i) > 0.5);
-  const STAR_ON = flags((i) => runValue(C.runs.star_present, i) > 0.5);
+  // Where each signal applies, per row, computed once (and for each row a live page adds).
+  const SUN_ON = [], STAR_ON = [], CPU_ON = [], AIM_ON = [];
   const MODE_OF = (i) => modeName(runValue(C.runs.mode, i));
-  const CPU_ON = flags((i) => CPU_MODES.indexOf(MODE_OF(i)) >= 0);
-  const AIM_ON = flags((i) => ["6-2", "hold"].indexOf(MODE_OF(i)) >= 0);
   const sunOn = (i) => SUN_ON[i] === 1, starOn = (i) => STAR_ON[i] === 1;
   const cpuOn = (i) => CPU_ON[i] === 1, aimOn = (i) => AIM_ON[i] === 1;
   const SUN = "#c62828", TRK = "#7b3fb5", CPU = "#111111";
@@ -22,17 +18,27 @@ const TRACES = (function () {
   const settle = D.config.settle_threshold_arcsec, handover = D.config.handover_arcsec;
   const WHEELS = D.vehicle.kind === "wheels";
   // Valve duty: on-time per second over the second before each row [%].
-  const DUTY = [0, 1, 2].map((a) => {
-    const name = ["jet_on_roll", "jet_on_pitch", "jet_on_yaw"][a], out = new Float32Array(N);
-    if (!HAS(name)) return null;
-    let j = 0;
-    for (let i = 0; i < N; i++) {
-      while (j < i && T_MS[i] - T_MS[j + 1] >= 1000) j++;
-      const dt = (T_MS[i] - T_MS[j]) / 1000;
-      out[i] = dt > 0 ? 100 * (cont(name, i) - cont(name, j)) / dt : 0;
+  const DUTY_COLS = ["jet_on_roll", "jet_on_pitch", "jet_on_yaw"];
+  const DUTY = DUTY_COLS.map((name) => (HAS(name) ? [] : null));
+  let dutyJ = 0;
+  function extend(i0) {
+    for (let i = i0; i < N; i++) {
+      SUN_ON[i] = runValue(C.runs.sun_present, i) > 0.5 ? 1 : 0;
+      STAR_ON[i] = runValue(C.runs.star_present, i) > 0.5 ? 1 : 0;
+      const mode = MODE_OF(i);
+      CPU_ON[i] = CPU_MODES.indexOf(mode) >= 0 ? 1 : 0;
+      AIM_ON[i] = AIM_MODES.indexOf(mode) >= 0 ? 1 : 0;
+      while (dutyJ < i && T_MS[i] - T_MS[dutyJ + 1] >= 1000) dutyJ++;
+      const dt = (T_MS[i] - T_MS[dutyJ]) / 1000;
+      DUTY.forEach((out, a) => {
+        if (out) out[i] = dt > 0 ? 100 * (cont(DUTY_COLS[a], i) - cont(DUTY_COLS[a], dutyJ)) / dt : 0;
+      });
     }
-    return out;
-  });
+  }
+  let renderedAt = 0;
+  extend(0);
+  ON_ROWS.push(extend);
+  ON_JOURNAL.push(() => { bg = null; });
   const v = (name, scale) => (i) => (EXACT[name] ? EXACT[name][i] : cont(name, i)) * (scale || 1);
   const strips = [
     { name: "roll error", unit: "\u2033", kind: "sym", lines: [settle, handover],
@@ -61,7 +67,7 @@ const TRACES = (function () {
         null, AXIS_COLOURS[a], null, AXIS_NAMES[a]]), fixed: null, limit: lim });
   }
   const fired = DUTY[0] && DUTY.some((d) => d.some((x) => x > 0));
-  if (DUTY[0] && (fired || !WHEELS)) {
+  if (DUTY[0] && (fired || !WHEELS || LIVE)) {
     strips.push({ name: "valve duty", unit: "%", kind: "lin", fixed: [0, 100],
       series: [0, 1, 2].map((a) => [`jets ${39 + a} ${AXIS_NAMES[a]}: on-time per second`,
         (i) => DUTY[a][i], null, AXIS_COLOURS[a], null, AXIS_NAMES[a]]) });
@@ -117,6 +123,10 @@ const TRACES = (function () {
   function render(w, h) {
     const key = `${w}x${h}:${span[0]}:${span[1]}`;
     if (bg && bgKey === key) return bg;
+    // A live page redraws its background at most four times a second as rows arrive.
+    const now = performance.now();
+    if (LIVE && bg && bgKey.startsWith(`${w}x${h}:`) && now - renderedAt < 250) return bg;
+    renderedAt = now;
     geom = layout(w, h);
     const off = offscreenCanvas(w, h), ctx = off.ctx;
     bg = off.canvas;
@@ -243,6 +253,7 @@ const TRACES = (function () {
 
   function draw(s, t) {
     if (zoom) setZoom(true, t);
+    else if (span[0] !== T0 || span[1] !== T1) span = [T0, T1];
     const { ctx, w, h } = fitCanvas(canvas);
     ctx.drawImage(render(w, h), 0, 0, w, h);
     const x = geom.x(t);

@@ -1,8 +1,8 @@
-// util.js: the data block decoded into typed arrays, row lookup, the journal at a time,
-// formatting, colours.
-const D = JSON.parse(document.getElementById("allsky-data").textContent);
-const C = D.columns;
-const N = C.n;
+// util.js: the data block decoded into typed arrays (growing as a live session's rows
+// arrive), row lookup, the journal at a time, formatting, colours.
+// ``D`` is the page's data: the replay's data block, or a live session's (the page's wrapper).
+/** A live session's page (allsky serve): rows and journal arrive as the mission flies. */
+const LIVE = !!D.live;
 const MODE_NAMES = Object.keys(D.modes);
 // Mode colours (strip, shading, badge); the badge's text colour is chosen for contrast.
 const MODE_COLOURS = ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#76b7b2",
@@ -10,6 +10,8 @@ const MODE_COLOURS = ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#7
 const AXIS_COLOURS = ["#1f5fa0", "#b34700", "#1e7b1e"];
 const AXIS_NAMES = ["roll", "pitch", "yaw"];
 const CPU_MODES = D.config.cpu_modes;  // the modes whose legs run CPU 22 (the mode table)
+/** Modes whose CPU 22 pitch and yaw errors are the pointing error (on the target). */
+const AIM_MODES = ["6-2", "hold", "standby"];
 const RAD = Math.PI / 180;
 const ARCSEC_PER_RAD = 180 * 3600 / Math.PI;
 /** Smallest text the page draws [CSS px]. */
@@ -30,18 +32,58 @@ function undelta(d) {
   return out;
 }
 
+// The record: the telemetry columns decoded. ``C`` keeps the run-coded columns, the
+// selector and the valves; T_MS, EXACT and CONT are views of growing buffers.
+const C = { n: 0, runs: {}, selector: "", valves: ["", "", ""] };
+let N = 0, T0 = 0, T1 = 0, STRIDE = 1;
 /** Telemetry time of each row [ms], exact to the millisecond. */
-const T_MS = undelta(C.t_ms);
-const T0 = T_MS[0] / 1000, T1 = T_MS[N - 1] / 1000;
-const EXACT = {};
-for (const k in C.exact) EXACT[k] = undelta(C.exact[k]);
-const CONT = {};
-for (const k in C.cont) {
-  const a = undelta(C.cont[k].d), s = C.cont[k].scale;
-  for (let i = 0; i < a.length; i++) a[i] /= s;
-  CONT[k] = a;
+let T_MS = new Float64Array(0);
+const EXACT = {}, CONT = {};
+const STORE = {};  // name -> {buf, n}: a column's values, with room to grow
+/** Called with the first new row after rows are appended (a live page). */
+const ON_ROWS = [];
+/** Called after the journal's parts of the data are replaced (a live page). */
+const ON_JOURNAL = [];
+
+function put(name, values) {
+  const st = STORE[name] || (STORE[name] = { buf: new Float64Array(0), n: 0 });
+  if (st.n + values.length > st.buf.length) {
+    const grown = new Float64Array(Math.max(2 * st.buf.length, st.n + values.length, 1024));
+    grown.set(st.buf.subarray(0, st.n));
+    st.buf = grown;
+  }
+  st.buf.set(values, st.n);
+  st.n += values.length;
+  return st.buf.subarray(0, st.n);
 }
-const STRIDE = C.stride;
+
+/** Append the rows of ``chunk`` (encoded as the data block's ``columns``) to the record. */
+function appendColumns(chunk) {
+  const i0 = N, n = chunk.n;
+  if (!n) return;
+  if (i0 > 0 && chunk.stride !== 1) throw new Error("appended rows must not be thinned");
+  T_MS = put("t_ms", undelta(chunk.t_ms));
+  for (const k in chunk.exact) EXACT[k] = put(`x:${k}`, undelta(chunk.exact[k]));
+  for (const k in chunk.cont) {
+    const a = undelta(chunk.cont[k].d), s = chunk.cont[k].scale;
+    for (let i = 0; i < a.length; i++) a[i] /= s;
+    CONT[k] = put(`c:${k}`, a);
+  }
+  for (const k in chunk.runs) {
+    const runs = C.runs[k] || (C.runs[k] = []);
+    for (const [row, v] of chunk.runs[k]) {
+      if (!runs.length || runs[runs.length - 1][1] !== v) runs.push([row + i0, v]);
+    }
+  }
+  C.selector += chunk.selector;
+  chunk.valves.forEach((v, a) => { C.valves[a] += v; });
+  N += n;
+  C.n = N;
+  if (i0 === 0) { STRIDE = chunk.stride; T0 = T_MS[0] / 1000; }
+  T1 = T_MS[N - 1] / 1000;
+  for (const f of ON_ROWS) f(i0);
+}
+appendColumns(D.columns);
 /** Is a column in the record (a file of an earlier format lacks the newer ones)? */
 const HAS = (name) => name in CONT || name in EXACT || name in C.runs;
 
@@ -120,7 +162,19 @@ function switchClosed(mask, k) {
 const WORD_MARK = { counters: " \u2248", later: " ?" };
 
 /** The targets in flight order: name, inertial direction, start_s and end_s [s]. */
-const TARGETS = D.sky.targets;
+let TARGETS = D.sky.targets;
+
+/** Replace the journal's parts of the data (a live page): the log, timeline, faults ... */
+function setJournal(page) {
+  for (const k in page) if (k !== "targets" && k !== "locked" && k !== "window") D[k] = page[k];
+  if (page.targets) { D.sky.targets = page.targets; TARGETS = page.targets; }
+  if ("locked" in page) D.sky.locked = page.locked;
+  if (page.window) {  // star tracker 105's magnitude window, as commanded
+    D.sky.window = page.window;
+    for (const st of D.sky.stars) st.win = page.window[0] <= st.mag && st.mag <= page.window[1];
+  }
+  for (const f of ON_JOURNAL) f();
+}
 
 /** Index in TARGETS of the target flown at mission time t_s: the last one begun by then. */
 function targetAt(t_s) {
@@ -200,7 +254,7 @@ function rowState(i) {
   s.xToTargetArcsec = angleBetween(x, TARGETS[s.target].vec) * ARCSEC_PER_RAD;
   s.trueErr = HAS("true_error") ? cont("true_error", i) : s.xToTargetArcsec;
   // CPU 22's pointing error: pitch and yaw move +x off the target (Mode 6-2 and the hold).
-  s.cpuPointing = s.mode === "6-2" || s.mode === "hold" ? Math.hypot(s.errors[1], s.errors[2]) : null;
+  s.cpuPointing = AIM_MODES.indexOf(s.mode) >= 0 ? Math.hypot(s.errors[1], s.errors[2]) : null;
   return s;
 }
 

@@ -1,0 +1,517 @@
+"""Ground commands: checked, applied at a frame boundary, saved, and flown again.
+
+A command (:data:`allsky.vocabulary.GROUND_COMMANDS`) is a dict ``{"kind":
+..., fields}``. :func:`validate` checks one against the scenario flown;
+:class:`Station` applies them to a mission (:meth:`Station.apply`), each
+at the frame boundary where the flight stands, and keeps the log of what
+it applied with the mission time of each; :func:`fly` flies a mission,
+stopping at the boundaries a front end asks for (a live session's slices,
+or the times of a saved session's commands) to apply commands there.
+
+Exactness. The frame loop pauses and resumes a leg bit for bit
+(:mod:`allsky.sequencer.legs`), so where the flight is paused never changes
+it; a command acts from the boundary it is applied at, and the log records
+that boundary's mission time. :func:`fly_log` pauses at exactly those times
+and applies the same commands: the summary and the telemetry are those of
+the session that wrote the log, whatever the speed it was flown at live.
+
+What a command changes, it changes through the scenario and the mode
+table, never by writing the state:
+
+* a ``fault`` becomes the scenario's next ``[[faults]]`` entry, with
+  ``start_s`` the boundary's time (so the flight is exactly the flight of
+  the scenario with that entry from the start: the frame loop with faults
+  flies the fault-free mission bit for bit until the first onset);
+  ``clear_fault`` gives an acting fault the ``duration_s`` that ends it at
+  the boundary; ``tracker_window`` and ``bright_gate`` set
+  ``star_tracker.magnitude_window`` and ``star_tracker.bright_gate``
+  (:meth:`allsky.sim.mission.Mission.amend`);
+* ``target``, ``hold``, ``proceed``, ``reacquire`` and ``recycle`` change
+  the plan with the modes of the mode table (:mod:`allsky.sequencer.ground`,
+  :meth:`allsky.sim.mission.Mission.replan`); a target flown again or anew
+  joins the scenario's ``target.sequence``;
+* ``pause``, ``resume``, ``speed`` and ``end`` act on the session (the live
+  clock, its end); they change nothing of the flight.
+
+Every command applied is a ``ground_command`` entry of the journal. A
+command that cannot be taken where the mission is raises :class:`Refused`
+and leaves no trace. The log is TOML (:func:`log_text`, :func:`read_log`):
+the scenario flown and ``[[commands]]``, each with ``t_s`` and its fields.
+"""
+
+import math
+from collections.abc import Mapping
+
+from allsky.config import scenario_from_dict
+from allsky.config.faults import MAX_FAULTS, describe, validate_fault
+from allsky.config.rules import NON_NEGATIVE, ConfigError, in_open_closed, number, type_name
+from allsky.config.schema import RULES
+from allsky.config.toml_io import read_toml, toml_key, toml_value
+from allsky.sequencer import ground
+from allsky.sequencer.ground import Refused
+from allsky.sim import faults as sim_faults
+from allsky.sim import mission as mission_mod
+from allsky.vocabulary import FAULT_KIND, GROUND_COMMAND
+
+#: Version of the command log's layout.
+LOG_FORMAT = 1
+#: Fastest live speed a ``speed`` command may ask for [x real time].
+SPEED_MAX = 10000.0
+#: Commands that end a hold on target the ground commanded (``hold``).
+ENDS_A_HOLD = ("proceed", "target", "reacquire", "recycle", "end")
+
+
+class Ended(BaseException):
+    """The session's ``end`` command: the flight stops at this frame boundary.
+
+    A :class:`BaseException`, as KeyboardInterrupt is, so that the mission
+    keeps the telemetry flown and nothing between the hook and :func:`fly`
+    takes it for a failure.
+    """
+
+
+def _values(cfg) -> dict:
+    """The scenario's values by dotted key (``star_tracker.fov_narrow_half_deg``)."""
+    out = {}
+    for sec, table in cfg.as_dict().items():
+        if isinstance(table, Mapping) and sec != "dispersions":
+            section = getattr(cfg, sec)
+            for k in table:
+                out[f"{sec}.{k}"] = getattr(section, k)
+    for k in ("target.star", "target.ra_deg", "target.dec_deg", "target.sequence"):
+        out.setdefault(k, None)
+    return out
+
+
+def validate(command, cfg, where="command") -> dict:
+    """One command, checked against scenario ``cfg``; returns it normalised.
+
+    ``command`` is ``{"kind": ..., fields}`` (a log's ``t_s`` is checked by
+    :func:`validate_log`); ``where`` names it in errors (``commands[2]``).
+
+    Raises
+    ------
+    ConfigError
+        Naming the field, the value and the rule (``commands[2].axis``).
+    """
+    if not isinstance(command, Mapping):
+        raise ConfigError(where, command, f"must be a table, not {type_name(command)}")
+    kind = command.get("kind")
+    if kind not in GROUND_COMMAND:
+        raise ConfigError(f"{where}.kind", kind, "must be one of "
+                          + ", ".join(f'"{k}"' for k in GROUND_COMMAND))
+    spec = GROUND_COMMAND[kind]
+    fields = {k: v for k, v in command.items() if k not in ("kind", "t_s")}
+    out = {"kind": kind}
+    if kind == "fault":
+        return {**out, **_fault_fields(fields, cfg, where)}
+    for k, v in fields.items():
+        if k not in (*spec.fields, *spec.optional):
+            allowed = ", ".join((*spec.fields, *spec.optional)) or "none"
+            raise ConfigError(f"{where}.{k}", v,
+                              f'unknown field for kind = "{kind}"; valid: {allowed}')
+    for k in spec.fields:
+        if k not in fields:
+            raise ConfigError(f"{where}.{k}", rule=f'missing: kind = "{kind}" needs '
+                              f"{', '.join(spec.fields)}")
+    if kind == "speed":
+        out["speed"] = number(in_open_closed(0, SPEED_MAX))(f"{where}.speed", fields["speed"])
+    elif kind == "clear_fault":
+        v = fields["fault"]
+        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < MAX_FAULTS:
+            raise ConfigError(f"{where}.fault", v, f"must be a fault's index in [[faults]], "
+                              f"an integer 0..{MAX_FAULTS - 1}")
+        out["fault"] = v
+    elif kind == "tracker_window":
+        out["magnitude_window"] = list(RULES["star_tracker.magnitude_window"](
+            f"{where}.magnitude_window", fields["magnitude_window"]))
+    elif kind == "bright_gate":
+        out["enabled"] = RULES["star_tracker.bright_gate"](f"{where}.enabled",
+                                                            fields["enabled"])
+    elif kind == "target":
+        out.update(_target_fields(fields, where))
+    return out
+
+
+def _fault_fields(fields, cfg, where) -> dict:
+    """A fault command's fields: ``fault_kind``, the kind's own, ``duration_s``."""
+    kind = fields.get("fault_kind")
+    if kind is None:
+        raise ConfigError(f"{where}.fault_kind", rule="missing: one of "
+                          + ", ".join(f'"{k}"' for k in FAULT_KIND))
+    if kind not in FAULT_KIND:
+        raise ConfigError(f"{where}.fault_kind", kind, "must be one of "
+                          + ", ".join(f'"{k}"' for k in FAULT_KIND))
+    rest = {k: v for k, v in fields.items() if k != "fault_kind"}
+    for k, v in rest.items():
+        if k in ("start_s", "start_mode", "kind"):
+            raise ConfigError(f"{where}.{k}", v, "a commanded fault starts when it is "
+                              "applied; give its fields and duration_s only")
+    checked = validate_fault(where, {"kind": kind, **rest, "start_s": 0.0}, _values(cfg))
+    checked.pop("start_s")
+    checked.pop("kind")
+    return {"fault_kind": kind, **checked}
+
+
+def _target_fields(fields, where) -> dict:
+    """A target command's ``star``, or ``ra_deg`` and ``dec_deg``."""
+    if "star" in fields:
+        if "ra_deg" in fields or "dec_deg" in fields:
+            raise ConfigError(where, rule="give star, or ra_deg and dec_deg, not both")
+        return {"star": RULES["target.star"](f"{where}.star", fields["star"])}
+    if "ra_deg" not in fields or "dec_deg" not in fields:
+        raise ConfigError(where, rule="a target needs star, or ra_deg and dec_deg")
+    return {"ra_deg": RULES["target.ra_deg"](f"{where}.ra_deg", fields["ra_deg"]),
+            "dec_deg": RULES["target.dec_deg"](f"{where}.dec_deg", fields["dec_deg"])}
+
+
+def validate_log(commands, cfg) -> list:
+    """A log's commands, each checked (:func:`validate`) with its ``t_s``.
+
+    ``t_s`` [s] is a number >= 0, never less than the command before's; an
+    ``end`` is the last command; a ``hold`` is followed by a command that
+    ends it (:data:`ENDS_A_HOLD`), so that a flight of the log ends.
+
+    Raises
+    ------
+    ConfigError
+        Naming the command (``commands[3].t_s``) and the rule.
+    """
+    if not isinstance(commands, list):
+        raise ConfigError("commands", commands, "must be an array of tables ([[commands]])")
+    out, last = [], 0.0
+    for i, c in enumerate(commands):
+        where = f"commands[{i}]"
+        checked = validate(c, cfg, where)
+        if "t_s" not in c:
+            raise ConfigError(f"{where}.t_s", rule="missing: the mission time [s] it acts at")
+        t = number(NON_NEGATIVE)(f"{where}.t_s", c["t_s"])
+        if t < last:
+            raise ConfigError(f"{where}.t_s", t, f"must not be before the command before it "
+                              f"({last!r} s)")
+        if out and out[-1]["kind"] == "end":
+            raise ConfigError(where, checked["kind"], "comes after the session's end")
+        last = t
+        out.append({"t_s": t, **checked})
+    for i, c in enumerate(out):
+        if c["kind"] == "hold" and not any(d["kind"] in ENDS_A_HOLD for d in out[i + 1:]):
+            raise ConfigError(f"commands[{i}]", "hold", "a hold lasts until a command ends it "
+                              f"({', '.join(ENDS_A_HOLD)}); none follows")
+    return out
+
+
+def words(command, fault_index=None) -> str:
+    """A command in words, for the journal and the page."""
+    kind = command["kind"]
+    if kind == "fault":
+        fault = {"kind": command["fault_kind"],
+                 **{k: v for k, v in command.items() if k not in ("kind", "fault_kind")}}
+        span = f" for {command['duration_s']:g} s" if "duration_s" in command else ""
+        slot = f" (fault {fault_index})" if fault_index is not None else ""
+        return f"inject {describe(fault)}{span}{slot}"
+    if kind == "clear_fault":
+        return f"clear fault {command['fault']}"
+    if kind == "tracker_window":
+        lo, hi = command["magnitude_window"]
+        return f"tracker's magnitude window {lo:+g} to {hi:+g} mag"
+    if kind == "bright_gate":
+        return f"tracker's bright gate {'enabled' if command['enabled'] else 'disabled'}"
+    if kind == "target":
+        return f"new target {mission_mod.target_name(_target_spec(command))}"
+    if kind == "speed":
+        return f"speed x{command['speed']:g}"
+    return {"pause": "pause the live clock", "resume": "resume the live clock",
+            "hold": "hold on the target", "proceed": "proceed from the hold",
+            "reacquire": "reacquire the Sun and the star", "recycle": "recycle every mode",
+            "end": "end of the session"}[kind]
+
+
+def _target_spec(command) -> dict:
+    """A target command's target, as :func:`allsky.sim.mission.target_specs` gives one."""
+    if "star" in command:
+        return {"star": command["star"]}
+    return {"ra_deg": float(command["ra_deg"]), "dec_deg": float(command["dec_deg"])}
+
+
+def _amended(m, change) -> object:
+    """The mission's scenario with ``change(data)`` made to its dict; Refused if invalid."""
+    data = m.cfg.as_dict()
+    change(data)
+    try:
+        return scenario_from_dict(data)
+    except ConfigError as e:
+        raise Refused(f"the scenario would not hold: {e}") from None
+
+
+class Station:
+    """The ground station of one mission: applies commands, keeps their log.
+
+    Parameters
+    ----------
+    m : allsky.sim.mission.Mission
+        The mission commanded.
+    """
+
+    def __init__(self, m):
+        self.m = m
+        #: the commands applied, in order, each with ``t_s``, the mission time it acted at
+        self.log = []
+        #: the live speed last commanded (None: none commanded)
+        self.speed = None
+        #: the live clock is paused
+        self.paused = False
+        #: an ``end`` has been applied
+        self.ended = False
+
+    def where(self) -> ground.Where:
+        """Where the mission is, as the sequencer's commands see it."""
+        m = self.m
+        flying = m.mode_in_flight is not None
+        index = m.mode_in_flight if flying else (m.next_mode - 1 if m.next_mode > 0 else None)
+        return ground.Where(tuple(m.plan), index, flying, m.status)
+
+    def apply(self, command) -> dict:
+        """Apply a validated ``command`` at the frame boundary the flight stands at.
+
+        Returns the ``ground_command`` journal entry.
+
+        Raises
+        ------
+        Refused
+            The command cannot be taken here (the mission unchanged).
+        """
+        m, kind = self.m, command["kind"]
+        fields = {k: v for k, v in command.items() if k not in ("kind", "t_s")}
+        effect, extra = self._prepare(kind, fields)
+        entry = m.note("ground_command", command=kind, **fields, **extra,
+                       text=words(command, extra.get("fault")))
+        if effect is not None:
+            effect()
+        self.log.append({"t_s": entry["t_s"], "kind": kind, **fields})
+        if kind == "pause":
+            self.paused = True
+        elif kind == "resume":
+            self.paused = False
+        elif kind == "speed":
+            self.speed = float(fields["speed"])
+        elif kind == "end":
+            self.ended = True
+        return entry
+
+    def _prepare(self, kind, fields):
+        """``(effect, extra)``: what applying the command does, and the entry's fields."""
+        m = self.m
+        if kind == "fault":
+            n = len(m.cfg.faults)
+            if n >= MAX_FAULTS:
+                raise Refused(f"the scenario holds {MAX_FAULTS} faults already, the frame "
+                              "loop's slots")
+            entry = {"kind": fields["fault_kind"],
+                     **{k: v for k, v in fields.items() if k != "fault_kind"},
+                     "start_s": m.now_s()}
+
+            def add(data):
+                data["faults"] = [*data.get("faults", []), entry]
+            cfg = _amended(m, add)
+            return (lambda: m.amend(cfg)), {"fault": n}
+        if kind == "clear_fault":
+            cfg = _amended(m, lambda data: self._clear(data, fields["fault"]))
+            return (lambda: m.amend(cfg)), {}
+        if kind == "tracker_window":
+            cfg = _amended(m, lambda data: data["star_tracker"].update(
+                magnitude_window=list(fields["magnitude_window"])))
+            return (lambda: m.amend(cfg)), {}
+        if kind == "bright_gate":
+            cfg = _amended(m, lambda data: data["star_tracker"].update(
+                bright_gate=bool(fields["enabled"])))
+            return (lambda: m.amend(cfg)), {}
+        if kind in ground.SEQUENCER_COMMANDS:
+            return self._sequencer(kind, fields), {}
+        if kind == "resume" and not self.paused:
+            raise Refused("the live clock is not paused")
+        if kind == "pause" and self.paused:
+            raise Refused("the live clock is paused already")
+        return None, {}
+
+    def _clear(self, data, index):
+        """End fault ``index`` of scenario dict ``data`` at this boundary."""
+        m = self.m
+        faults = data.get("faults", [])
+        if index >= len(faults):
+            raise Refused(f"no fault {index}: the scenario has {len(faults)}")
+        onset = float(m.state.fault_state[sim_faults.ONSET, index])
+        now = m.now_s()
+        if not 0.0 <= onset < now:
+            raise Refused(f"fault {index} ({describe(faults[index])}) has not begun to act")
+        if now >= onset + faults[index].get("duration_s", math.inf):
+            raise Refused(f"fault {index} ({describe(faults[index])}) has ended already")
+        # A duration that ends it at this boundary: the loop takes it as acting while
+        # t < onset + duration.
+        d = now - onset
+        while onset + d > now:
+            d = math.nextafter(d, 0.0)
+        faults[index] = {**faults[index], "duration_s": d}
+
+    def _sequencer(self, kind, fields):
+        """The effect of a command to master sequencer 20 (Refused where it cannot act)."""
+        m = self.m
+        plan = ground.replan(kind, self.where(), m.cfg)
+        cfg = None
+        if plan.target is not None:
+            specs = mission_mod.target_specs(m.cfg)
+            k = m.target_index
+            spec = _target_spec(fields) if kind == "target" else dict(specs[k])
+            if plan.target == "replace":
+                specs[k] = spec
+            else:
+                specs.insert(k + 1, spec)
+
+            def sequence(data):
+                table = data["target"]
+                for key in ("star", "ra_deg", "dec_deg"):
+                    table.pop(key, None)
+                table["sequence"] = [s["star"] if "star" in s else dict(s) for s in specs]
+            cfg = _amended(m, sequence)
+        text = words({"kind": kind, **fields})
+
+        def effect():
+            if cfg is not None:
+                m.amend(cfg, retarget=plan.target == "replace")
+            m.replan(plan.plan, plan.end_mode, text)
+        return effect
+
+
+def fly(m, boundary, pause_at, hooks=None) -> None:
+    """Fly mission ``m``, calling ``boundary`` at frame boundaries to command it.
+
+    ``boundary(m, where)`` is called with ``where`` "start" (before the first
+    mode), "leg" (inside a leg, at the mission time ``pause_at(m)`` asked for)
+    and "finished" (the mission complete or aborted: the flight stands
+    still); it applies commands (:meth:`Station.apply`). At "finished" it
+    returns False when nothing more will come, and the flight ends. An
+    ``end`` command raises :class:`Ended` from it: the flight stops there.
+    ``hooks`` (:class:`allsky.sim.mission.Hooks`) are called as well (a
+    progress line).
+    """
+    base = hooks or mission_mod.NO_HOOKS
+
+    def on_pause(mm, what):
+        if base.on_pause is not None:
+            base.on_pause(mm, what)
+        boundary(mm, "leg")
+
+    flight = base._replace(on_pause=on_pause, pause_at=pause_at)
+    try:
+        if m.next_mode == 0 and not m.timeline:
+            boundary(m, "start")
+        while True:
+            if m.finished:
+                if not boundary(m, "finished"):
+                    return
+                continue
+            m.run_mode(flight)
+    except Ended:
+        return
+
+
+def fly_log(m, commands, hooks=None) -> Station:
+    """Fly ``m`` with a saved session's ``commands``, each at its ``t_s``.
+
+    ``commands`` are checked by :func:`validate_log`.
+
+    The flight pauses at each command's mission time (the first frame
+    boundary at or after it, to half a frame) and applies the commands due
+    there; when the mission has finished, the rest in order. A log written
+    by a live session gives that session's flight, bit for bit. Returns the
+    :class:`Station` (its log holds the times the commands acted at).
+
+    Raises
+    ------
+    Refused
+        A command the mission could not take where it stood (a log edited
+        by hand, or flown with another scenario).
+    """
+    station = Station(m)
+    todo = list(commands)
+    half = 0.5 * float(m.cfg.mission.frame_s)
+
+    def pause_at(mm):
+        return todo[0]["t_s"] - half if todo else math.inf
+
+    def boundary(mm, where):
+        if where == "finished" and not todo:
+            return False
+        due = [c for c in todo if c["t_s"] <= mm.now_s() + half]
+        if where == "finished" and not due:
+            due = todo[:1]  # the flight stands still: the next command now
+        for c in due:
+            todo.remove(c)
+            station.apply(c)
+            if c["kind"] == "end":
+                raise Ended
+        return True
+
+    fly(m, boundary, pause_at, hooks)
+    return station
+
+
+# -- the log ---------------------------------------------------------------------
+
+_HEADER = ("# allsky ground-control session: the scenario flown and the commands sent, each\n"
+           "# at the mission time it acted (t_s, s). Fly it again, exactly:\n"
+           "#   allsky run --commands THIS_FILE\n")
+
+
+def log_text(commands, scenario=None, note="") -> str:
+    """The command log as TOML text: the scenario and ``[[commands]]``.
+
+    ``scenario`` is a scenario's dict (:meth:`allsky.config.Scenario.as_dict`).
+
+    ``commands`` are the commands applied, each with ``t_s``; ``note`` a
+    comment line (who flew what). Every float is written exactly (its
+    shortest repr), so the log reads back to the same times.
+    """
+    key = toml_key
+    lines = [_HEADER.rstrip("\n")]
+    if note:
+        lines.append(f"# {note}")
+    lines += ["", f"format = {LOG_FORMAT}"]
+    if scenario is not None:
+        for sec, table in scenario.items():
+            if isinstance(table, Mapping):
+                lines += ["", f"[scenario.{key(sec)}]"]
+                lines += [f"{key(k)} = {toml_value(v)}" for k, v in table.items()]
+        for fault in scenario.get("faults", []):
+            lines += ["", "[[scenario.faults]]"]
+            lines += [f"{key(k)} = {toml_value(v)}" for k, v in fault.items()]
+    for c in commands:
+        lines += ["", "[[commands]]", f"t_s = {toml_value(float(c['t_s']))}",
+                  f"kind = {toml_value(c['kind'])}"]
+        lines += [f"{key(k)} = {toml_value(v)}" for k, v in c.items()
+                  if k not in ("t_s", "kind")]
+    return "\n".join(lines) + "\n"
+
+
+def read_log(path) -> tuple:
+    """A command log: ``(scenario dict or None, commands as read)``.
+
+    Check the commands with :func:`validate_log` against the scenario flown.
+
+    Raises
+    ------
+    ConfigError
+        An unreadable file, bad TOML, another format, a key that is not
+        ``format``, ``scenario`` or ``commands``.
+    """
+    data = read_toml(path, what="command log")
+    for k in data:
+        if k not in ("format", "scenario", "commands"):
+            raise ConfigError(k, rule="unknown key of a command log; valid: format, scenario, "
+                              "commands")
+    if data.get("format", LOG_FORMAT) != LOG_FORMAT:
+        raise ConfigError("format", data["format"], f"this allsky reads command logs of "
+                          f"format {LOG_FORMAT}")
+    scenario = data.get("scenario")
+    if scenario is not None and not isinstance(scenario, Mapping):
+        raise ConfigError("scenario", scenario, "must be a table of the scenario's sections")
+    return scenario, data.get("commands", [])

@@ -1,0 +1,310 @@
+"""``allsky serve`` on loopback, through its HTTP and WebSocket protocol (no browser).
+
+Each test starts the command as a user does (``allsky serve --no-browser``),
+reads the one line it prints, and talks to it with aiohttp's client: the
+token and Origin rules, a watch-only link, a client that reconnects, the
+end by command and by Ctrl-C, and the saved session flown again by ``allsky
+run --commands`` to the same summary and telemetry, bit for bit.
+"""
+
+import asyncio
+import contextlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from urllib.parse import urlsplit
+
+import numpy as np
+import pytest
+
+aiohttp = pytest.importorskip("aiohttp")
+
+ALLSKY = [sys.executable, "-m", "allsky"]
+#: [s] the longest any step of these tests waits (a bound, never a verdict).
+TIMEOUT_S = 120.0
+
+
+class Session:
+    """A running ``allsky serve`` and its URL."""
+
+    def __init__(self, *args, env=None):
+        self.proc = subprocess.Popen([*ALLSKY, "serve", "--no-browser", *args],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                     env={**os.environ, **(env or {})})
+        line = self.proc.stdout.readline()
+        assert line.startswith("allsky: serving http://"), (line, self.proc.stderr.read())
+        self.line = line
+        self.url = line.split()[-1]
+        parts = urlsplit(self.url)
+        self.origin = f"{parts.scheme}://{parts.netloc}"
+        self.token = parts.query.split("=", 1)[1]
+        self.ws_url = f"ws://{parts.netloc}/ws?token={self.token}"
+
+    def finish(self, timeout=TIMEOUT_S):
+        out, err = self.proc.communicate(timeout=timeout)
+        return self.proc.returncode, self.line + out, err
+
+    def kill(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.communicate()
+
+
+@contextlib.contextmanager
+def serving(*args, **kwargs):
+    s = Session(*args, **kwargs)
+    try:
+        yield s
+    finally:
+        s.kill()
+
+
+class Client:
+    """A WebSocket client of a session: acknowledges every update, keeps what came."""
+
+    def __init__(self, http, ws):
+        self.http, self.ws = http, ws
+        self.journal, self.session, self.hello = [], {}, None
+        self.rows, self.answers, self.next_id = 0, {}, 1
+
+    @classmethod
+    async def connect(cls, url, origin=None, query=""):
+        http = aiohttp.ClientSession()
+        headers = {"Origin": origin} if origin else {}
+        ws = await http.ws_connect(url + query, headers=headers, max_msg_size=0)
+        return cls(http, ws)
+
+    async def receive(self):
+        """One message, taken in (an update acknowledged); None once closed."""
+        msg = await asyncio.wait_for(self.ws.receive(), TIMEOUT_S)
+        if msg.type != aiohttp.WSMsgType.TEXT:
+            return None
+        data = json.loads(msg.data)
+        kind = data["type"]
+        if kind == "hello":
+            self.hello = data
+        if kind in ("hello", "update"):
+            self.journal += data.get("journal") or []
+            self.rows += (data.get("columns") or {}).get("n", 0)
+            with contextlib.suppress(ConnectionError):  # the session closing meanwhile
+                await self.ws.send_str(json.dumps({"type": "ack"}))
+        if kind in ("done", "refused"):
+            self.answers[data["id"]] = data
+        if "session" in data:
+            self.session = data["session"]
+        return data
+
+    async def until(self, test):
+        """Receive until ``test(self)``; returns False if the session closed first."""
+        while not test(self):
+            if await self.receive() is None:
+                return False
+        return True
+
+    async def command(self, command):
+        """Send a command; returns the answer (``done`` with the entry, or ``refused``)."""
+        ident = self.next_id
+        self.next_id += 1
+        await self.ws.send_str(json.dumps({"type": "command", "id": ident, "command": command}))
+        await self.until(lambda c: ident in c.answers)
+        return self.answers[ident]
+
+    async def close(self):
+        await self.ws.close()
+        await self.http.close()
+
+
+async def http_get(url, headers=None):
+    async with aiohttp.ClientSession() as http, http.get(url, headers=headers or {}) as r:
+        return r.status, await r.text(), dict(r.headers)
+
+
+def test_every_request_needs_the_session_s_token():
+    with serving() as s:
+        base = s.origin
+        assert asyncio.run(http_get(f"{base}/"))[0] == 403
+        assert asyncio.run(http_get(f"{base}/?token=wrong"))[0] == 403
+        assert asyncio.run(http_get(f"{base}/ws"))[0] == 403
+        assert asyncio.run(http_get(f"{base}/etc/passwd"))[0] == 403
+        assert asyncio.run(http_get(f"{base}/etc/passwd?token={s.token}"))[0] == 404
+        status, page, headers = asyncio.run(http_get(s.url))
+        assert status == 200 and "allsky live" in page
+        host = urlsplit(s.url).netloc
+        assert f"connect-src ws://{host};" in page  # the page reaches its session only
+        assert headers["Referrer-Policy"] == "no-referrer"
+        # A name that is not this machine's (DNS rebinding) is refused, token or not.
+        assert asyncio.run(http_get(s.url, {"Host": f"attacker.example:{s.url.split(':')[2]}"})
+                           )[0] == 403
+
+
+def test_the_websocket_refuses_a_page_of_another_origin():
+    async def check(s):
+        with pytest.raises(aiohttp.WSServerHandshakeError) as e:
+            await Client.connect(s.ws_url, origin="http://attacker.example")
+        assert e.value.status == 403
+        c = await Client.connect(s.ws_url, origin=s.origin)
+        await c.until(lambda c: c.hello is not None)
+        assert c.hello["can_command"] and c.hello["data"]["live"]
+        await c.close()
+
+    with serving() as s:
+        asyncio.run(check(s))
+
+
+def test_a_host_beyond_this_machine_needs_allow_remote():
+    r = subprocess.run([*ALLSKY, "serve", "--no-browser", "--host", "192.0.2.7"],
+                       capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith("allsky: error: --host 192.0.2.7 would open the session")
+    assert "--allow-remote" in r.stderr and len(r.stderr.splitlines()) == 1
+
+
+def test_a_watch_link_watches_and_cannot_command():
+    async def check(s):
+        c = await Client.connect(s.ws_url)
+        await c.until(lambda c: c.hello is not None)
+        watch = urlsplit(c.hello["watch_url"]).query.split("=", 1)[1]
+        w = await Client.connect(s.ws_url.replace(s.token, watch))
+        await w.until(lambda w: w.hello is not None)
+        assert not w.hello["can_command"] and w.hello["watch_url"] is None
+        answer = await w.command({"kind": "pause"})
+        assert answer["type"] == "refused" and "watches" in answer["error"]
+        answer = await c.command({"kind": "warp"})
+        assert answer["type"] == "refused" and answer["error"].startswith("command.kind")
+        await w.close()
+        await c.close()
+
+    with serving() as s:
+        asyncio.run(check(s))
+
+
+def test_a_client_that_reconnects_catches_up_from_the_journal(tmp_path):
+    """Away for a while, back with its last time and journal count: nothing is missing."""
+    summary = tmp_path / "s.json"
+
+    async def check(s):
+        a = await Client.connect(s.ws_url)
+        await a.until(lambda c: c.session.get("t_s", 0) > 200.0)
+        seen, last = len(a.journal), a.session["t_s"]
+        await a.close()
+        late = await Client.connect(s.ws_url)  # a client that comes late: the session so far
+        await late.until(lambda c: c.hello is not None)
+        await asyncio.sleep(1.0)  # the mission flies on meanwhile
+        b = await Client.connect(s.ws_url, query=f"&since_s={last}&journal={seen}")
+        await b.until(lambda c: c.hello is not None)
+        assert b.hello["columns"]["n"] > 0  # the rows flown while it was away
+        assert len(b.hello["journal"]) > 0  # and the journal's entries
+        await b.until(lambda c: c.session.get("t_s", 0) > last + 300.0)
+        answer = await b.command({"kind": "end"})
+        assert answer["type"] == "done"
+        await b.until(lambda c: False)  # to the session's end
+        await late.until(lambda c: False)
+        for c in (b, late):
+            await c.close()
+        return a.journal + b.journal, late.journal
+
+    with serving("--speed", "200", "--json", str(summary)) as s:
+        journal, late = asyncio.run(check(s))
+        code, _, err = s.finish()
+    assert code == 0, err
+    events = json.loads(summary.read_text())["events"]
+    assert late == events
+    assert journal == events
+
+
+def test_a_session_ended_from_the_page_is_flown_again_exactly(tmp_path):
+    """Commands over the WebSocket, the end button's command; the log gives the same flight."""
+    out = {k: tmp_path / f"live.{k}" for k in ("json", "parquet", "toml")}
+
+    async def fly(s):
+        c = await Client.connect(s.ws_url)
+        await c.until(lambda c: c.session.get("t_s", 0) > 300.0)
+        fault = await c.command({"kind": "fault", "fault_kind": "tracker_dropout",
+                                 "duration_s": 3.0})
+        assert fault["type"] == "done" and fault["entry"]["fault"] == 0
+        await c.until(lambda c: c.session.get("t_s", 0) > 700.0)
+        target = await c.command({"kind": "target", "star": "Vega"})
+        assert target["entry"]["text"] == "new target Vega"
+        await c.until(lambda c: c.session.get("t_s", 0) > 900.0)
+        end = await c.command({"kind": "end"})
+        await c.until(lambda c: False)
+        await c.close()
+        return fault["entry"], target["entry"], end["entry"], c.journal
+
+    with serving("--speed", "400", "--json", str(out["json"]), "--telemetry",
+                 str(out["parquet"]), "--save-commands", str(out["toml"])) as s:
+        fault, target, end, journal = asyncio.run(fly(s))
+        code, stdout, err = s.finish()
+    assert code == 0, err
+    assert "wrote command log" in stdout and stdout.splitlines()[0] == s.line.strip()
+    live = json.loads(out["json"].read_text())
+    assert [e for e in live["events"] if e["kind"] == "ground_command"] == [fault, target, end]
+    assert journal == live["events"]
+    again = {k: tmp_path / f"again.{k}" for k in ("json", "parquet")}
+    r = subprocess.run([*ALLSKY, "run", "--commands", str(out["toml"]), "--json",
+                        str(again["json"]), "--telemetry", str(again["parquet"]), "--quiet"],
+                       capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(again["json"].read_text()) == live
+    from allsky.apps.telemetry_files import read
+
+    a, b = read(out["parquet"])[0], read(again["parquet"])[0]
+    assert a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
+def test_ctrl_c_ends_the_session_writing_what_run_writes(tmp_path):
+    log = tmp_path / "s.toml"
+    with serving("--speed", "50", "--save-commands", str(log), "--json",
+                 str(tmp_path / "s.json")) as s:
+        time.sleep(2.0)
+        s.proc.send_signal(signal.SIGINT)
+        code, _, err = s.finish()
+    assert code == 130
+    assert err.splitlines()[-1].startswith("allsky: interrupted; session ended at t = ")
+    assert "written: the report, JSON summary" in err and "command log" in err
+    text = log.read_text()
+    assert text.rstrip().endswith('kind = "end"') and "[scenario.mission]" in text
+
+
+def test_pause_when_alone_waits_for_a_client():
+    async def check(s):
+        await asyncio.sleep(1.5)
+        c = await Client.connect(s.ws_url)
+        await c.until(lambda c: c.hello is not None)
+        first = c.hello["session"]["t_s"]
+        await c.until(lambda c: c.session.get("t_s", 0) > first + 20.0)
+        await c.command({"kind": "end"})
+        await c.until(lambda c: False)
+        await c.close()
+        return first
+
+    with serving("--pause-when-alone", "--speed", "50") as s:
+        first = asyncio.run(check(s))
+        code, _, err = s.finish()
+    assert code == 0, err
+    assert first < 1.0  # 1.5 s alone at x50 would have flown 75 s
+
+
+@pytest.mark.parametrize("args, words", [
+    (("--json", "-"), "--json"),
+    (("--save-commands", "log.txt"), "--save-commands"),
+    (("--port", "70000"), "--port 70000"),
+])
+def test_bad_options_exit_2_with_one_line(args, words, tmp_path):
+    r = subprocess.run([*ALLSKY, "serve", "--no-browser", *args], capture_output=True,
+                       text=True, timeout=TIMEOUT_S, cwd=tmp_path, check=False)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith("allsky: error:") and words in r.stderr
+    assert len(r.stderr.splitlines()) == 1
+
+
+def test_run_commands_refuses_a_bad_log(tmp_path):
+    log = tmp_path / "bad.toml"
+    log.write_text('format = 1\n[[commands]]\nt_s = 3.0\nkind = "hold"\n')
+    r = subprocess.run([*ALLSKY, "run", "--commands", str(log), "--quiet"],
+                       capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
+    assert r.returncode == 2
+    assert r.stderr.startswith("allsky: error: commands[0] = 'hold': a hold lasts until")

@@ -265,7 +265,7 @@ def test_refused_commands_leave_no_trace(cfg):
 
 def test_a_ninth_fault_is_refused(cfg):
     data = cfg.as_dict()
-    data["faults"] = [{"kind": "sun_sensor_blind", "start_s": 5000.0}] * 8
+    data["faults"] = [{"kind": "sun_sensor_blind", "start_s": 4000.0}] * 8
     m = Mission(scenario_from_dict(data))
     with pytest.raises(C.Refused, match="8 faults already"):
         C.Station(m).apply({"kind": "fault", "fault_kind": "tracker_dropout"})

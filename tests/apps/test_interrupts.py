@@ -70,6 +70,10 @@ def test_run_interrupted_mid_leg_writes_the_part_flown(monkeypatch, tmp_path, ca
     assert "allsky mission: not finished" in captured.out
     summary = json.loads(js.read_text())
     assert summary["status"] == "running"
+    # The mode the flight stopped in is in the timeline, from its journal entry.
+    now = [e for e in summary["events"] if e["kind"] == "mode_start"][-1]
+    assert now["mode"] not in [r["mode"] for r in summary["modes"]]
+    assert f"{now['mode']:<5}{now['t_s']:>9.1f}{'-':>9}{'-':>8}  in progress" in captured.out
     table, _ = telemetry_files.read(tlm)
     t = table[:, 0]  # time [s]
     # The telemetry reaches the mission time at which the flight stopped, mid-leg.

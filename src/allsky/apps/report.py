@@ -11,6 +11,16 @@ from allsky.units import RAD2ARCSEC
 from allsky.vocabulary import AXES
 
 
+def _mode_in_progress(summary):
+    """The journal's ``mode_start`` of a mode that had not ended when the mission stopped."""
+    for e in reversed(summary.get("events") or ()):
+        if e["kind"] == "mode_end":
+            return None
+        if e["kind"] == "mode_start":
+            return e
+    return None
+
+
 def format_report(summary: dict, tracker_star=None) -> str:
     """A plain-text report of mission ``summary`` (:meth:`Mission.summary`).
 
@@ -34,6 +44,9 @@ def format_report(summary: dict, tracker_star=None) -> str:
     for r in summary["modes"]:
         lines.append(f"  {r['mode']:<5}{r['start_s']:>9.1f}{r['end_s']:>9.1f}"
                      f"{r['end_s'] - r['start_s']:>8.1f}  {r['exit']}")
+    now = _mode_in_progress(summary)
+    if now is not None:
+        lines.append(f"  {now['mode']:<5}{now['t_s']:>9.1f}{'-':>9}{'-':>8}  in progress")
     lines += _calibration_lines(summary)
     tgt = summary["target"]
     name = tgt.get("star") or (f"RA {tgt['ra_deg'] / 15.0:.3f} h, "

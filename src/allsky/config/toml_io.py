@@ -227,7 +227,7 @@ def _toml_key(k: str) -> str:
 
 
 def toml_key(k: str) -> str:
-    """A key as TOML text: bare when it can be (``hold_s``), else quoted (``"a.b"``)."""
+    """Key ``k`` as TOML text: bare when it can be (``hold_s``), else quoted (``"a.b"``)."""
     return _toml_key(k)
 
 

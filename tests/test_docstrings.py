@@ -59,8 +59,6 @@ PENDING = {
     "sim/faults.py": "being rewritten; documented when it lands",
     "sim/recorder.py": "being rewritten; documented when it lands",
     "sequencer/watch.py": "being rewritten; documented when it lands",
-    "vehicle/plant.py": "being rewritten; documented when it lands",
-    "vehicle/wheels.py": "being rewritten; documented when it lands",
     # Front ends and campaigns.
     "apps/cli.py": "being rewritten; documented when it lands",
     "apps/campaign.py": "being rewritten; documented when it lands",

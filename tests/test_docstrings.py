@@ -58,9 +58,7 @@ PENDING = {
     "sim/mission.py": "being rewritten; documented when it lands",
     "sim/faults.py": "being rewritten; documented when it lands",
     "sim/recorder.py": "being rewritten; documented when it lands",
-    "sequencer/watch.py": "being rewritten; documented when it lands",
     # Front ends and campaigns.
-    "apps/cli.py": "being rewritten; documented when it lands",
     "apps/campaign.py": "being rewritten; documented when it lands",
     "studies/montecarlo.py": "being rewritten; documented when it lands",
     "studies/pool.py": "being rewritten; documented when it lands",

@@ -54,10 +54,8 @@ PENDING = {
     # optimisation may change.
     "sim/frame_loop.py": "being rewritten; documented when it lands",
     "sim/state.py": "being rewritten; documented when it lands",
-    "sim/journal.py": "being rewritten; documented when it lands",
     "sim/mission.py": "being rewritten; documented when it lands",
     "sim/faults.py": "being rewritten; documented when it lands",
-    "sim/recorder.py": "being rewritten; documented when it lands",
     # Front ends and campaigns.
     "apps/campaign.py": "being rewritten; documented when it lands",
     "studies/montecarlo.py": "being rewritten; documented when it lands",

@@ -54,7 +54,6 @@ PENDING = {
     # optimisation may change.
     "sim/frame_loop.py": "being rewritten; documented when it lands",
     "sim/state.py": "being rewritten; documented when it lands",
-    "sim/mission.py": "being rewritten; documented when it lands",
     # Front ends and campaigns.
     "apps/campaign.py": "being rewritten; documented when it lands",
     "studies/montecarlo.py": "being rewritten; documented when it lands",

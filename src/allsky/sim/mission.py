@@ -278,7 +278,9 @@ def target_inertial(cfg, index=0) -> np.ndarray:
 
 
 def new_target_record(cfg, index, start_s) -> dict:
-    """The record of target ``index`` of ``cfg`` as its flight begins at ``start_s`` [s].
+    """The record of target ``index`` as its flight begins at ``start_s`` [s].
+
+    ``cfg`` is the scenario, whose targets :func:`target_specs` lists.
 
     Keys: name, the target (star, or ra_deg and dec_deg), start_s and end_s
     [s], programmed_roll_deg and programmed_yaw_deg; at the end of its Mode

@@ -53,7 +53,6 @@ PENDING = {
     # The frame loop and the per-frame stages whose signatures its
     # optimisation may change.
     "sim/frame_loop.py": "being rewritten; documented when it lands",
-    "sim/state.py": "being rewritten; documented when it lands",
     # Front ends and campaigns.
     "apps/campaign.py": "being rewritten; documented when it lands",
     "studies/montecarlo.py": "being rewritten; documented when it lands",

@@ -49,7 +49,7 @@ SUMMARY_MAX = 80
 #: other work is rewriting them, and each is documented when it lands.
 #: Nothing else may join this set.
 PENDING = {
-    # Campaigns and their front end.
+    # Front ends and campaigns.
     "apps/campaign.py": "being rewritten; documented when it lands",
     "studies/montecarlo.py": "being rewritten; documented when it lands",
     "studies/pool.py": "being rewritten; documented when it lands",

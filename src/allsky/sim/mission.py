@@ -823,7 +823,7 @@ class Mission:
     # -- ground commands (allsky.sim.commands) ----------------------------------
     @property
     def mode_in_flight(self):
-        """Index in :attr:`plan` of the mode being flown; None between modes."""
+        """Index in ``plan`` of the mode being flown; None between modes."""
         return self.next_mode if self._in_mode else None
 
     def amend(self, cfg, retarget=False) -> None:

@@ -729,7 +729,11 @@ def _interrupt(signum, frame):
 
 
 def crash_report(exc) -> str:
-    """Write the traceback of an unexpected exception to a file; return its path."""
+    """Write the traceback of an unexpected exception to a file; return its path.
+
+    ``exc`` is the exception; the file, in the temporary directory, also
+    holds the version, the command line and Python's version.
+    """
     stamp = time.strftime("%Y%m%d-%H%M%S")
     path = os.path.join(tempfile.gettempdir(), f"allsky-crash-{stamp}-{os.getpid()}.txt")
     text = (f"allsky {__version__}\nargv: {sys.argv}\npython: {sys.version}\n\n"
@@ -790,7 +794,8 @@ def check_paths(args):
 
     Every output option of the command is checked (:func:`allsky.apps.output.check_output`),
     then no two outputs, and no output and input, may be the same file
-    (:func:`allsky.apps.output.check_distinct`).
+    (:func:`allsky.apps.output.check_distinct`). ``args`` is the parsed command
+    line (its ``command`` and the options of :data:`OUTPUTS` and ``INPUTS``).
     """
     from allsky.apps.output import check_distinct, check_output
 

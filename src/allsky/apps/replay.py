@@ -122,7 +122,10 @@ def _encode_columns(table) -> dict:
 
 
 def encode_rows(table) -> dict:
-    """Rows of telemetry encoded as the page's ``columns`` (a live page appends them)."""
+    """Rows of telemetry encoded as the page's ``columns`` (a live page appends them).
+
+    ``table`` holds the rows, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    """
     return _encode_columns(np.asarray(table, dtype=np.float64))
 
 
@@ -235,7 +238,11 @@ def _sky(cfg, summary, targets) -> dict:
 
 
 def sky_data(cfg, summary, targets) -> dict:
-    """Sun, catalog, ``targets`` and slit; ``summary`` names the stars (or None)."""
+    """Sun, catalog, ``targets`` and slit; ``summary`` names the stars (or None).
+
+    ``cfg`` is the scenario flown: its date (the Sun, the catalog), the
+    tracker's magnitude window, reference star and slit, the sun sensor's cone.
+    """
     from allsky.vehicle import sky
 
     date = cfg.mission.date_utc
@@ -435,7 +442,10 @@ def _vehicle(cfg, table) -> dict:
 
 
 def vehicle_data(cfg, flown_wheels=False) -> dict:
-    """The vehicle's actuators: the scenario's, or wheels if ``flown_wheels``."""
+    """The vehicle's actuators: the scenario's, or wheels if ``flown_wheels``.
+
+    ``cfg`` is the scenario flown (its ``actuators`` and ``wheels`` sections).
+    """
     if cfg.actuators.kind != "wheels" and not flown_wheels:
         return {"kind": "jets"}
     return {"kind": "wheels", "axes": [list(map(float, a)) for a in cfg.wheels.axes],
@@ -477,7 +487,10 @@ def _config(cfg, table) -> dict:
 
 
 def config_data(cfg, interval_s) -> dict:
-    """The scenario's numbers the page uses; ``interval_s`` [s] between telemetry rows."""
+    """The scenario's numbers the page uses; ``interval_s`` [s] between telemetry rows.
+
+    ``cfg`` is the scenario flown (electronics, sequencer, jets, frame period).
+    """
     el = cfg.electronics
     interval = float(interval_s)
     return {"pulse_weight_arcsec": float(el.vfc_pulse_weight_arcsec),

@@ -248,7 +248,9 @@ def session_log(args, cfg) -> tuple:
     """``(scenario, commands)`` of ``allsky run --commands FILE``.
 
     The log's own scenario unless SCENARIO was given (``args.scenario``),
-    with ``--set`` over it; the commands checked against it.
+    with ``--set`` over it; the commands checked against it. ``args`` is
+    the parsed command line (``args.commands``: the log's path), ``cfg`` the
+    scenario it loaded, flown when the log holds none.
     """
     from allsky.config import scenario_from_dict
     from allsky.sim import commands
@@ -260,7 +262,11 @@ def session_log(args, cfg) -> tuple:
 
 
 def fly_commands(m, log, path) -> dict:
-    """Fly ``m`` with a saved session's commands (:func:`session_log`); its summary."""
+    """Fly ``m`` with a saved session's commands (:func:`session_log`); its summary.
+
+    ``log`` holds the validated commands, each with ``t_s`` [s]; ``path`` is the
+    log file's, named in the error a refused command raises.
+    """
     from allsky.config import ConfigError
     from allsky.sim import commands
 

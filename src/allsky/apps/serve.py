@@ -329,7 +329,11 @@ class Server:
         return f"http://{host}:{self.port}/?token={self.watch_token if watch else self.token}"
 
     def stop(self, timeout=5.0):
-        """Tell the clients the session ended, close them, stop serving."""
+        """Tell the clients the session ended, close them, stop serving.
+
+        Waits at most ``timeout`` [s] for the shutdown, and as long again for
+        the server's thread.
+        """
         if self.loop is None or self._stop is None:
             return
         asyncio.run_coroutine_threadsafe(self._shutdown(), self.loop).result(timeout)
@@ -384,12 +388,21 @@ class Server:
 
     # -- from the flight's thread -------------------------------------------------
     def publish(self, update):
-        """The flight's update, handed over from its thread."""
+        """The flight's update, handed over from its thread.
+
+        ``update`` is a dict: ``rows`` (new telemetry rows), ``events`` (new
+        journal entries), ``session``, ``page`` (page state or None), ``final``.
+        """
         if self.loop is not None:
             self.loop.call_soon_threadsafe(self._take_update, update)
 
     def reply(self, token, entry, error):
-        """A command's outcome, handed over from the flight's thread."""
+        """A command's outcome, handed over from the flight's thread.
+
+        ``token`` is ``(client, id)``, whoever sent the command and its id;
+        ``entry`` the journal entry of a command taken, ``error`` the reason
+        it was refused (None when taken).
+        """
         if self.loop is not None:
             self.loop.call_soon_threadsafe(self._send_reply, token, entry, error)
 
@@ -644,7 +657,8 @@ class _Client:
 def static_data(cfg, scenario) -> dict:
     """What every client gets first: the page's data that the flight does not change.
 
-    ``scenario`` is who flew what (:func:`allsky.apps.replay.describe_scenario`).
+    ``cfg`` is the scenario flown; ``scenario`` is who flew what
+    (:func:`allsky.apps.replay.describe_scenario`).
     """
     from allsky.config.faults import REGISTER_BITS_KEY
     from allsky.vehicle import sky
@@ -665,7 +679,10 @@ def static_data(cfg, scenario) -> dict:
 
 
 def check_host(host, allow_remote) -> None:
-    """Refuse a host beyond this machine unless ``allow_remote`` (ServeError, exit 2)."""
+    """Refuse a host beyond this machine unless ``allow_remote`` (ServeError, exit 2).
+
+    ``host`` is the name or address ``--host`` asked to serve on.
+    """
     if not is_loopback(host) and not allow_remote:
         raise ServeError(f"--host {host} would open the session beyond this machine: anyone "
                          "who can reach it with the link could command the mission; add "
@@ -679,6 +696,9 @@ def run_from_cli(cfg, args) -> int:
     while the session lasts; at its end the report (as ``allsky run``) and
     what was written. The page's end button ends it with the mission's exit
     code (0, or 1 if it ended aborted); Ctrl-C or SIGTERM with 130.
+
+    ``cfg`` is the scenario the command line loaded and ``args`` the parsed
+    command line (:mod:`allsky.apps.cli`); returns the exit status.
     """
     from allsky.apps.output import (
         TELEMETRY_SUFFIXES,

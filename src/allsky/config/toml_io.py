@@ -227,7 +227,10 @@ def _toml_key(k: str) -> str:
 
 
 def toml_key(k: str) -> str:
-    """A key as TOML text: bare when it can be (``hold_s``), else quoted (``"a.b"``)."""
+    """Key ``k`` as TOML text: bare when it can be, else quoted.
+
+    ``hold_s`` stays bare, ``"a.b"`` is quoted.
+    """
     return _toml_key(k)
 
 

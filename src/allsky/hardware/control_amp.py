@@ -45,6 +45,23 @@ def control_amp(p, axis, position_arcsec, rate_arcsec_s, integral_arcsec, integr
     """Output voltage [V] of amplifier ``axis``; advances its integral state.
 
     ``integrate`` False holds the integral at zero (rate-commanded axis).
+
+    Parameters
+    ----------
+    p : ControlParams
+        Gains and limits of the three amplifiers.
+    axis : int
+        0, 1, 2: amplifier 31 (roll), 32 (pitch), 33 (yaw).
+    position_arcsec : float
+        [arcsec] sum of the switched position inputs (optical errors through
+        S12-S15, or the storage-register DAC through S9-S11), before the limiter.
+    rate_arcsec_s : float
+        [arcsec/s] the summing amplifier's loop rate (line 130/131 on roll
+        and yaw).
+    integral_arcsec : numpy.ndarray
+        [arcsec] the three integral states, advanced.
+    dt_s : float
+        [s] frame length.
     """
     lim = p.position_limit_arcsec[axis]
     pos = min(max(position_arcsec, -lim), lim)

@@ -40,7 +40,24 @@ class GyroParams(NamedTuple):
 
 def make_params(drift_deg_h, scale_factor_error_ppm, misalignment_arcsec, arw_deg_rt_h,
                 rrw_deg_h_rt_h, range_deg_s) -> GyroParams:
-    """Build :class:`GyroParams` from scenario units."""
+    """Build :class:`GyroParams` from scenario units.
+
+    Parameters
+    ----------
+    drift_deg_h : sequence of 3 float
+        [deg/h] constant bias of gyros 1, 2, 3 (roll, pitch, yaw).
+    scale_factor_error_ppm : sequence of 3 float
+        [ppm] scale-factor error of each gyro.
+    misalignment_arcsec : 3x3 array_like
+        [arcsec] input-axis misalignments: row i is gyro i's sensitivity to
+        body x, y, z; the diagonal is ignored.
+    arw_deg_rt_h : float
+        [deg/sqrt(h)] angle random walk density.
+    rrw_deg_h_rt_h : float
+        [deg/h/sqrt(h)] rate random walk density.
+    range_deg_s : float
+        [deg/s] output saturation, either sign.
+    """
     m = np.array(misalignment_arcsec, dtype=float) * units.ARCSEC2RAD
     np.fill_diagonal(m, 0.0)
     sf = np.array(scale_factor_error_ppm, dtype=float) * units.PPM2FRACTION
@@ -64,6 +81,20 @@ def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_b
     only when ``step_bias`` is true, by a step of ``K sqrt(RRW_STEP_S)``: once
     a second is plenty for a walk of a few 0.001 deg/h over a mission, and
     saves three random draws per frame.
+
+    Parameters
+    ----------
+    p : GyroParams
+        The gyro triad.
+    dtheta_rad : array of 3 float
+        [rad] body-angle increment of the frame (body x, y, z).
+    dt_s : float
+        [s] frame length; the gyros see the frame's mean rate.
+    out_rate_arcsec_s : array of 3 float
+        [arcsec/s] written: the rates of gyros 1, 2, 3, saturated at the range.
+    rng : numpy.ndarray
+        (1,) uint64 state of the noise generator (``allsky.gauss``), advanced
+        by the random-walk and angle-noise draws.
     """
     s = p.sensitivity
     k = RAD2ARCSEC / dt_s
@@ -90,6 +121,7 @@ def perfect_calibration(p: GyroParams, integrator_drift_arcsec_s=(0.0, 0.0, 0.0)
     8/10/12 (``integrator_drift_arcsec_s``), which Mode 3 counts together;
     both are also given apart. Scale factor = true angle / counted angle;
     cross-coupling = counts on the other axis per unit true angle (SPEC section 4).
+    ``p`` is the gyro triad (:class:`GyroParams`).
     """
     s = p.sensitivity
     gyro_drift = [float(d) for d in p.drift_arcsec_s]

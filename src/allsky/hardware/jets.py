@@ -54,7 +54,8 @@ def make_params(thrust_n, moment_arm_m, isp_s, supply="regulated", pressure_init
                 pressure_final_bar=1.0, propellant_kg=1.0) -> JetParams:
     """Build :class:`JetParams` from thrust [N], arm [m] and specific impulse [s].
 
-    ``thrust_n`` and ``moment_arm_m`` are per jet (one number per axis).
+    ``thrust_n`` and ``moment_arm_m`` are per jet (one number per axis);
+    ``isp_s`` [s] is the specific impulse.
     ``supply`` is "regulated" or "blowdown"; for the latter the tank's
     pressures with a full tank and with the usable propellant gone,
     ``pressure_initial_bar`` and ``pressure_final_bar`` [bar] (only their
@@ -72,7 +73,8 @@ def thrust_fraction(p, propellant_kg):
     """Thrust (and flow) over their full-pressure values with ``propellant_kg`` left.
 
     1 on a regulated feed; on a blow-down feed the tank pressure over the
-    initial, ``f + (1 - f) m / M`` (module docstring).
+    initial, ``f + (1 - f) m / M`` (module docstring). ``p`` is the jets'
+    :class:`JetParams`.
     """
     if p.supply == BLOWDOWN:
         f = p.final_pressure_fraction
@@ -89,6 +91,15 @@ def jets(p, valve, dt_s, propellant_kg, torque_n_m):
 
     ``propellant_kg`` (1 element) is decremented; returns False when the tank
     is empty (then no torque).
+
+    Parameters
+    ----------
+    p : JetParams
+        The couples and their feed.
+    dt_s : float
+        [s] frame length, over which the valves are held.
+    torque_n_m : array of 3 float
+        [N m] written: torque about body x, y, z (roll, pitch, yaw).
     """
     scale = thrust_fraction(p, propellant_kg[0])
     use = 0.0

@@ -39,7 +39,23 @@ class PwpfParams(NamedTuple):
 
 def make_params(filter_gain, time_constant_s, on_threshold_v, off_threshold_v, full_on_v,
                 min_on_time_s, frame_s) -> PwpfParams:
-    """Build :class:`PwpfParams`; the minimum on-time is rounded up to whole frames."""
+    """Build :class:`PwpfParams`; the minimum on-time is rounded up to whole frames.
+
+    Parameters
+    ----------
+    filter_gain : float
+        [-] K, the filter's gain.
+    time_constant_s : float
+        [s] tau, the filter's time constant.
+    on_threshold_v, off_threshold_v : float
+        [V] U_on and U_off, the Schmitt trigger's thresholds (open, close).
+    full_on_v : float
+        [V] U_m, fed back while the valve is open.
+    min_on_time_s : float
+        [s] the jets' minimum on-time.
+    frame_s : float
+        [s] frame length (the filter is discretised over it).
+    """
     return PwpfParams(float(filter_gain), math.exp(-frame_s / time_constant_s),
                       float(on_threshold_v), float(off_threshold_v), float(full_on_v),
                       max(1, math.ceil(min_on_time_s / frame_s - 1e-9)))
@@ -50,6 +66,8 @@ def pwpf_step(p, axis, input_v, filter_v, out, on_frames):
     """Advance modulator ``axis`` by one frame; returns the valve command -1, 0 or +1.
 
     ``filter_v``, ``out`` and ``on_frames`` are the modulators' state arrays.
+    ``p`` is the modulators' :class:`PwpfParams`; ``input_v`` [V] the output of
+    control amplifier 31, 32 or 33, held over the frame.
     """
     target = p.filter_gain * (input_v - p.full_on_v * out[axis])
     f = target + (filter_v[axis] - target) * p.decay
@@ -73,6 +91,17 @@ def static_on_off_times_s(p_gain, tau_s, u_on, u_off, u_m, e):
     """Continuous-time (T_on, T_off) [s] of the modulator for constant input ``e`` [V].
 
     Returns ``(0, inf)`` inside the dead zone and ``(inf, 0)`` in saturation.
+
+    Parameters
+    ----------
+    p_gain : float
+        [-] K, the filter's gain.
+    tau_s : float
+        [s] tau, the filter's time constant.
+    u_on, u_off : float
+        [V] the trigger's on and off thresholds.
+    u_m : float
+        [V] the output fed back while the valve is open.
     """
     if p_gain * e <= u_on:
         return 0.0, math.inf

@@ -178,6 +178,10 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
     tracked star in ``p.stars_inertial``, -1 when it holds none, and
     :data:`FALSE_TARGET` while it holds a glint (whose outputs the fault
     that makes it writes, :func:`allsky.sim.faults.fault_sense`).
+
+    ``p`` is the tracker (:class:`StarTrackerParams`: slit, noise, the window's
+    stars); ``rng`` the (1,) uint64 noise generator state (``allsky.gauss``),
+    advanced by the output noise draws.
     """
     check_rad = p.cone_check_rad if cone_armed else 0.0
     lock[NEW_REFUSAL] = NONE
@@ -250,6 +254,7 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
 def refuse_now(lock, target, cone_arcsec):
     """Remember ``target`` as refused by the cone-angle check; flag the refusal.
 
+    ``lock`` is the tracker's memory (:func:`new_lock`), updated;
     ``cone_arcsec`` is its cone angle [arcsec]. A free slot of the memory
     takes it; with none free, the first slot.
     """
@@ -265,7 +270,10 @@ def refuse_now(lock, target, cone_arcsec):
 
 @njit
 def refused(lock, target) -> bool:
-    """Whether ``target`` is among the targets the cone-angle check refused."""
+    """Whether ``target`` is among the targets the cone-angle check refused.
+
+    ``lock`` is the tracker's memory (:func:`new_lock`).
+    """
     for j in range(N_REFUSED):
         if lock[REFUSED + j] == target:
             return True

@@ -31,7 +31,17 @@ class SunSensorParams(NamedTuple):
 
 @njit
 def sun_sensor(p, sun_body, out, rng):
-    """Fine sun sensor. ``out`` receives ``[pitch_arcsec, yaw_arcsec, present]``."""
+    """Fine sun sensor. ``out`` receives ``[pitch_arcsec, yaw_arcsec, present]``.
+
+    Parameters
+    ----------
+    p : SunSensorParams
+        Range, presence cone and noise of sun sensor 104.
+    sun_body : array of 3 float
+        [-] unit vector to the Sun, body axes.
+    rng : numpy.ndarray
+        (1,) uint64 noise generator state (``allsky.gauss``), advanced.
+    """
     sx, sy, sz = sun_body[0], sun_body[1], sun_body[2]
     present = sx >= p.presence_cos
     if not present:
@@ -49,7 +59,19 @@ def sun_sensor(p, sun_body, out, rng):
 
 @njit
 def coarse_sun(p, sun_body, out, rng):
-    """Coarse sun eyes: a noisy unit Sun vector in body axes over the whole sphere."""
+    """Coarse sun eyes: a noisy unit Sun vector in body axes over the whole sphere.
+
+    Parameters
+    ----------
+    p : SunSensorParams
+        Its ``coarse_noise_rad`` [rad] is the noise per axis.
+    sun_body : array of 3 float
+        [-] true unit vector to the Sun, body axes.
+    out : array of 3 float
+        [-] written: the noisy Sun direction, normalised.
+    rng : numpy.ndarray
+        (1,) uint64 noise generator state (``allsky.gauss``), advanced.
+    """
     n = 0.0
     for i in range(3):
         out[i] = sun_body[i] + p.coarse_noise_rad * standard_normal(rng)

@@ -14,7 +14,26 @@ SATURATE = 1
 
 @njit
 def count(counters, index, pulses, bits, mode, overflow, flag):
-    """Add ``pulses`` to ``counters[index]``; latch ``overflow[flag]`` on overflow."""
+    """Add ``pulses`` to ``counters[index]``; latch ``overflow[flag]`` on overflow.
+
+    Parameters
+    ----------
+    counters : numpy.ndarray
+        [pulses] int64 contents of a bank of counters (14/16/18, or the
+        drift counters 13/15/17), updated.
+    index : int
+        The counter of the bank: 0, 1, 2 for roll, pitch, yaw.
+    pulses : int
+        Signed pulses of the frame from the converter.
+    bits : int
+        The counter's length in bits (two's complement).
+    mode : int
+        :data:`WRAP` or :data:`SATURATE`, what an overflow does.
+    overflow : numpy.ndarray
+        int64 overflow flags, latched to 1 (never cleared here).
+    flag : int
+        Which of ``overflow`` is this counter's.
+    """
     hi = (1 << (bits - 1)) - 1
     lo = -(1 << (bits - 1))
     v = counters[index] + pulses

@@ -34,6 +34,18 @@ def vfc(p, axis, rate_arcsec_s, dt_s, residue_pulses):
     """Pulses [signed int] put out over one frame.
 
     The remainder is carried in ``residue_pulses``.
+
+    Parameters
+    ----------
+    p : VfcParams
+        Converter scaling.
+    axis : int
+        0, 1, 2: roll (converter 8), pitch (10), yaw (12).
+    rate_arcsec_s : float
+        [arcsec/s] input from the summing amplifier (before the integrator
+        drift is added).
+    dt_s : float
+        [s] frame length.
     """
     offset = p.integrator_drift_arcsec_s[axis]
     if offset != 0.0:  # only then: adding 0.0 would turn a -0.0 input into +0.0

@@ -81,7 +81,10 @@ class Where(NamedTuple):
 
 
 def phase(where: Where) -> str:
-    """``"start"``, ``"before"``, ``"turning"`` or ``"on target"`` (module docstring)."""
+    """``"start"``, ``"before"``, ``"turning"`` or ``"on target"`` (module docstring).
+
+    ``where`` is where the mission stands: its plan, the mode index, flying.
+    """
     if where.index is None:
         return "start"
     mode = where.plan[where.index]
@@ -93,7 +96,10 @@ def phase(where: Where) -> str:
 
 
 def base_plan(plan) -> tuple:
-    """The modes of the first target's flight, up to its Mode 6-2 (without the hold)."""
+    """The modes of the first target's flight, up to its Mode 6-2 (without the hold).
+
+    ``plan`` is the mission's plan, a sequence of mode names.
+    """
     plan = tuple(plan)
     last = modes.TARGET_MODES[-1]
     return plan[: plan.index(last) + 1] if last in plan else plan

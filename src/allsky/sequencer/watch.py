@@ -74,6 +74,18 @@ def leg_condition(sq, leg, sig, dt_s, t_leg_s, settle_s):
     ``settle_s`` is the time the settle condition has held so far [s].
     Returns ``(done, settle_s)``, the settle time advanced by ``dt_s`` or
     reset to 0 when a watched signal is at or above the threshold.
+
+    Parameters
+    ----------
+    sq : SequencerParams
+        Thresholds of the watch (settle, hand-over [arcsec]).
+    leg : allsky.sequencer.legs.Leg
+        The leg flown: its condition (``watch``), settle mask, hand-over
+        signal, ``blank_s`` and ``hold_s`` [s].
+    sig : numpy.ndarray
+        [arcsec] the watched signals (:func:`watched_signals`).
+    t_leg_s : float
+        [s] time in the leg after this frame.
     """
     if leg.watch == WATCH_HANDOVER:
         return (t_leg_s > leg.blank_s
@@ -96,6 +108,8 @@ def sensors_in_use(bank, routing):
 
     A sensor is in use while one of its outputs is switched into a control
     amplifier (``routing.sun_switches``, ``routing.tracker_switches``).
+    ``bank`` is the switch bank S1-S19 (entry k for Sk, 1 = closed);
+    ``routing`` the wiring as index arrays (:data:`allsky.hardware.wiring.ROUTING`).
     """
     return any_closed(bank, routing.sun_switches), any_closed(bank, routing.tracker_switches)
 

@@ -168,6 +168,9 @@ def _target_fields(fields, where) -> dict:
 def validate_log(commands, cfg) -> list:
     """A log's commands, each checked (:func:`validate`) with its ``t_s``.
 
+    ``commands`` is the log's ``[[commands]]`` array as read (:func:`read_log`),
+    checked against ``cfg``, the scenario they are to be flown with.
+
     ``t_s`` [s] is a number >= 0, never less than the command before's; an
     ``end`` is the last command; a ``hold`` is followed by a command that
     ends it (:data:`ENDS_A_HOLD`), so that a flight of the log ends.
@@ -201,7 +204,11 @@ def validate_log(commands, cfg) -> list:
 
 
 def words(command, fault_index=None) -> str:
-    """A command in words, for the journal and the page."""
+    """A command in words, for the journal and the page.
+
+    ``command`` is a validated command (:func:`validate`); ``fault_index`` the
+    slot in ``[[faults]]`` a ``fault`` command took (None: not named).
+    """
     kind = command["kind"]
     if kind == "fault":
         fault = {"kind": command["fault_kind"],
@@ -390,8 +397,9 @@ def fly(m, boundary, pause_at, hooks=None) -> None:
     still); it applies commands (:meth:`Station.apply`). At "finished" it
     returns False when nothing more will come, and the flight ends. An
     ``end`` command raises :class:`Ended` from it: the flight stops there.
-    ``hooks`` (:class:`allsky.sim.mission.Hooks`) are called as well (a
-    progress line).
+    ``pause_at``, called as ``pause_at(m)``, returns the mission time [s] of
+    the next pause inside a leg (``math.inf``: none). ``hooks`` (:class:`allsky.sim.mission.Hooks`)
+    are called as well (a progress line).
     """
     base = hooks or mission_mod.NO_HOOKS
 
@@ -417,7 +425,8 @@ def fly(m, boundary, pause_at, hooks=None) -> None:
 def fly_log(m, commands, hooks=None) -> Station:
     """Fly ``m`` with a saved session's ``commands``, each at its ``t_s``.
 
-    ``commands`` are checked by :func:`validate_log`.
+    ``commands`` are checked by :func:`validate_log`; ``hooks``
+    (:class:`allsky.sim.mission.Hooks`, optional) are called as in :func:`fly`.
 
     The flight pauses at each command's mission time (the first frame
     boundary at or after it, to half a frame) and applies the commands due
@@ -493,7 +502,7 @@ def log_text(commands, scenario=None, note="") -> str:
 
 
 def read_log(path) -> tuple:
-    """A command log: ``(scenario dict or None, commands as read)``.
+    """The command log at ``path``: ``(scenario dict or None, commands as read)``.
 
     Check the commands with :func:`validate_log` against the scenario flown.
 

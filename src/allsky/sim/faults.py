@@ -97,7 +97,10 @@ def new_fault_state() -> np.ndarray:
 
 
 def wrong_stars(faults) -> list:
-    """Names of the wrong stars the faults add to the tracker's window, in order."""
+    """Names of the wrong stars the faults add to the tracker's window, in order.
+
+    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts).
+    """
     out = []
     for f in faults:
         if f["kind"] == "wrong_star" and f["star"] not in out:
@@ -109,10 +112,11 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
                    star_magnitude) -> FaultParams:
     """:class:`FaultParams` from the scenario's faults.
 
+    ``cfg`` is the scenario (its ``faults`` and ``electronics``),
     ``tracker`` is star tracker 105's parameters, ``window_names`` the names
-    of the stars its window passes, ``star_direction(name)`` a star's unit
-    vector and ``star_magnitude(name)`` its visual magnitude: a wrong star
-    not already in the window is added after them.
+    of the stars its window passes; ``star_direction`` gives a star's unit
+    vector (inertial axes) by name and ``star_magnitude`` its visual
+    magnitude [mag]: a wrong star not already in the window is added after them.
     """
     faults = cfg.faults
     n = len(faults)
@@ -157,7 +161,11 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
 
 
 def arm(fault_state, faults) -> None:
-    """Set the onsets given in mission time (``start_s``); mode onsets wait."""
+    """Set the onsets given in mission time (``start_s``); mode onsets wait.
+
+    ``fault_state`` is ``State.fault_state``, its :data:`ONSET` row written;
+    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts).
+    """
     for i, f in enumerate(faults):
         if "start_s" in f:
             fault_state[ONSET, i] = f["start_s"]
@@ -167,6 +175,8 @@ def on_mode_start(fault_state, faults, mode, t_s) -> None:
     """The mission driver's hook as ``mode`` starts: the onsets of its faults.
 
     A mode flown again (a recovery) does not move an onset already set.
+    ``fault_state`` is ``State.fault_state`` (its :data:`ONSET` row written),
+    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts), ``t_s`` [s] the mission time the mode starts.
     """
     for i, f in enumerate(faults):
         if f.get("start_mode") == mode and fault_state[ONSET, i] < 0.0:
@@ -174,7 +184,11 @@ def on_mode_start(fault_state, faults, mode, t_s) -> None:
 
 
 def started(fault_state, faults, t_s) -> list:
-    """``(fault, onset_s)`` of the faults that have started by mission time ``t_s``."""
+    """``(fault, onset_s)`` of the faults that have started by mission time ``t_s``.
+
+    ``fault_state`` is ``State.fault_state`` (the onsets [s]);
+    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts).
+    """
     return [(f, float(fault_state[ONSET, i])) for i, f in enumerate(faults)
             if 0.0 <= fault_state[ONSET, i] <= t_s]
 
@@ -182,7 +196,9 @@ def started(fault_state, faults, t_s) -> list:
 def blame(fault_state, faults, t_s) -> str:
     """What an abort reason adds: `` (tracker dropout at 512.0 s)``, or "".
 
-    It names the faults acting at mission time ``t_s``, or else the last to start.
+    It names the faults acting at mission time ``t_s`` [s], or else the last to
+    start. ``fault_state`` is ``State.fault_state`` (the onsets [s]);
+    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts).
     """
     hit = started(fault_state, faults, t_s)
     # The faults acting at the abort; when none does any more, the last one that started.
@@ -197,7 +213,10 @@ _BLAME = re.compile(r" \([^()]* at -?[0-9.]+ s\)$")
 
 
 def symptom(reason: str) -> str:
-    """An abort reason without what :func:`blame` added: the outcome, fault-free words."""
+    """An abort reason without what :func:`blame` added: the outcome, fault-free words.
+
+    ``reason`` is the abort reason (None or "" gives "").
+    """
     return _BLAME.sub("", reason or "")
 
 
@@ -212,7 +231,19 @@ def _active(fp, fault_state, i, t_s):
 
 @njit_stage
 def fault_tracker(fp, tracker_p, fault_state, t_s):
-    """Star tracker 105's parameters this frame: with the wrong stars while one acts."""
+    """Star tracker 105's parameters this frame: with the wrong stars while one acts.
+
+    Parameters
+    ----------
+    fp : FaultParams
+        The scenario's faults.
+    tracker_p : allsky.hardware.star_tracker.StarTrackerParams
+        The tracker without a fault (returned while no wrong star acts).
+    fault_state : numpy.ndarray
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
+    t_s : float
+        [s] mission time of the frame.
+    """
     for i in range(fp.n):
         if fp.kind[i] == WRONG_STAR and _active(fp, fault_state, i, t_s):
             return fp.tracker
@@ -225,6 +256,15 @@ def fault_release(fp, fault_state, t_s, lock):
 
     ``lock`` is star tracker 105's memory (:mod:`allsky.hardware.star_tracker`):
     the tracker searches again in the frame after the last glint ends.
+
+    Parameters
+    ----------
+    fp : FaultParams
+        The scenario's faults.
+    fault_state : numpy.ndarray
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
+    t_s : float
+        [s] mission time of the frame.
     """
     for i in range(fp.n):
         if fp.kind[i] == TRACKER_STRAY_LIGHT and _active(fp, fault_state, i, t_s):
@@ -267,6 +307,20 @@ def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gy
     magnitude window. With a bright gate, a slit brighter than the gate
     (the held star's light and the glints' together) loses the lock.
     ``cone_armed`` says whether the cone-angle check is armed.
+
+    Parameters
+    ----------
+    fp : FaultParams
+        The scenario's faults.
+    fault_state : numpy.ndarray
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
+    t_s : float
+        [s] mission time of the frame.
+    dt_s : float
+        [s] frame length.
+    star : int
+        The target the tracker holds after ``sense``: a star's index, -1
+        none, or ``FALSE_TARGET``.
     """
     glint_flux = 0.0  # the glints of known brightness acting in this frame
     for i in range(fp.n):
@@ -356,6 +410,21 @@ def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
     """Counter upsets: flip the fault's bit of counter 13-18 or register 25-27, once.
 
     Returns True in the frame a drift counter 13/15/17 is upset.
+
+    Parameters
+    ----------
+    fp : FaultParams
+        The scenario's faults.
+    fault_state : numpy.ndarray
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
+    t_s : float
+        [s] mission time of the frame.
+    drift_counters : numpy.ndarray
+        [pulses] drift counters 13, 15, 17.
+    counters : numpy.ndarray
+        [pulses] up/down counters 14, 16, 18.
+    registers : numpy.ndarray
+        [LSB] storage registers 25, 26, 27.
     """
     drift = False
     for i in range(fp.n):
@@ -389,6 +458,27 @@ def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torq
     (:func:`allsky.hardware.jets.thrust_fraction` at the frame's start, 1 on
     a regulated feed): a stuck or failed jet's thrust and flow are the
     others'.
+
+    Parameters
+    ----------
+    fp : FaultParams
+        The scenario's faults.
+    fault_state : numpy.ndarray
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
+    t_s : float
+        [s] mission time of the frame.
+    jets_p : allsky.hardware.jets.JetParams
+        The couples' full-pressure torque and flow.
+    dt_s : float
+        [s] frame length.
+    valve : numpy.ndarray
+        Valve commands of modulators 34-36 (-1, 0, +1 per axis).
+    propellant_kg : numpy.ndarray
+        (1,) [kg] propellant left in tank 108, drawn from.
+    torque : numpy.ndarray
+        (3,) [N m] the jets' torque of the frame, body axes, added to.
+    tank_ok : bool
+        False when ``actuate`` found the tank dry (nothing more is done).
     """
     if not tank_ok:
         return False

@@ -127,6 +127,17 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     generator is not reseeded). A leg ends with its settle time in
     ``s.leg_clock``, where a next leg with ``carry_settle=1`` starts from it.
     Returns ``(exit_code, leg_time_s)``.
+
+    Parameters
+    ----------
+    p : allsky.sim.state.Params
+        The frame loop's parameters (:func:`allsky.sim.mission.build_params`).
+    s : allsky.sim.state.State
+        The mission state, advanced in place.
+    leg : allsky.sequencer.legs.Leg
+        What the computer runs, what ends the leg, its timeout [s].
+    rec_rows : numpy.ndarray
+        (1,) int64 fill count of ``rec``.
     """
     return leg_entry(p)(p, s, leg, tlm, tlm_rows, rec, rec_rows)
 
@@ -309,7 +320,12 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
 
 @njit_stage
 def sun_inertial(sun0_inertial, sun_rate_inertial, t_s, out):
-    """Unit vector to the Sun at mission time ``t_s`` (linear in time, renormalised)."""
+    """Unit vector to the Sun at mission time ``t_s`` (linear in time, renormalised).
+
+    ``sun0_inertial`` [-] is the Sun's direction at t = 0 and
+    ``sun_rate_inertial`` [1/s] its time derivative, inertial axes; ``out``
+    (3) receives the direction.
+    """
     n = 0.0
     for i in range(3):
         out[i] = sun0_inertial[i] + sun_rate_inertial[i] * t_s
@@ -325,6 +341,9 @@ def sun_holds_pitch(routes, position_gain):
 
     Read once a leg from the wiring table's position routes and their gains
     (:func:`wire_leg`); star tracker 105's cone-angle check is armed then.
+    ``routes`` holds the rows (switch, source index, axis) of
+    ``Routing.position_routes``; ``position_gain`` 1.0 where a row's switch is
+    closed, 0.0 where open.
     """
     for r in range(routes.shape[0]):
         if routes[r, 1] == SRC_SUN_PITCH and position_gain[r] != 0.0:
@@ -345,6 +364,23 @@ def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias
     memory (the star it holds), ``cone_armed`` arms its cone-angle check.
     Returns the index of the star the tracker holds in
     ``tracker_p.stars_inertial`` (-1: none).
+
+    Parameters
+    ----------
+    sun_p : allsky.hardware.sun_sensor.SunSensorParams
+        Sun sensor 104.
+    tracker_p : allsky.hardware.star_tracker.StarTrackerParams
+        Star tracker 105 (with a wrong star while such a fault acts).
+    gyro_p : allsky.hardware.gyro.GyroParams
+        Gyros 1-3.
+    dt_s : float
+        [s] frame length.
+    sun_inertial : numpy.ndarray
+        (3,) [-] unit vector to the Sun, inertial axes (:func:`sun_inertial`).
+    x : numpy.ndarray
+        (7,) plant state: quaternion inertial to body, body rate [rad/s].
+    rng : numpy.ndarray
+        (1,) uint64 noise generator state (``allsky.gauss``), advanced.
     """
     rotate_to_body(x, sun_inertial, sun_b)
     sun_sensor(sun_p, sun_b, fine, rng)
@@ -364,6 +400,15 @@ def wire_leg(routing, el, bank, rate_sign, gates, position_gain):
     of the axis's module 120/128 in the direction ``rate_sign`` [arcsec/s]
     (COMMAND_ARCSEC_S, 0 where the axis has none); ``position_gain`` the same
     1.0/0.0 for each row of ``routing.position_routes``.
+
+    Parameters
+    ----------
+    routing : allsky.hardware.wiring.Routing
+        The wiring table as index arrays (``Params.routing``).
+    el : allsky.sim.state.ElectronicsParams
+        Its ``rate_command_arcsec_s`` [arcsec/s] is the modules' rate.
+    bank : numpy.ndarray
+        The switch bank S1-S19 (entry k for Sk, 1 = closed).
     """
     for a in range(3):
         gates[GATE_DRIFT, a] = bank[routing.drift_switch[a]]
@@ -389,6 +434,21 @@ def sum_and_count(el, vfc_p, dt_s, gates, gyro, drift_counters, counters, vfc_re
     :func:`wire_leg`). Its drift-compensated output ``comp`` drives the
     converter, whose pulses up/down counters 14/16/18 count, and drift
     counters 13/15/17 through S4-S6; ``line`` is the loop rate of lines 130/131.
+
+    Parameters
+    ----------
+    el : allsky.sim.state.ElectronicsParams
+        Word lengths of the counters and drift DACs, the drift DACs' scaling.
+    vfc_p : allsky.hardware.vfc.VfcParams
+        Converters 8, 10, 12.
+    dt_s : float
+        [s] frame length.
+    counters : numpy.ndarray
+        (3,) int64 [pulses] up/down counters 14, 16, 18, counted into.
+    vfc_residue_pulses : numpy.ndarray
+        (3,) the fractions of a pulse the converters carry to the next frame.
+    overflow : numpy.ndarray
+        (6,) int64 overflow latches of counters 14, 16, 18, 13, 15, 17.
     """
     for a in range(3):
         drift = dac(drift_counters[a], el.drift_dac_bits, el.drift_lsb_arcsec_s)
@@ -409,6 +469,28 @@ def compute(el, pulse_weight_arcsec, program, frame, counters, word23, word24, b
     Mode 6-1 (PROGRAM_TARGET_ROLL) services the roll axis only; Mode 6-2
     (PROGRAM_TARGET, and the dither held on target) all three. Other programs
     leave the computer idle.
+
+    Parameters
+    ----------
+    el : allsky.sim.state.ElectronicsParams
+        Frames per S7/S8 step; the registers' word length and LSB [arcsec].
+    pulse_weight_arcsec : float
+        [arcsec/pulse] a counter pulse as an angle.
+    program : int
+        The leg's ``PROGRAM_*`` (:mod:`allsky.sequencer.legs`).
+    frame : int
+        The mission's frame counter (it times sequencer 21's steps).
+    counters : numpy.ndarray
+        (3,) int64 [pulses] up/down counters 14, 16, 18.
+    word23, word24 : numpy.ndarray
+        Computed word register 23 (calibration) and programmed word register
+        24 (roll and yaw [arcsec]).
+    bank : numpy.ndarray
+        The switch bank; S7/S8 are stepped in it.
+    cpu : numpy.ndarray
+        CPU 22's working store, updated.
+    registers : numpy.ndarray
+        (3,) int64 [LSB] storage registers 25, 26, 27, written.
     """
     all_axes = program == PROGRAM_TARGET or program == PROGRAM_TARGET_DITHER
     if program == PROGRAM_TARGET_ROLL or all_axes:
@@ -423,8 +505,21 @@ def acquire_sun(sun_p, mode1_p, sun_b, fine, gyro_arcsec_s, rng, coarse, pos, ra
     """Mode 1: the sun-acquisition controller drives control amplifiers 31-33.
 
     It reads the coarse Sun (into ``coarse``), the fine sun sensor 104
-    ``fine`` and the drift-compensated gyro rates [arcsec/s]; no switch of
-    the bank is involved.
+    ``fine`` and the drift-compensated gyro rates ``gyro_arcsec_s``
+    [arcsec/s] of summing amplifiers 4-6; no switch of the bank is involved.
+
+    Parameters
+    ----------
+    sun_p : allsky.hardware.sun_sensor.SunSensorParams
+        Sun sensor 104 and the coarse sun eyes.
+    mode1_p : allsky.hardware.sun_acquisition.SunAcquisitionParams
+        The Mode 1 controller.
+    sun_b : numpy.ndarray
+        (3,) [-] true unit vector to the Sun, body axes.
+    rng : numpy.ndarray
+        (1,) uint64 noise generator state (``allsky.gauss``), advanced.
+    pos, rate : numpy.ndarray
+        (3,) written: the amplifiers' position [arcsec] and rate [arcsec/s] inputs.
     """
     coarse_sun(sun_p, sun_b, coarse, rng)
     sun_acquisition(mode1_p, sun_p.linear_range_arcsec, fine, coarse, gyro_arcsec_s, pos, rate)
@@ -438,6 +533,19 @@ def route(el, routes, position_gain, registers, fine, trk, line, sources, pos, r
     by storage registers 25-27) through S9-S15, gathered in ``sources`` in
     the order of :data:`allsky.hardware.wiring.POSITION_SOURCES` and summed by
     :func:`route_positions`. Rates: the summing amplifiers' lines 130/131.
+
+    Parameters
+    ----------
+    el : allsky.sim.state.ElectronicsParams
+        The registers' word length and LSB [arcsec] (DACs 28-30).
+    routes : numpy.ndarray
+        Rows (switch, source index, axis) of ``Routing.position_routes``.
+    position_gain : numpy.ndarray
+        1.0 where a route's switch is closed, 0.0 where open (:func:`wire_leg`).
+    registers : numpy.ndarray
+        (3,) int64 [LSB] storage registers 25, 26, 27.
+    line : numpy.ndarray
+        (3,) [arcsec/s] the summing amplifiers' loop rates.
     """
     sources[SRC_TRACKER_YAW] = trk[0]
     sources[SRC_TRACKER_PITCH] = trk[1]
@@ -492,6 +600,22 @@ def control(control_p, dither_p, gates, program, dithering, t_leg_s, dt_s, pos, 
     ``integral_arcsec`` is held at zero, as it is under the Mode 1 controller.
     While ``dithering``, the dither angle ``dith`` is added to the position
     inputs and its feed-forward ``ff`` to the outputs.
+
+    Parameters
+    ----------
+    control_p : allsky.hardware.control_amp.ControlParams
+        Gains and limits of the amplifiers.
+    dither_p : allsky.sequencer.dither.DitherParams
+        Dither generator and feed-forward.
+    program : int
+        The leg's ``PROGRAM_*``; under Mode 1's the integrals are held at zero.
+    t_leg_s : float
+        [s] time in the leg (the dither's clock).
+    dt_s : float
+        [s] frame length.
+    pos, rate : numpy.ndarray
+        (3,) the position [arcsec] and rate [arcsec/s] inputs (``pos`` gains
+        the dither).
     """
     if dithering:
         dither_command(dither_p, t_leg_s, dith, ff)
@@ -509,6 +633,24 @@ def actuate(pwpf_p, jets_p, dt_s, volts, filter_v, valve, on_frames, propellant_
     """PWPF modulators 34-36 and jets 39-41: ``torque`` [N m].
 
     Returns False once the tank is dry.
+
+    Parameters
+    ----------
+    pwpf_p : allsky.hardware.pwpf.PwpfParams
+        The modulators.
+    jets_p : allsky.hardware.jets.JetParams
+        Jets 39-41 and their feed.
+    dt_s : float
+        [s] frame length.
+    volts : numpy.ndarray
+        (3,) [V] outputs of control amplifiers 31-33.
+    filter_v, on_frames : numpy.ndarray
+        (3,) the modulators' filter states [V] and frames since each valve
+        opened, advanced.
+    valve : numpy.ndarray
+        (3,) int64 valve commands -1/0/+1, written.
+    propellant_kg : numpy.ndarray
+        (1,) [kg] propellant left in tank 108, drawn from.
     """
     for a in range(3):
         pwpf_step(pwpf_p, a, volts[a], filter_v, valve, on_frames)
@@ -524,6 +666,30 @@ def actuate_either(pwpf_p, jets_p, wheels_p, actuator, dt_s, volts, filter_v, va
     jets' unloading torque, and the wheels' share goes to ``wheel_u``,
     ``wheel_hb`` and ``wheel_hdot`` for :func:`advance_either`.
     Returns False once the tank is dry.
+
+    Parameters
+    ----------
+    pwpf_p : allsky.hardware.pwpf.PwpfParams
+        The modulators (the jet vehicle).
+    wheels_p : allsky.vehicle.wheels.WheelParams
+        The wheel array (the wheel vehicle).
+    jets_p : allsky.hardware.jets.JetParams
+        Jets 39-41 and their feed.
+    dt_s : float
+        [s] frame length.
+    volts : numpy.ndarray
+        (3,) [V] outputs of control amplifiers 31-33.
+    filter_v, on_frames : numpy.ndarray
+        (3,) the modulators' filter states [V] and frames since each valve
+        opened, advanced.
+    valve : numpy.ndarray
+        (3,) int64 valve commands -1/0/+1, written.
+    propellant_kg : numpy.ndarray
+        (1,) [kg] propellant left in tank 108, drawn from.
+    wheel_h : numpy.ndarray
+        [N m s] each wheel's momentum about its axis (``State.wheel_h``).
+    wheel_unload : numpy.ndarray
+        (4,) int64 the unloader's state (:func:`allsky.vehicle.wheels.unload_valves`).
     """
     if actuator == ACTUATOR_WHEELS:
         return actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
@@ -544,6 +710,23 @@ def actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
     torques ``wheel_u`` [N m] and, in body axes, the wheels' momentum
     ``wheel_hb`` [N m s] and its rate ``wheel_hdot`` [N m] over the frame.
     Returns False once the tank is dry.
+
+    Parameters
+    ----------
+    wheels_p : allsky.vehicle.wheels.WheelParams
+        The wheel array.
+    jets_p : allsky.hardware.jets.JetParams
+        Jets 39-41 and their feed.
+    dt_s : float
+        [s] frame length.
+    volts : numpy.ndarray
+        (3,) [V] outputs of control amplifiers 31-33.
+    propellant_kg : numpy.ndarray
+        (1,) [kg] propellant left in tank 108, drawn from.
+    wheel_h : numpy.ndarray
+        [N m s] each wheel's momentum about its axis (``State.wheel_h``).
+    wheel_unload : numpy.ndarray
+        (4,) int64 the unloader's state (:func:`allsky.vehicle.wheels.unload_valves`).
     """
     unload_valves(wheels_p, wheel_h, wheel_unload, valve)
     tank_ok = jets(jets_p, valve, dt_s, propellant_kg, torque)
@@ -560,7 +743,11 @@ def actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
 
 @njit_stage
 def count_jet_time(valve, dt_s, jet_on_s):
-    """Add the frame to the on-time of each axis whose modulator holds a valve open."""
+    """Add the frame to the on-time of each axis whose modulator holds a valve open.
+
+    ``valve`` (3) holds the valve commands -1/0/+1, ``dt_s`` [s] is the frame
+    length and ``jet_on_s`` (3) [s] the on-times since ejection, added to.
+    """
     for a in range(3):  # valve is -1, 0 or +1: its square is 1 while open (no branch)
         jet_on_s[a] += dt_s * (valve[a] * valve[a])
 
@@ -568,7 +755,25 @@ def count_jet_time(valve, dt_s, jet_on_s):
 @njit_stage
 def advance(plant_p, dt_s, torque, x, dtheta_rad, time_s, frame, excursion_ref_q,
             max_excursion_rad):
-    """The rigid body over a frame under ``torque``; the clock; the largest excursion."""
+    """The rigid body over a frame under ``torque``; the clock; the largest excursion.
+
+    Parameters
+    ----------
+    plant_p : allsky.vehicle.plant.RigidBodyParams
+        Vehicle 100's mass properties.
+    dt_s : float
+        [s] frame length.
+    x : numpy.ndarray
+        (7,) plant state: quaternion inertial to body, body rate [rad/s]; advanced.
+    dtheta_rad : numpy.ndarray
+        (3,) [rad] written: the frame's body-angle increment (what the gyros see).
+    time_s, frame : numpy.ndarray
+        (1,) mission time [s] and frame counter, advanced by one frame.
+    excursion_ref_q : numpy.ndarray
+        (4,) the attitude the mission wants held (all zero: not tracked).
+    max_excursion_rad : numpy.ndarray
+        (1,) [rad] largest rotation away from it so far, updated.
+    """
     rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
     _tick(dt_s, x, time_s, frame, excursion_ref_q, max_excursion_rad)
 
@@ -582,6 +787,32 @@ def advance_either(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hd
     The wheels' momentum ``wheel_hb`` changes at ``wheel_hdot`` (body
     axes), and the wheel momenta ``wheel_h`` under their motor torques
     ``wheel_u``.
+
+    Parameters
+    ----------
+    plant_p : allsky.vehicle.plant.RigidBodyParams
+        The body's mass properties (on the wheel vehicle, less the wheels'
+        spin inertia).
+    wheels_p : allsky.vehicle.wheels.WheelParams
+        The wheel array.
+    actuator : int
+        ``ACTUATOR_JETS`` or ``ACTUATOR_WHEELS`` (:mod:`allsky.vehicle.wheels`).
+    dt_s : float
+        [s] frame length.
+    torque : numpy.ndarray
+        (3,) [N m] the jets' torque on the body, body axes.
+    wheel_peak_fraction : numpy.ndarray
+        (1,) largest ``|h_i| / limit_i`` of any wheel so far, updated.
+    x : numpy.ndarray
+        (7,) plant state: quaternion inertial to body, body rate [rad/s]; advanced.
+    dtheta_rad : numpy.ndarray
+        (3,) [rad] written: the frame's body-angle increment (what the gyros see).
+    time_s, frame : numpy.ndarray
+        (1,) mission time [s] and frame counter, advanced by one frame.
+    excursion_ref_q : numpy.ndarray
+        (4,) the attitude the mission wants held (all zero: not tracked).
+    max_excursion_rad : numpy.ndarray
+        (1,) [rad] largest rotation away from it so far, updated.
     """
     if actuator == ACTUATOR_WHEELS:
         rk4_step_gyrostat(plant_p, x, torque, wheel_hb, wheel_hdot, dt_s, dtheta_rad)

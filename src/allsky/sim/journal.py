@@ -76,7 +76,8 @@ def new_buffer(wheels_max: int, faults_max: int):
     """``(journal, journal_n, journal_seen)`` for a new mission state.
 
     The buffer is empty; nothing has been seen: no star, no overflow, no
-    clip, no unloading, no wheel at its limit, no fault acting.
+    clip, no unloading, no wheel at its limit, no fault acting. ``seen`` has
+    room for ``wheels_max`` wheels and ``faults_max`` fault slots.
     """
     seen = np.zeros(SEEN_WHEEL + wheels_max + faults_max)
     seen[SEEN_STAR] = -1.0
@@ -112,6 +113,20 @@ def note_frame(journal, journal_n, seen, t_s, star, star_in_use, cone_arcsec, ov
     (:mod:`allsky.hardware.star_tracker`); ``overflow`` the latches of
     counters 14, 16, 18, 13, 15, 17. The latches are compared as one
     bitmask, so that an ordinary frame costs four comparisons.
+
+    Parameters
+    ----------
+    journal : numpy.ndarray
+        The loop's buffer (``State.journal``, :data:`ROWS` x :data:`WIDTH`), appended to.
+    journal_n : numpy.ndarray
+        (2,) int64: rows written, and rows lost to a full buffer.
+    seen : numpy.ndarray
+        What the loop last saw (``State.journal_seen``), updated.
+    t_s : float
+        [s] mission time of the frame.
+    star_in_use : bool
+        The tracker's outputs are switched into the control amplifiers
+        (S12/S13); the entries carry it.
     """
     if lock[trk.NEW_REFUSAL] != trk.NONE:
         _write(journal, journal_n, t_s, LOCK_REJECTED, 0, lock[trk.NEW_REFUSAL],
@@ -141,6 +156,21 @@ def note_clip(journal, journal_n, seen, t_s, drift_counters, drift_gate, dac_hi,
     ``dac_lo .. dac_hi``. The frame loop calls it when a leg starts (S1-S3
     move only between legs), every frame of a leg that counts drift into a
     fed DAC, and after a fault's upset.
+
+    Parameters
+    ----------
+    journal : numpy.ndarray
+        The loop's buffer (``State.journal``, :data:`ROWS` x :data:`WIDTH`), appended to.
+    journal_n : numpy.ndarray
+        (2,) int64: rows written, and rows lost to a full buffer.
+    seen : numpy.ndarray
+        What the loop last saw (``State.journal_seen``), updated.
+    t_s : float
+        [s] mission time of the frame.
+    drift_counters : numpy.ndarray
+        [pulses] drift counters 13, 15, 17: the codes the DACs are fed.
+    dac_hi, dac_lo : int
+        [pulses] the drift DACs' largest and smallest code (their full scale).
     """
     for a in range(3):
         code = drift_counters[a]
@@ -153,7 +183,25 @@ def note_clip(journal, journal_n, seen, t_s, drift_counters, drift_gate, dac_hi,
 
 @njit_stage
 def note_wheels(journal, journal_n, seen, t_s, unloading, wheel_h, max_momentum):
-    """The unloader starting or stopping, a wheel reaching or leaving its limit."""
+    """The unloader starting or stopping, a wheel reaching or leaving its limit.
+
+    Parameters
+    ----------
+    journal : numpy.ndarray
+        The loop's buffer (``State.journal``, :data:`ROWS` x :data:`WIDTH`), appended to.
+    journal_n : numpy.ndarray
+        (2,) int64: rows written, and rows lost to a full buffer.
+    seen : numpy.ndarray
+        What the loop last saw (``State.journal_seen``), updated.
+    t_s : float
+        [s] mission time of the frame.
+    unloading : int
+        1 while the jets unload the wheels.
+    wheel_h : numpy.ndarray
+        [N m s] each wheel's momentum.
+    max_momentum : numpy.ndarray
+        [N m s] each wheel's momentum limit.
+    """
     if unloading != seen[SEEN_UNLOADING]:
         _write(journal, journal_n, t_s, SATURATION, WHEEL_UNLOADING, -1, unloading, 0.0, 0.0)
         seen[SEEN_UNLOADING] = unloading
@@ -174,6 +222,19 @@ def note_faults(journal, journal_n, seen, first, t_s, n, fault_state, onset_row,
 
     ``first`` is the index in ``seen`` of fault slot 0; the onsets are row
     ``onset_row`` of ``fault_state`` (:data:`allsky.sim.faults.ONSET`).
+
+    Parameters
+    ----------
+    journal : numpy.ndarray
+        The loop's buffer (``State.journal``, :data:`ROWS` x :data:`WIDTH`), appended to.
+    journal_n : numpy.ndarray
+        (2,) int64: rows written, and rows lost to a full buffer.
+    t_s : float
+        [s] mission time of the frame.
+    n : int
+        Fault slots in use (the scenario's faults).
+    duration_s : numpy.ndarray
+        [s] how long each fault acts from its onset (inf: to the end).
     """
     for i in range(n):
         o = fault_state[onset_row, i]
@@ -215,14 +276,20 @@ class Decoder:
         self.gate_magnitude = gate_magnitude
 
     def star(self, index):
-        """A star's name; None for no star; "stray light" for a false target."""
+        """A star's name; None for no star; "stray light" for a false target.
+
+        ``index`` is the tracker's target index (-1 none, ``FALSE_TARGET``).
+        """
         k = int(index)
         if k == FALSE_TARGET:
             return "stray light"
         return self.star_names[k] if 0 <= k < len(self.star_names) else None
 
     def entry(self, row) -> dict:
-        """One row of the loop's buffer as journal fields (all but ``t_s`` and ``mode``)."""
+        """One row of the loop's buffer as journal fields (all but ``t_s`` and ``mode``).
+
+        ``row`` is a row of :data:`WIDTH` numbers (time, kind, what, index, values).
+        """
         kind, what, i = int(row[KIND]), int(row[WHAT]), int(row[INDEX])
         a, b, c = float(row[A]), float(row[B]), float(row[C])
         if kind == STAR_LOCK:
@@ -272,7 +339,11 @@ class Journal:
         self.lost = 0
 
     def note(self, t_s, mode, kind, **fields) -> dict:
-        """Append an entry of ``kind`` (:data:`allsky.vocabulary.EVENT_KINDS`); return it."""
+        """Append an entry of ``kind`` (:data:`allsky.vocabulary.EVENT_KINDS`); return it.
+
+        ``t_s`` [s] is the mission time, ``mode`` the name of the mode flown
+        (None before the first), ``**fields`` the kind's fields.
+        """
         if kind not in EVENT_KIND:
             raise ValueError(f"unknown journal kind {kind!r}")
         e = {"t_s": float(t_s), "mode": mode, "kind": kind, **fields}
@@ -280,7 +351,13 @@ class Journal:
         return e
 
     def drain(self, journal, journal_n, mode, decoder: Decoder) -> None:
-        """Move the frame loop's rows into the journal and empty its buffer."""
+        """Move the frame loop's rows into the journal and empty its buffer.
+
+        ``journal`` and ``journal_n`` are the buffer and its counts
+        (``State.journal``, ``State.journal_n``); the rows are entered in mode
+        ``mode``, named by ``decoder`` (:class:`Decoder`). Rows lost to a full
+        buffer are added to ``lost``.
+        """
         n = int(journal_n[0])
         for row in journal[:n]:
             e = decoder.entry(row)
@@ -292,7 +369,7 @@ class Journal:
         journal_n[1] = 0
 
     def of_kind(self, *kinds) -> list:
-        """The entries of the given kinds, in order."""
+        """The entries of the given kinds, in order; ``*kinds`` are kind names."""
         return [e for e in self.events if e["kind"] in kinds]
 
     def __len__(self):
@@ -300,10 +377,10 @@ class Journal:
 
 
 def rate_deg_s(rate_rad_s) -> dict:
-    """Body rates [rad/s] as ``{roll, pitch, yaw}`` [deg/s]."""
+    """Body rates ``rate_rad_s`` [rad/s] as ``{roll, pitch, yaw}`` [deg/s]."""
     return {a: float(w) * RAD2DEG for a, w in zip(AXES, rate_rad_s)}
 
 
 def magnitude(values) -> float:
-    """The Euclidean norm of a few numbers."""
+    """The Euclidean norm of a few numbers, ``values``."""
     return math.sqrt(sum(float(v) ** 2 for v in values))

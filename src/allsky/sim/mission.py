@@ -104,14 +104,15 @@ NO_HOOKS = Hooks()
 class ModeRecord(NamedTuple):
     """One line of the mode timeline."""
 
-    mode: str
-    start_s: float
-    end_s: float
+    mode: str  #: the mode's name in the mode table ("1" ... "6-2", "dither", ...)
+    start_s: float  #: [s] mission time the mode started
+    end_s: float  #: [s] mission time it ended
+    #: how it ended: the mode's exit text, "aborted: ..." or "ended by ground command: ..."
     exit: str
 
 
 def build_params(cfg) -> sim_state.Params:
-    """Frame-loop parameters from a validated scenario."""
+    """Frame-loop parameters from a validated scenario ``cfg``."""
     dt = float(cfg.mission.frame_s)
     s0, sdot = sky.sun_motion(cfg.mission.date_utc)
     lo, hi = cfg.star_tracker.magnitude_window
@@ -182,7 +183,7 @@ def build_params(cfg) -> sim_state.Params:
 
 
 def plant_params(cfg) -> plant.RigidBodyParams:
-    """The plant's mass properties from the scenario.
+    """The plant's mass properties from the scenario ``cfg``.
 
     The vehicle's tensor; on the wheel vehicle less the wheels' spin inertia
     about their axes, which the wheels carry as their momentum.
@@ -194,7 +195,7 @@ def plant_params(cfg) -> plant.RigidBodyParams:
 
 
 def wheel_params(cfg) -> wheels.WheelParams:
-    """The reaction-wheel array from the scenario's [wheels] section.
+    """The reaction-wheel array from scenario ``cfg``'s [wheels] section.
 
     The control amplifiers' volts become a body torque at the describing gain
     of modulator and jets in their linear region, couple torque / ``full_on_v``
@@ -214,7 +215,7 @@ def wheel_params(cfg) -> wheels.WheelParams:
 
 
 def dither_params(cfg) -> dither.DitherParams:
-    """Dither generator and feed-forward from the scenario's [dither] section."""
+    """Dither generator and feed-forward from scenario ``cfg``'s [dither] section."""
     d = cfg.dither
     amp = np.array(d.amplitude_urad, dtype=float) * 1e-6 * units.RAD2ARCSEC
     omega = 2.0 * np.pi / np.array(d.period_s, dtype=float)
@@ -227,7 +228,11 @@ def dither_params(cfg) -> dither.DitherParams:
 
 
 def ejection_state(cfg) -> sim_state.State:
-    """Mission state at ejection: attitude and tip-off rates from the mission seed."""
+    """Mission state at ejection: attitude and tip-off rates from the mission seed.
+
+    ``cfg`` is the scenario (its ``mission``, ``ejection``, ``jets`` and
+    ``faults``).
+    """
     rng = np.random.default_rng([int(cfg.mission.seed), 0])
     att = cfg.ejection.attitude
     q0 = quaternion.random_unit(rng) if isinstance(att, str) else np.asarray(att, dtype=float)
@@ -242,7 +247,7 @@ def target_specs(cfg) -> list:
 
     Each is ``{"star": name}`` or ``{"ra_deg": ..., "dec_deg": ...}``, from
     ``target.sequence`` when given, else the one target of ``target.star``
-    or ``target.ra_deg`` + ``target.dec_deg``.
+    or ``target.ra_deg`` + ``target.dec_deg`` of scenario ``cfg``.
     """
     t = cfg.target
     if t.sequence is not None:
@@ -255,14 +260,17 @@ def target_specs(cfg) -> list:
 
 
 def target_name(spec) -> str:
-    """A target's name: the star's, or its RA and Dec [deg]."""
+    """A target's name: the star's, or its RA and Dec [deg].
+
+    ``spec`` is a target as :func:`target_specs` gives one.
+    """
     if "star" in spec:
         return spec["star"]
     return f"RA {spec['ra_deg']:g} deg, Dec {spec['dec_deg']:+g} deg"
 
 
 def target_inertial(cfg, index=0) -> np.ndarray:
-    """Unit vector to target ``index`` (from 0) of the scenario."""
+    """Unit vector (inertial axes) to target ``index`` (from 0) of scenario ``cfg``."""
     spec = target_specs(cfg)[index]
     if "star" in spec:
         return sky.star_direction_inertial(spec["star"], cfg.mission.date_utc)
@@ -271,6 +279,8 @@ def target_inertial(cfg, index=0) -> np.ndarray:
 
 def new_target_record(cfg, index, start_s) -> dict:
     """The record of target ``index`` as its flight begins at ``start_s`` [s].
+
+    ``cfg`` is the scenario, whose targets :func:`target_specs` lists.
 
     Keys: name, the target (star, or ra_deg and dec_deg), start_s and end_s
     [s], programmed_roll_deg and programmed_yaw_deg; at the end of its Mode
@@ -296,7 +306,8 @@ def reference_star_inertial(cfg) -> np.ndarray:
     The programmed angles are computed for it; the tracker locks the first
     star of its magnitude window that it finds in its slit, which is this one
     only if the window and the date make it so (or its cone-angle check,
-    ``star_tracker.cone_angle_check_deg``, refuses the others).
+    ``star_tracker.cone_angle_check_deg``, refuses the others). ``cfg`` is the
+    scenario (the star and the mission date).
     """
     return sky.star_direction_inertial(cfg.star_tracker.reference_star, cfg.mission.date_utc)
 
@@ -307,7 +318,7 @@ def reference_cone_deg(cfg) -> float:
     Its place along the tracker's slit with the roll axis on the Sun: 90 deg
     less its angle from the Sun at the mission's start
     (:func:`allsky.hardware.star_tracker.cone_angle_deg`; the Sun moves about
-    1 deg a day, 0.02 deg in a mission of 30 minutes).
+    1 deg a day, 0.02 deg in a mission of 30 minutes). ``cfg`` is the scenario.
     """
     sun = sky.sun_direction_inertial(cfg.mission.date_utc)
     cos = float(sun @ reference_star_inertial(cfg))
@@ -315,7 +326,10 @@ def reference_cone_deg(cfg) -> float:
 
 
 def tracker_star_names(cfg) -> list:
-    """Names of the stars the tracker can lock, in the order of ``Params.tracker``."""
+    """Names of the stars the tracker can lock, in the order of ``Params.tracker``.
+
+    ``cfg`` is the scenario: its magnitude window, date and wrong-star faults.
+    """
     lo, hi = cfg.star_tracker.magnitude_window
     names = [s.name for s in sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)]
     # A wrong star (a fault) is tracked after the window's own (allsky.sim.faults).
@@ -323,7 +337,27 @@ def tracker_star_names(cfg) -> list:
 
 
 class Mission:
-    """One flight of the all-sky pointing system, mode by mode."""
+    """One flight of the all-sky pointing system, mode by mode.
+
+    Parameters
+    ----------
+    cfg : allsky.config.Scenario
+        The validated scenario to fly.
+    telemetry : bool
+        Record telemetry (False: none, a faster flight).
+    state : allsky.sim.state.State, optional
+        The state to fly on from (default: the ejection state of ``cfg``).
+    next_mode : int
+        Index in the plan of the next mode to fly.
+    history : dict, optional
+        A snapshot's history (:meth:`snapshot`): its plan, timeline, journal
+        and records; None for a new mission.
+    plan : tuple of str
+        The modes to fly (default the legacy Modes 1 to 6-2), completed with
+        the holds and the further targets the scenario asks for
+        (:func:`allsky.sequencer.modes.mission_plan`); a restored mission
+        flies the plan of its ``history``.
+    """
 
     def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None,
                  plan=LEGACY_PLAN):
@@ -413,16 +447,21 @@ class Mission:
         return float(self.state.time_s[0])
 
     def note(self, kind, **fields) -> dict:
-        """Write an entry of ``kind`` into the journal, at the mission time, in this mode."""
+        """Write an entry of ``kind`` into the journal, at the mission time, in this mode.
+
+        ``**fields`` are the entry's fields (:data:`allsky.vocabulary.EVENT_KINDS`).
+        """
         return self.journal.note(self.now_s(), self._mode, kind, **fields)
 
     def switch(self, close=(), open_=(), step="", waits_for=""):
         """Operate the switch bank (coupled pairs move together) and journal what moved.
 
         ``step`` says what the sequencer had waited for (or the recovery that
-        did it), ``waits_for`` what it waits for next. Opening S4-S6 ends a drift count: the drift counters' content
-        is journaled; closing S1-S3 puts it on the drift DACs: each DAC's
-        output, and the count it could not apply if beyond its full scale.
+        did it), ``waits_for`` what it waits for next; ``close`` and ``open_``
+        are the numbers of the switches to close and to open (1-19). Opening
+        S4-S6 ends a drift count: the drift counters' content is journaled;
+        closing S1-S3 puts it on the drift DACs: each DAC's output, and the
+        count it could not apply if beyond its full scale.
         """
         bank = self.state.switches
         before = bank.copy()
@@ -450,7 +489,11 @@ class Mission:
                           unit="deg/h")
 
     def write_register(self, register, word, value, unit, pulses=None):
-        """Journal a write of word ``word`` of register (or counter) ``register``."""
+        """Journal a write of word ``word`` of register (or counter) ``register``.
+
+        ``value`` is the word's value in ``unit`` (e.g. "arcsec", "deg/h", "-");
+        ``pulses`` the raw count behind it, when there is one.
+        """
         fields = {"register": register, "word": word, "value": float(value), "unit": unit}
         if pulses is not None:
             fields["pulses"] = int(pulses)
@@ -462,6 +505,27 @@ class Mission:
 
         Returns the dither record (``record_rows`` rows at most) of the leg.
         ``carry_settle``: the settle time goes on from the previous leg's.
+
+        Parameters
+        ----------
+        what : str
+            What the leg waits for, in words (journal, abort reasons).
+        program : int
+            What the computer runs: a ``PROGRAM_*`` of :mod:`allsky.sequencer.legs`.
+        watch : int
+            What ends the leg: a ``WATCH_*`` of :mod:`allsky.sequencer.legs`.
+        mask : int
+            Bits of the ``SIG_*`` signals that must settle.
+        signal : int
+            The ``SIG_*`` signal watched for a hand-over.
+        blank_s : float
+            [s] the watched signal is ignored this long after the leg starts.
+        hold_s : float, optional
+            [s] settle time, or the leg's length for an elapsed watch
+            (default: ``sequencer.settle_time_s``).
+        on_timeout : str, optional
+            The abort reason if the mode's deadline passes first (default:
+            ``what`` not achieved).
         """
         remaining = self._mode_deadline - self.state.time_s[0]
         if hold_s is None:
@@ -505,6 +569,7 @@ class Mission:
         For a study that flies one more leg after the plan (the dither held
         on target, :func:`allsky.sequencer.dither_mode.target_hold_dither`);
         the mode and its deadline are the mission's again afterwards.
+        ``what``, ``program``, ``watch`` and ``**kwargs`` are :meth:`leg`'s.
         """
         saved = self._mode, self._mode_deadline, self._allowed_s
         self._mode = mode
@@ -660,11 +725,14 @@ class Mission:
         return rec
 
     def mode_timeout_s(self, name) -> float:
-        """Time allowed to a mode [s] (:func:`allsky.sequencer.modes.timeout_s`)."""
+        """Time allowed to mode ``name`` [s] (:func:`allsky.sequencer.modes.timeout_s`)."""
         return modes.timeout_s(self.cfg, name)
 
     def run(self, hooks=None):
-        """Run the remaining modes; returns the summary dictionary."""
+        """Run the remaining modes; returns the summary dictionary.
+
+        ``hooks`` (:class:`Hooks`, optional) are called as the modes fly.
+        """
         while not self.finished:
             self.run_mode(hooks)
         return self.summary()
@@ -755,7 +823,7 @@ class Mission:
     # -- ground commands (allsky.sim.commands) ----------------------------------
     @property
     def mode_in_flight(self):
-        """Index in :attr:`plan` of the mode being flown; None between modes."""
+        """Index in ``plan`` of the mode being flown; None between modes."""
         return self.next_mode if self._in_mode else None
 
     def amend(self, cfg, retarget=False) -> None:
@@ -1034,6 +1102,9 @@ class Mission:
     def from_snapshot(cls, history, arrays, telemetry=True):
         """Resume a mission from a :meth:`snapshot` (its own scenario is restored).
 
+        ``history`` and ``arrays`` are the snapshot's two parts; ``telemetry``
+        as for :class:`Mission`.
+
         Raises
         ------
         ValueError
@@ -1071,7 +1142,10 @@ def newer_state_arrays() -> dict:
 
 
 def run_mission(cfg, telemetry=True) -> Mission:
-    """Fly a whole mission (Modes 1 to 6-2, holds, every target) and return it."""
+    """Fly a whole mission (Modes 1 to 6-2, holds, every target) and return it.
+
+    ``cfg`` is the validated scenario; ``telemetry`` False records none.
+    """
     m = Mission(cfg, telemetry=telemetry)
     m.run()
     return m

@@ -215,6 +215,8 @@ def record_telemetry(tlm, tlm_rows, every_frames, s, mode_code, fine, trk, volts
     [arcsec, arcsec, present], ``volts`` the control amplifiers 31-33 [V];
     ``wheel_hb`` and ``wheel_u_body`` the wheels' momentum [N m s] and motor
     torque [N m] in body axes, ``unloading`` 1 while the jets unload them.
+    ``s`` is the mission state (:class:`allsky.sim.state.State`) after the
+    frame, ``mode_code`` the leg's mode code (:data:`allsky.vocabulary.MODE_CODE`).
     """
     if every_frames > 0 and s.frame[0] % every_frames == 0 and tlm_rows[0] < tlm.shape[0]:
         _write_row(tlm[tlm_rows[0]], s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body,
@@ -304,6 +306,20 @@ def record_dither(rec, rec_rows, every_frames, t_leg_s, frame, counters, pulse_w
     opens the record with a point sample, so that every later row averages
     frames of this leg only. ``rec_rows`` (1,) is its fill count; while a
     row fills, its time column counts the frames summed into it.
+
+    Parameters
+    ----------
+    t_leg_s : float
+        [s] time in the leg, written as the row's time.
+    frame : int
+        The mission's frame counter; a row closes when it is a multiple of
+        ``every_frames``.
+    counters : numpy.ndarray
+        [pulses] up/down counters 14, 16, 18.
+    pulse_weight_arcsec : float
+        [arcsec/pulse] the converters' pulse weight.
+    fine, trk : numpy.ndarray
+        Sun sensor 104 and star tracker 105 outputs [arcsec, arcsec, present].
     """
     k = rec_rows[0]
     if k >= rec.shape[0]:

@@ -64,18 +64,18 @@ class Params(NamedTuple):
     telemetry_every: int  #: [frames] per telemetry row (0 = none)
     sun0_inertial: np.ndarray  #: [-] Sun direction at t = 0
     sun_rate_inertial: np.ndarray  #: [1/s] its time derivative (the Sun's ~1 deg/day motion)
-    plant: RigidBodyParams
-    gyro: GyroParams
-    sun: SunSensorParams
-    tracker: StarTrackerParams
-    vfc: VfcParams
-    electronics: ElectronicsParams
-    control: ControlParams
-    pwpf: PwpfParams
-    jets: JetParams
-    mode1: SunAcquisitionParams
-    sequencer: SequencerParams
-    dither: DitherParams
+    plant: RigidBodyParams  #: vehicle 100's mass properties (less the wheels' spin inertia)
+    gyro: GyroParams  #: rate gyros 1, 2, 3
+    sun: SunSensorParams  #: sun sensor 104 and the coarse sun eyes
+    tracker: StarTrackerParams  #: star tracker 105, with the stars its window passes
+    vfc: VfcParams  #: converters 8, 10, 12
+    electronics: ElectronicsParams  #: word lengths and scalings of counters, DACs, registers
+    control: ControlParams  #: control amplifiers 31, 32, 33
+    pwpf: PwpfParams  #: modulators 34, 35, 36
+    jets: JetParams  #: jets 39, 40, 41 and their feed from tank 108
+    mode1: SunAcquisitionParams  #: the Mode 1 sun-acquisition controller
+    sequencer: SequencerParams  #: thresholds of master sequencer 20's watch
+    dither: DitherParams  #: dither generator and feed-forward (comparison mode)
     dither_sample_frames: int  #: [frames] per sample of the dither record
     routing: Routing  #: the switch wiring as index arrays (allsky.hardware.wiring.ROUTING)
     #: what turns the amplifiers' output into torque: allsky.vehicle.wheels.ACTUATOR_JETS
@@ -140,7 +140,17 @@ class State(NamedTuple):
 
 
 def new_state(q0, rate0_rad_s, propellant_kg) -> State:
-    """A fresh state at ejection: everything zero, switches open, neutral registers."""
+    """A fresh state at ejection: everything zero, switches open, neutral registers.
+
+    Parameters
+    ----------
+    q0 : array_like
+        [-] attitude quaternion, inertial to body, scalar first.
+    rate0_rad_s : array_like
+        [rad/s] body rate (the tip-off rates), body axes.
+    propellant_kg : float
+        [kg] propellant in tank 108.
+    """
     x = np.zeros(7)
     x[0:4] = q0
     x[4:7] = rate0_rad_s

@@ -38,7 +38,10 @@ class RigidBodyParams(NamedTuple):
 
 
 def make_params(inertia_kg_m2) -> RigidBodyParams:
-    """Build :class:`RigidBodyParams` from a 3x3 inertia tensor [kg m^2]."""
+    """Build :class:`RigidBodyParams` from a 3x3 inertia tensor [kg m^2].
+
+    ``inertia_kg_m2`` is the vehicle's tensor in body axes (9 numbers, or 3x3).
+    """
     j = np.array(inertia_kg_m2, dtype=float).reshape(3, 3)
     return RigidBodyParams(j, np.linalg.inv(j))
 
@@ -68,6 +71,17 @@ def derivatives(p, y, torque_n_m, dy):
 
     ``y[7:10]`` are the frame's body-angle increments; their derivative is the
     body rate itself.
+
+    Parameters
+    ----------
+    p : RigidBodyParams
+        Mass properties of the vehicle.
+    y : array of 10 float
+        Quaternion (inertial to body), body rate [rad/s], angle increments [rad].
+    torque_n_m : array of 3 float
+        [N m] external torque on the body, body axes (the jets').
+    dy : array of 10 float
+        Written: the derivative of ``y``.
     """
     d = _rates(p.inertia_kg_m2, p.inertia_inv_1_kg_m2, y[0], y[1], y[2], y[3], y[4], y[5],
                y[6], torque_n_m[0], torque_n_m[1], torque_n_m[2])
@@ -122,6 +136,19 @@ def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad):
     and the compiler need not assume that a store to one stage changes another.
     The quaternion is renormalised after the step (the RK4 truncation error
     otherwise drifts its norm by ~1e-16 per step).
+
+    Parameters
+    ----------
+    p : RigidBodyParams
+        Mass properties of the vehicle.
+    x : array of 7 float
+        The plant state: inertial-to-body quaternion, body rate [rad/s].
+    torque_n_m : array of 3 float
+        [N m] external torque, body axes, held over the step.
+    dt_s : float
+        [s] step length (one frame).
+    dtheta_rad : array of 3 float
+        [rad] written: the body-angle increment the gyros see.
     """
     j = p.inertia_kg_m2
     ji = p.inertia_inv_1_kg_m2
@@ -169,6 +196,14 @@ def gyrostat_params(inertia_kg_m2, wheel_spin_inertia_kg_m2) -> RigidBodyParams:
 
     Its tensor is the vehicle's less the wheels' spin inertia about their
     axes, ``sum_i J_i g_i g_i^T`` [kg m^2].
+
+    Parameters
+    ----------
+    inertia_kg_m2 : array_like
+        [kg m^2] the whole vehicle's 3x3 tensor, wheels included, body axes.
+    wheel_spin_inertia_kg_m2 : array_like
+        [kg m^2] 3x3 tensor of the wheels' spin inertia about their axes
+        (``allsky.vehicle.wheels.spin_inertia_tensor_kg_m2``).
     """
     return make_params(np.asarray(inertia_kg_m2, dtype=float).reshape(3, 3)
                        - np.asarray(wheel_spin_inertia_kg_m2, dtype=float))
@@ -202,7 +237,10 @@ def gyrostat_derivatives(p, y, torque_n_m, wheel_momentum_body_n_m_s, wheel_torq
     """Time derivative of ``y`` (10 elements, as :func:`derivatives`) with the wheels.
 
     ``wheel_momentum_body_n_m_s`` is ``A h`` [N m s] and
-    ``wheel_torque_body_n_m`` its rate ``A u`` [N m], both in body axes.
+    ``wheel_torque_body_n_m`` its rate ``A u`` [N m], both in body axes;
+    ``p`` the body's :class:`RigidBodyParams` (:func:`gyrostat_params`),
+    ``torque_n_m`` [N m] the external torque in body axes, and ``dy`` (10)
+    receives the derivative.
     """
     d = _rates_gyrostat(p.inertia_kg_m2, p.inertia_inv_1_kg_m2, y[0], y[1], y[2], y[3], y[4],
                         y[5], y[6], torque_n_m[0] - wheel_torque_body_n_m[0],
@@ -226,6 +264,10 @@ def rk4_step_gyrostat(p, x, torque_n_m, hw_n_m_s, hw_dot_n_m, dt_s, dtheta_rad):
     (``A u``, the motor torques held over the step), which the body feels
     as the torque ``-hw_dot_n_m``. The wheel momenta themselves advance
     exactly, ``h + u dt``, outside (a constant rate needs no stages).
+
+    ``p`` is the body's :class:`RigidBodyParams` (:func:`gyrostat_params`),
+    ``torque_n_m`` [N m] the external torque in body axes (the jets'), and
+    ``dtheta_rad`` (3) receives the body-angle increment [rad] of the step.
     """
     j = p.inertia_kg_m2
     ji = p.inertia_inv_1_kg_m2
@@ -261,7 +303,10 @@ def rk4_step_gyrostat(p, x, torque_n_m, hw_n_m_s, hw_dot_n_m, dt_s, dtheta_rad):
 def gyrostat_momentum_inertial(p: RigidBodyParams, x, wheel_momentum_body_n_m_s) -> np.ndarray:
     """Angular momentum [N m s] of body and wheels in inertial axes.
 
-    Conserved without external torque.
+    Conserved without external torque. ``p`` is the body's
+    :class:`RigidBodyParams` (:func:`gyrostat_params`), ``x`` the plant state
+    (quaternion, body rate [rad/s]), ``wheel_momentum_body_n_m_s`` the wheels'
+    momentum ``A h`` [N m s] in body axes.
     """
     from allsky.vehicle.quaternion import dcm_body_from_inertial
 
@@ -273,6 +318,17 @@ def gyrostat_energy_j(p: RigidBodyParams, x, h_n_m_s, wheel_inertia_kg_m2) -> fl
     """Kinetic energy [J] of body and wheels: ``w.I w / 2 + sum_i h_i^2 / (2 J_i)``.
 
     Without external torque it changes only by the motors' work.
+
+    Parameters
+    ----------
+    p : RigidBodyParams
+        The body carrying the wheels (:func:`gyrostat_params`).
+    x : array of 7 float
+        The plant state: quaternion, body rate [rad/s].
+    h_n_m_s : array_like
+        [N m s] each wheel's momentum about its axis.
+    wheel_inertia_kg_m2 : array_like
+        [kg m^2] each wheel's spin inertia.
     """
     w = np.asarray(x[4:7])
     h = np.asarray(h_n_m_s, dtype=float)
@@ -281,7 +337,11 @@ def gyrostat_energy_j(p: RigidBodyParams, x, h_n_m_s, wheel_inertia_kg_m2) -> fl
 
 
 def angular_momentum_inertial(p: RigidBodyParams, x) -> np.ndarray:
-    """Angular momentum [N m s] in inertial axes (conserved without torque)."""
+    """Angular momentum [N m s] in inertial axes (conserved without torque).
+
+    ``p`` holds the vehicle's inertia; ``x`` is the plant state (quaternion,
+    body rate [rad/s]).
+    """
     from allsky.vehicle.quaternion import dcm_body_from_inertial
 
     h_body = p.inertia_kg_m2 @ np.asarray(x[4:7])
@@ -289,6 +349,10 @@ def angular_momentum_inertial(p: RigidBodyParams, x) -> np.ndarray:
 
 
 def kinetic_energy_j(p: RigidBodyParams, x) -> float:
-    """Rotational kinetic energy [J] (conserved without torque)."""
+    """Rotational kinetic energy [J] (conserved without torque).
+
+    ``p`` holds the vehicle's inertia; ``x`` is the plant state (quaternion,
+    body rate [rad/s]).
+    """
     w = np.asarray(x[4:7])
     return 0.5 * float(w @ p.inertia_kg_m2 @ w)

@@ -114,7 +114,10 @@ class WheelParams(NamedTuple):
 
 
 def per_wheel(value, n: int) -> np.ndarray:
-    """One number for every wheel, or one per wheel, as an (n,) float array."""
+    """One number for every wheel, or one per wheel, as an (n,) float array.
+
+    ``value`` is a scalar or ``n`` numbers; ``n`` is the number of wheels.
+    """
     a = np.asarray(value, dtype=float)
     return np.full(n, float(a)) if a.ndim == 0 else a.reshape(n).copy()
 
@@ -138,6 +141,9 @@ def direct_tables(axes, max_torque_n_m):
     on their rows (exact for the two in-plane wheels of a generic array);
     ``w_f = s - M_f A s``. A torque ``tau`` whose ray leaves through
     facet ``f`` at gauge ``g`` is ``A (M_f tau + g w_f)``.
+
+    ``axes`` holds the unit spin axes, one row per wheel (body axes), and
+    ``max_torque_n_m`` [N m] the motor torque limit ``L_i`` of each wheel.
     """
     env = make_envelope(axes, max_torque_n_m)
     g = env.axes
@@ -164,6 +170,10 @@ def pseudo_inverse_envelope(axes, max_torque_n_m):
     of row ``i`` of ``A+`` and the offset ``L_i / |row i|``. Its inscribed
     radius is the smallest offset; the reach along a direction ``u`` is
     ``min_i L_i / |(A+ u)_i|``.
+
+    ``axes`` holds the unit spin axes, one row per wheel (body axes), and
+    ``max_torque_n_m`` [N m] the motor torque limit ``L_i``, per wheel or one
+    for all.
     """
     pinv = pseudo_inverse(np.asarray(axes, dtype=float))
     lim = per_wheel(max_torque_n_m, pinv.shape[0])
@@ -220,7 +230,12 @@ def make_params(axes, max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2,
 
 @njit
 def body_vector(axes, per_wheel_values, out):
-    """``out = A v``: a per-wheel quantity (momentum, torque) summed in body axes."""
+    """``out = A v``: a per-wheel quantity (momentum, torque) summed in body axes.
+
+    ``axes`` (n, 3) holds the spin axes, one row per wheel; ``per_wheel_values``
+    (n) is ``v`` (e.g. momenta [N m s] or motor torques [N m]); ``out`` (3)
+    receives the sum in body axes, in the same unit.
+    """
     for a in range(3):
         out[a] = 0.0
     for i in range(axes.shape[0]):
@@ -241,6 +256,9 @@ def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     ``|h_i + u_i dt|`` within its momentum limit over the frame ``dt_s`` (a
     wheel past its limit may only be slowed): the body gets the (limited)
     command, or its largest part in the same direction. Returns the factor.
+
+    ``p`` is the wheel array (:class:`WheelParams`); ``h_n_m_s`` (n) each
+    wheel's momentum [N m s] at the start of the frame.
     """
     n = p.axes.shape[0]
     r = p.axis_reach_n_m
@@ -272,6 +290,19 @@ def distribute_direct(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     exceed a limit the command is allocated directly on the envelope
     (:func:`direct_allocation`), and the null-space momentum is managed
     (:func:`null_space_momentum`). Returns the scale.
+
+    Parameters
+    ----------
+    p : WheelParams
+        The wheel array.
+    torque_body_n_m : array of 3 float
+        [N m] body torque commanded, body axes.
+    h_n_m_s : array of n float
+        [N m s] each wheel's momentum at the start of the frame.
+    dt_s : float
+        [s] frame length.
+    u_n_m : array of n float
+        [N m] written: the motor torques.
     """
     n = p.axes.shape[0]
     r = p.axis_reach_n_m
@@ -308,6 +339,11 @@ def direct_allocation(p, tx, ty, tz, u_n_m):
     gauge ``g``; ``u = -(M_f tau + g w_f)`` delivers ``tau`` exactly (``-A u``).
     Returns 1 inside the envelope, ``1/g`` beyond it (``u`` then exceeds
     the limits by ``g``, and the caller's scaling puts it on the boundary).
+
+    ``p`` is the wheel array (:class:`WheelParams`, its facet tables);
+    ``tx``, ``ty``, ``tz`` [N m] the body torque commanded about body x, y, z
+    (already limited to the axes' reach); ``u_n_m`` (n) receives the motor
+    torques [N m].
     """
     best, f = -1.0, 0
     for k in range(p.facet_gauge.shape[0]):
@@ -329,6 +365,10 @@ def null_space_momentum(p, h_n_m_s, dt_s, u_n_m):
     direct allocation stored in the array's null space. The share ``a`` in
     [0, 1] is the largest that keeps every ``|u_i|`` within its limit and
     spins no wheel past its momentum limit over the frame.
+
+    ``p`` is the wheel array (:class:`WheelParams`), ``h_n_m_s`` (n) the wheel
+    momenta [N m s], ``dt_s`` [s] the frame length, ``u_n_m`` (n) the motor
+    torques [N m] so far, added to.
     """
     n = p.axes.shape[0]
     a = 1.0
@@ -361,7 +401,8 @@ def unload_valves(p, h_n_m_s, unload, valve):
     a wheel reaches ``unload_start_fraction`` of its limit; while it lasts,
     each body axis whose stored momentum ``(A h)_a`` is outside the dead band
     fires a pulse of ``unload_pulse_frames`` every ``unload_period_frames[a]``
-    frames, against that momentum.
+    frames, against that momentum. ``p`` is the wheel array
+    (:class:`WheelParams`); ``h_n_m_s`` (n) the wheel momenta [N m s].
     """
     n = p.axes.shape[0]
     if unload[0] == 0:
@@ -386,7 +427,11 @@ def unload_valves(p, h_n_m_s, unload, valve):
 
 
 def wheel_speeds_rad_s(p: WheelParams, h_n_m_s, rate_body_rad_s) -> np.ndarray:
-    """Wheel speeds relative to the body [rad/s]: ``h_i / J_i - g_i . w``."""
+    """Wheel speeds relative to the body [rad/s]: ``h_i / J_i - g_i . w``.
+
+    ``p`` is the wheel array, ``h_n_m_s`` (n) the wheel momenta [N m s] and
+    ``rate_body_rad_s`` (3) the body rate ``w`` [rad/s], body axes.
+    """
     return np.asarray(h_n_m_s) / p.inertia_kg_m2 - p.axes @ np.asarray(rate_body_rad_s)
 
 
@@ -394,7 +439,8 @@ def spin_inertia_tensor_kg_m2(p: WheelParams) -> np.ndarray:
     """The wheels' spin inertia about their axes in body axes, ``sum_i J_i g_i g_i^T``.
 
     The gyrostat's body inertia is the vehicle's less this
-    (:func:`allsky.vehicle.plant.gyrostat_params`).
+    (:func:`allsky.vehicle.plant.gyrostat_params`). ``p`` is the wheel array
+    (its axes and spin inertias).
     """
     return (p.axes.T * p.inertia_kg_m2) @ p.axes
 
@@ -404,6 +450,17 @@ def advance_momentum(p, u_n_m, dt_s, h_n_m_s, peak_fraction):
     """The wheel momenta over a frame of constant motor torque: ``h += u dt`` (exact).
 
     ``peak_fraction`` (1,) keeps the largest ``|h_i| / limit_i`` reached.
+
+    Parameters
+    ----------
+    p : WheelParams
+        The wheel array.
+    u_n_m : array of n float
+        [N m] motor torques, held over the frame.
+    dt_s : float
+        [s] frame length.
+    h_n_m_s : array of n float
+        [N m s] wheel momenta, advanced in place.
     """
     for i in range(p.axes.shape[0]):
         h_n_m_s[i] += u_n_m[i] * dt_s

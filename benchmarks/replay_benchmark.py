@@ -29,9 +29,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "apps"))
 
-from allsky.apps import replay  # noqa: E402
-from allsky.config import load_scenario  # noqa: E402
-from allsky.sim.mission import run_mission  # noqa: E402
+from allsky.apps import replay
+from allsky.config import load_scenario
+from allsky.sim.mission import run_mission
 
 #: Playback measured at this speed for this long [s of wall time].
 SPEED, PLAY_S = 50, 5.0
@@ -69,7 +69,7 @@ next();
 
 def pct(values, q):
     values = sorted(values)
-    return values[min(len(values) - 1, int(round(q / 100 * (len(values) - 1))))]
+    return values[min(len(values) - 1, round(q / 100 * (len(values) - 1)))]
 
 
 def measure(out_dir, repeat=3, overrides=(), prefix=""):
@@ -83,7 +83,7 @@ def measure(out_dir, repeat=3, overrides=(), prefix=""):
         replay.write_replay(path, table, summary, cfg,
                             scenario=replay.describe_scenario(None, overrides))
         write_s.append(time.perf_counter() - a)
-    res = {"rows": int(len(table)), "write_s": min(write_s),
+    res = {"rows": len(table), "write_s": min(write_s),
            "size_mb": path.stat().st_size / 1e6}
 
     from test_replay_browser import new_driver

@@ -113,7 +113,7 @@ def _rk4_finish(x, dtheta_rad, dt_s, s, a, b, c, d, bw, cw):
     dtheta_rad[2] = 0.0 + k * (wz + 2.0 * bz + 2.0 * cz + dz)
 
 
-@njit
+@njit_stage
 def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad):
     """Advance the plant state ``x`` (7) by ``dt_s`` in place.
 

@@ -217,7 +217,7 @@ def gyrostat_derivatives(p, y, torque_n_m, wheel_momentum_body_n_m_s, wheel_torq
     dy[9] = y[6]
 
 
-@njit
+@njit_stage
 def rk4_step_gyrostat(p, x, torque_n_m, hw_n_m_s, hw_dot_n_m, dt_s, dtheta_rad):
     """Advance the state ``x`` (7) of the body carrying wheels by ``dt_s`` in place.
 

@@ -8,7 +8,9 @@ jet couples with a dead band, for as many frames as the default mission
 flies (131,313). The default mission adds the patent's electronics (three
 gyros with their noise and random walk, the sun sensor and the slit
 tracker, three converters and counters, CPU 22, three PWPF modulators, the
-watch, the journal). Their ratio is what the electronics cost.
+watch, the journal). Their ratio is what the electronics cost;
+``benchmarks/loop_profile.py`` says stage by stage where it goes
+(docs/design.md, "The loop near its floor").
 
 Run from the repository root::
 

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from allsky.jit import njit
+from allsky.jit import njit, njit_stage
 
 N_LAYERS = 128
 #: Right edge of the base layer's bounded part, and the common layer area
@@ -80,9 +80,42 @@ def uniform(rng):
     return bits53(rng) * (1.0 / TWO53)
 
 
-@njit
+@njit_stage
 def standard_normal(rng):
-    """One N(0, 1) deviate from generator ``rng`` (ziggurat, 128 layers)."""
+    """One N(0, 1) deviate from generator ``rng`` (ziggurat, 128 layers).
+
+    The first try, accepted in 98.8 % of draws, is inlined where the deviate
+    is drawn; the rest of the ziggurat is a call (:func:`_standard_normal_rest`).
+    """
+    b = bits53(rng)
+    i = b & 127
+    x = (b >> 8) * TWO_M45 * X[i]
+    if x < X[i + 1]:
+        return -x if (b >> 7) & 1 else x
+    return _standard_normal_rest(rng, b)
+
+
+@njit
+def _standard_normal_rest(rng, b):
+    """:func:`standard_normal` from a first try ``b`` (53 bits) that its layer did not accept."""
+    i = b & 127
+    negative = (b >> 7) & 1
+    x = (b >> 8) * TWO_M45 * X[i]
+    if i == 0:  # the tail beyond R
+        while True:
+            t = -math.log(1.0 - uniform(rng)) / R
+            y = -math.log(1.0 - uniform(rng))
+            if y + y > t * t:
+                x = R + t
+                return -x if negative else x
+    elif F[i] + uniform(rng) * (F[i + 1] - F[i]) < math.exp(-0.5 * x * x):
+        return -x if negative else x
+    return _standard_normal_tries(rng)
+
+
+@njit
+def _standard_normal_tries(rng):
+    """The whole ziggurat: tries until one is accepted (after a first try was rejected)."""
     while True:
         b = bits53(rng)
         i = b & 127

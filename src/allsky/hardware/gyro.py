@@ -20,7 +20,7 @@ import numpy as np
 
 from allsky import units
 from allsky.gauss import standard_normal
-from allsky.jit import njit
+from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
 from allsky.vocabulary import AXES
 
@@ -73,7 +73,7 @@ def make_params(drift_deg_h, scale_factor_error_ppm, misalignment_arcsec, arw_de
     )
 
 
-@njit
+@njit_stage
 def gyro_output(p, dtheta_rad, dt_s, bias_rw_arcsec_s, out_rate_arcsec_s, step_bias, rng):
     """Measured rates [arcsec/s] for a frame's body-angle increment [rad].
 

@@ -45,7 +45,7 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky.gauss import standard_normal
-from allsky.jit import njit
+from allsky.jit import njit, njit_stage
 from allsky.units import RAD2ARCSEC
 
 #: What the tracker holds when it holds no star of the catalog but a false target (a glint
@@ -165,7 +165,7 @@ def _sight(p, r0, r1, r2, k):
     return inside, yaw, pitch
 
 
-@njit
+@njit_stage
 def star_tracker(p, q, lock, out, rng, cone_armed=True):
     """Outputs of star tracker 105 for attitude ``q``, written into ``out``.
 

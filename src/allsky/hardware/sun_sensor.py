@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky.gauss import standard_normal
-from allsky.jit import njit
+from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
 
 
@@ -29,7 +29,7 @@ class SunSensorParams(NamedTuple):
     coarse_noise_rad: float  #: [rad] 1-sigma noise per axis of the coarse sun vector
 
 
-@njit
+@njit_stage
 def sun_sensor(p, sun_body, out, rng):
     """Fine sun sensor. ``out`` receives ``[pitch_arcsec, yaw_arcsec, present]``.
 
@@ -57,7 +57,7 @@ def sun_sensor(p, sun_body, out, rng):
     out[2] = 1.0
 
 
-@njit
+@njit_stage
 def coarse_sun(p, sun_body, out, rng):
     """Coarse sun eyes: a noisy unit Sun vector in body axes over the whole sphere.
 

@@ -229,8 +229,10 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     for a in range(3):
         if gates[GATE_DRIFT, a] != 0.0 and gates[GATE_DRIFT_COUNT, a] != 0.0:
             clip_every_frame = True
+    # The Sun's direction of a frame is computed a frame ahead, beside the plant's step (which
+    # takes longest and does not depend on it), where it costs no latency of its own.
+    sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
     for frame_in_leg in range(done, n_max):
-        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
         t_frame = s.time_s[0]
         tracker_p = p.tracker
         if faults is not None:
@@ -275,6 +277,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
             tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
                                     s.propellant_kg, torque, tank_ok, feed)
         count_jet_time(s.pwpf_out, dt, s.jet_on_s)
+        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, t_frame + dt, sun_i)  # the next frame's
         if wheels_p is None:
             advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame,
                     s.excursion_ref_q, s.max_excursion_rad)

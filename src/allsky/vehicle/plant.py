@@ -127,7 +127,7 @@ def _rk4_finish(x, dtheta_rad, dt_s, s, a, b, c, d, bw, cw):
     dtheta_rad[2] = 0.0 + k * (wz + 2.0 * bz + 2.0 * cz + dz)
 
 
-@njit
+@njit_stage
 def rk4_step(p, x, torque_n_m, dt_s, dtheta_rad):
     """Advance the plant state ``x`` (7) by ``dt_s`` in place.
 
@@ -255,7 +255,7 @@ def gyrostat_derivatives(p, y, torque_n_m, wheel_momentum_body_n_m_s, wheel_torq
     dy[9] = y[6]
 
 
-@njit
+@njit_stage
 def rk4_step_gyrostat(p, x, torque_n_m, hw_n_m_s, hw_dot_n_m, dt_s, dtheta_rad):
     """Advance the state ``x`` (7) of the body carrying wheels by ``dt_s`` in place.
 

@@ -69,7 +69,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky.jit import njit
+from allsky.jit import njit, njit_stage
 from allsky.vehicle.envelopes import make_envelope
 
 #: The frame loop's actuator codes (``Params.actuator``).
@@ -228,7 +228,7 @@ def make_params(axes, max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2,
                        np.eye(n) - pinv @ g.T, 1.0 / NULL_SPACE_TIME_S)
 
 
-@njit
+@njit_stage
 def body_vector(axes, per_wheel_values, out):
     """``out = A v``: a per-wheel quantity (momentum, torque) summed in body axes.
 
@@ -243,7 +243,7 @@ def body_vector(axes, per_wheel_values, out):
             out[a] += axes[i, a] * per_wheel_values[i]
 
 
-@njit
+@njit_stage
 def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     """Motor torques ``u_n_m`` (n) for the body torque ``torque_body_n_m`` [N m].
 
@@ -282,7 +282,7 @@ def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     return scale
 
 
-@njit
+@njit_stage
 def distribute_direct(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     """:func:`distribute` with ``wheels.allocation = "direct"``.
 
@@ -392,7 +392,7 @@ def null_space_momentum(p, h_n_m_s, dt_s, u_n_m):
         u_n_m[i] += a * v * p.null_rate_per_s
 
 
-@njit
+@njit_stage
 def unload_valves(p, h_n_m_s, unload, valve):
     """Jet valve commands (-1/0/+1 per body axis) into ``valve``: momentum unloading.
 
@@ -445,7 +445,7 @@ def spin_inertia_tensor_kg_m2(p: WheelParams) -> np.ndarray:
     return (p.axes.T * p.inertia_kg_m2) @ p.axes
 
 
-@njit
+@njit_stage
 def advance_momentum(p, u_n_m, dt_s, h_n_m_s, peak_fraction):
     """The wheel momenta over a frame of constant motor torque: ``h += u dt`` (exact).
 

@@ -60,7 +60,7 @@ from allsky.hardware.wiring import (
     SRC_TRACKER_PITCH,
     SRC_TRACKER_YAW,
 )
-from allsky.jit import CompiledFunction, njit, njit_alloc, njit_stage
+from allsky.jit import CompiledFunction, njit_alloc, njit_noalias, njit_stage
 from allsky.sequencer.dither import dither_command
 from allsky.sequencer.legs import (
     CLOCK_FRAMES,
@@ -245,7 +245,7 @@ def _run_leg_any(p, s, leg, tlm, tlm_rows, rec, rec_rows):
                        np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults)
 
 
-@njit
+@njit_noalias
 def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
                 sig, wheel_u, wheels_p, faults):
     """The frames of :func:`run_leg`.
@@ -254,7 +254,9 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     (one per position route), ``sources`` (N_POSITION_SOURCES,) and ``sig``
     (N_SIGNALS,) are per-leg work arrays, and ``wheel_u`` the reaction wheels'
     motor torques (one per wheel). Each stage is handed only the
-    parameters and state arrays of its own blocks.
+    parameters and state arrays of its own blocks. No array written here
+    may overlap another argument's (:func:`allsky.jit.njit_noalias`): the state's
+    arrays, the buffers and the work arrays are each allocated apart.
     """
     if not leg.resume:
         gauss_seed(s.rng, leg.seed)

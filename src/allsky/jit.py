@@ -113,10 +113,7 @@ class CompiledFunction:
 
     def _make(self, numba):
         if self._dispatcher is None:
-            options = dict(self._options)
-            if options.pop("noalias", False):
-                options["pipeline_class"] = _noalias_compiler()
-            self._dispatcher = numba.njit(**options)(self.py_func)
+            self._dispatcher = _njit(numba, self._options, self.py_func)
         return self._dispatcher
 
     @property
@@ -147,6 +144,14 @@ class CompiledFunction:
         return f"<compiled function {self.__qualname__} (numba loads on first use)>"
 
 
+def _njit(numba, options, py_func):
+    """numba's dispatcher of ``py_func`` compiled with ``options`` (``noalias`` among them)."""
+    options = dict(options)
+    if options.pop("noalias", False):
+        options["pipeline_class"] = _noalias_compiler()
+    return numba.njit(**options)(py_func)
+
+
 @functools.cache
 def _noalias_compiler():
     """numba's compiler, with every array argument of the function declared not to alias."""
@@ -164,7 +169,7 @@ def _noalias_compiler():
 def _decorator(**options):
     def decorate(py_func):
         if _numba is not None:
-            return _numba.njit(**options)(py_func)
+            return _njit(_numba, options, py_func)
         f = CompiledFunction(py_func, options)
         _waiting.append(f)
         return f

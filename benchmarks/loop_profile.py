@@ -124,6 +124,8 @@ def _compile(func, remove, env, no_exit, **options):
     opts.pop("cache", None)
     opts.pop("nopython", None)
     opts.update(options)
+    # The compiler too (the loop's own declares its arrays not to alias: allsky.jit).
+    opts["pipeline_class"] = func._compiler.pipeline_class
     return numba.njit(**opts)(glb[fn.name])
 
 

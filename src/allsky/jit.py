@@ -20,6 +20,15 @@ word by word (seven words an array), the stages made the default mission
 take 1.7 times as long (62 ms against 36 ms), and compiling each one's own
 entry point added to the cold start.
 
+:func:`njit_noalias` is :func:`njit` with every array argument declared
+not to alias any other (LLVM's ``noalias``), for the frame loop itself
+(:func:`allsky.sim.frame_loop._run_frames`): the compiler may then keep a
+value read from one array in a register across a store to another, and
+reorder them. Its callers must hand it arrays that do not overlap (except
+read-only ones): the parameters, the state's arrays and the work arrays are
+each allocated apart. The results are the same bits (no arithmetic is
+changed); the default mission took 2 % less time.
+
 :func:`njit_alloc` keeps the runtime, for the few compiled helpers that
 return new arrays (outside the frame loop, or once per leg).
 
@@ -104,7 +113,7 @@ class CompiledFunction:
 
     def _make(self, numba):
         if self._dispatcher is None:
-            self._dispatcher = numba.njit(**self._options)(self.py_func)
+            self._dispatcher = _njit(numba, self._options, self.py_func)
         return self._dispatcher
 
     @property
@@ -135,10 +144,32 @@ class CompiledFunction:
         return f"<compiled function {self.__qualname__} (numba loads on first use)>"
 
 
+def _njit(numba, options, py_func):
+    """numba's dispatcher of ``py_func`` compiled with ``options`` (``noalias`` among them)."""
+    options = dict(options)
+    if options.pop("noalias", False):
+        options["pipeline_class"] = _noalias_compiler()
+    return numba.njit(**options)(py_func)
+
+
+@functools.cache
+def _noalias_compiler():
+    """numba's compiler, with every array argument of the function declared not to alias."""
+    from numba.core import compiler
+
+    class NoAliasCompiler(compiler.Compiler):
+        def __init__(self, typingctx, targetctx, library, args, return_type, flags, locals):
+            flags = flags.copy()
+            flags.noalias = True
+            super().__init__(typingctx, targetctx, library, args, return_type, flags, locals)
+
+    return NoAliasCompiler
+
+
 def _decorator(**options):
     def decorate(py_func):
         if _numba is not None:
-            return _numba.njit(**options)(py_func)
+            return _njit(_numba, options, py_func)
         f = CompiledFunction(py_func, options)
         _waiting.append(f)
         return f
@@ -152,3 +183,4 @@ def _decorator(**options):
 njit = _decorator(cache=True, nogil=True, _nrt=False)
 njit_stage = _decorator(cache=True, nogil=True, _nrt=False, inline="always")
 njit_alloc = _decorator(cache=True, nogil=True)
+njit_noalias = _decorator(cache=True, nogil=True, _nrt=False, noalias=True)

@@ -60,7 +60,7 @@ from allsky.hardware.wiring import (
     SRC_TRACKER_PITCH,
     SRC_TRACKER_YAW,
 )
-from allsky.jit import njit, njit_alloc, njit_stage
+from allsky.jit import CompiledFunction, njit_alloc, njit_noalias, njit_stage
 from allsky.sequencer.dither import dither_command
 from allsky.sequencer.legs import (
     CLOCK_FRAMES,
@@ -139,7 +139,71 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     rec_rows : numpy.ndarray
         (1,) int64 fill count of ``rec``.
     """
-    return leg_entry(p)(p, s, leg, tlm, tlm_rows, rec, rec_rows)
+    args = (p, s, leg, tlm, tlm_rows, rec, rec_rows)
+    return _resolved(leg_entry(p), args)(*args)
+
+
+#: The compiled entries resolved for recent (entry, params, state): the call
+#: :func:`_resolved` found for the small arguments' fingerprints, by fingerprint.
+_RESOLVED = {}
+#: The entries kept in :data:`_RESOLVED` (a Monte Carlo flies many missions in a process).
+RESOLVED_KEPT = 8
+#: numba's type of an argument, by its fingerprint (the Params of a scenario's shape).
+_TYPES = {}
+
+
+def _resolved(entry, args):
+    """What to call ``entry`` (a compiled entry) with ``args`` through: its compiled code.
+
+    numba's dispatcher types every argument at each call: for ``Params``, a
+    tuple of about a hundred arrays, that is 13 us, and some 20 us a call in
+    all. A mission flies its legs with the same ``Params`` and ``State``
+    objects, whose fields' types cannot change (the tuples are immutable), so
+    the compiled code is looked up once for them and called directly; the
+    small arguments (the leg, the buffers) are told apart by their numba
+    fingerprints. Anything not yet compiled, or not a numba dispatcher (the
+    loop built ahead of time, :mod:`allsky.aot`), goes through ``entry``.
+    """
+    if isinstance(entry, CompiledFunction) or not hasattr(entry, "overloads"):
+        return entry
+    from numba._dispatcher import compute_fingerprint  # numba is loaded: entry is its own
+
+    p, s = args[0], args[1]
+    key = (id(entry), id(p), id(s))
+    known = _RESOLVED.get(key)
+    if known is None or known[0] is not entry or known[1] is not p or known[2] is not s:
+        if len(_RESOLVED) >= RESOLVED_KEPT:
+            _RESOLVED.clear()
+        known = (entry, p, s, {})
+        _RESOLVED[key] = known
+    by_small = known[3]
+    try:
+        small = compute_fingerprint(args[2:])
+    except (TypeError, ValueError):  # numba could not fingerprint it: its dispatcher types it
+        return entry
+    call = by_small.get(small)
+    if call is None:
+        try:
+            sig = (_type_of(p), _type_of(s)) + tuple(_type_of(a) for a in args[2:])
+        except (TypeError, ValueError):
+            return entry
+        cres = entry.overloads.get(sig)
+        if cres is None:  # not compiled yet: the dispatcher compiles it; resolved next time
+            return entry
+        call = by_small[small] = cres.entry_point
+    return call
+
+
+def _type_of(value):
+    """numba's type of the argument ``value``, looked up by its fingerprint."""
+    from numba._dispatcher import compute_fingerprint
+    from numba.core.typing.typeof import Purpose, typeof
+
+    fp = compute_fingerprint(value)
+    t = _TYPES.get(fp)
+    if t is None:
+        t = _TYPES[fp] = typeof(value, Purpose.argument)
+    return t
 
 
 def entries() -> dict:
@@ -181,7 +245,7 @@ def _run_leg_any(p, s, leg, tlm, tlm_rows, rec, rec_rows):
                        np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults)
 
 
-@njit
+@njit_noalias
 def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
                 sig, wheel_u, wheels_p, faults):
     """The frames of :func:`run_leg`.
@@ -190,7 +254,9 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     (one per position route), ``sources`` (N_POSITION_SOURCES,) and ``sig``
     (N_SIGNALS,) are per-leg work arrays, and ``wheel_u`` the reaction wheels'
     motor torques (one per wheel). Each stage is handed only the
-    parameters and state arrays of its own blocks.
+    parameters and state arrays of its own blocks. No array written here
+    may overlap another argument's (:func:`allsky.jit.njit_noalias`): the state's
+    arrays, the buffers and the work arrays are each allocated apart.
     """
     if not leg.resume:
         gauss_seed(s.rng, leg.seed)

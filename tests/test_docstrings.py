@@ -73,9 +73,6 @@ PENDING = {
     "vehicle/wheels.py": "being rewritten; documented when it lands",
     # Front ends and campaigns.
     "apps/cli.py": "being rewritten; documented when it lands",
-    "apps/campaign.py": "being rewritten; documented when it lands",
-    "studies/montecarlo.py": "being rewritten; documented when it lands",
-    "studies/pool.py": "being rewritten; documented when it lands",
 }
 
 #: numpydoc section headers whose entries document parameters.

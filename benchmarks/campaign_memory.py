@@ -67,8 +67,10 @@ def main():
           f"; each campaign stopped after {a.seconds:g} s")
     for runs in a.runs:
         r = measure(runs, a.seconds, a.scheduler)
-        print(f"--runs {runs:>9}: peak RSS command {r['parent_mb']:.0f} MB, largest worker "
-              f"{r['worker_mb']:.0f} MB; {r['rows']} rows saved, exit {r['exit']}", flush=True)
+        workers = (f"largest worker {r['worker_mb']:.0f} MB" if r["worker_mb"] else
+                   "the Dask workers are not its processes")
+        print(f"--runs {runs:>9}: peak RSS command {r['parent_mb']:.0f} MB, {workers}; "
+              f"{r['rows']} rows saved, exit {r['exit']}", flush=True)
 
 
 if __name__ == "__main__":

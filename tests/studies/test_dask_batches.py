@@ -25,6 +25,7 @@ from allsky.studies.montecarlo import (
     BATCH_MAX_S,
     BATCH_OVERHEAD_SHARE,
     BATCHES_PER_THREAD,
+    SCHEDULER_SHARE,
     CampaignError,
     batch_size,
     run_campaign,
@@ -75,15 +76,26 @@ def test_progress_rule_caps_a_batch_and_long_missions_go_one_a_task():
     assert batch_size(60.0, threads=64, left=10**6) == 1
 
 
+def test_scheduler_rule_grows_the_batches_on_a_cluster_of_many_threads():
+    """The client and scheduler handle one task after another: at most half busy."""
+    for threads in (100, 1000):
+        n = batch_size(0.04, threads, left=10**9, overhead_s=0.005)
+        assert n == math.ceil(threads * 0.005 / (SCHEDULER_SHARE * 0.04))
+        assert threads / (n * 0.04) * 0.005 <= SCHEDULER_SHARE  # tasks a second, each 5 ms
+    assert batch_size(0.04, 2, left=10**9, overhead_s=0.005) == math.ceil(
+        0.005 / (BATCH_OVERHEAD_SHARE * 0.04))  # two threads: the overhead rule
+
+
 def test_balance_rule_shrinks_the_batches_at_the_end():
     threads = 2
     assert batch_size(0.001, threads, left=20, overhead_s=0.01) == math.ceil(
         20 / (BATCHES_PER_THREAD * threads))
     assert batch_size(0.001, threads, left=3, overhead_s=0.01) == 1
     assert batch_size(0.001, threads, left=0, overhead_s=0.01) == 1
-    # A large cluster: batches smaller than the overhead rule's, so every thread has some.
-    assert batch_size(0.001, threads=1000, left=10**6, overhead_s=0.01) == math.ceil(
-        10**6 / (BATCHES_PER_THREAD * 1000))
+    # A large cluster near the end: batches smaller than the other rules', so that every
+    # thread has some.
+    assert batch_size(0.001, threads=1000, left=10**5, overhead_s=0.01) == math.ceil(
+        10**5 / (BATCHES_PER_THREAD * 1000))
 
 
 def test_batch_must_be_a_whole_number_and_needs_a_scheduler(cfg, capsys):

@@ -73,9 +73,12 @@ PERCENTILES = (5, 50, 95)
 #: at a time and taken as they complete, as a campaign's batches are (the 2-core
 #: development machine, client and scheduler on the same cores;
 #: ``benchmarks/dask_throughput.py``, docs/montecarlo.md).
-DASK_TASK_OVERHEAD_S = 0.004
+DASK_TASK_OVERHEAD_S = 0.005
 #: Most of a batch's time its task's overhead may take (:func:`batch_size`).
 BATCH_OVERHEAD_SHARE = 0.02
+#: Most of the time the client and scheduler, which handle the tasks one after another,
+#: may spend on them (:func:`batch_size`: the rule that binds on clusters of many threads).
+SCHEDULER_SHARE = 0.5
 #: [s] Longest a batch is meant to fly: its rows, and the progress, come back at least
 #: this often from each worker thread.
 BATCH_MAX_S = 0.5
@@ -427,16 +430,21 @@ def _fly_local(job):
 def batch_size(mission_s, threads: int, left: int, overhead_s=DASK_TASK_OVERHEAD_S) -> int:
     """Runs per Dask task: overhead a small share, rows still flowing, workers even.
 
-    The smallest of three sizes, and at least 1:
-
     * the overhead rule: a task's overhead ``overhead_s`` at most
       :data:`BATCH_OVERHEAD_SHARE` of its batch's time, ``ceil(overhead_s /
       (share * mission_s))`` runs;
-    * the progress rule: a batch flies at most :data:`BATCH_MAX_S`, so that
-      rows (and progress) come back at least that often from each worker
+    * the progress rule caps it: a batch flies at most :data:`BATCH_MAX_S`, so
+      that rows (and progress) come back at least that often from each worker
       thread;
-    * the balance rule: at least :data:`BATCHES_PER_THREAD` batches per worker
-      thread out of the ``left`` runs, so that the last batches end together.
+    * the scheduler rule: the client and scheduler handle the tasks one after
+      another, ``overhead_s`` each; with ``threads`` worker threads a batch has
+      at least ``threads * overhead_s / (SCHEDULER_SHARE * mission_s)`` runs,
+      so that they are busy at most :data:`SCHEDULER_SHARE` of the time (on
+      more than about 25 threads this rule, not the progress rule, binds: rows
+      still arrive often, from many threads);
+    * the balance rule caps all: at least :data:`BATCHES_PER_THREAD` batches
+      per worker thread out of the ``left`` runs, so that the last batches end
+      together.
 
     Parameters
     ----------
@@ -457,10 +465,12 @@ def batch_size(mission_s, threads: int, left: int, overhead_s=DASK_TASK_OVERHEAD
     """
     if mission_s is None or not mission_s > 0:
         return 1
+    threads = max(int(threads), 1)
     by_overhead = math.ceil(overhead_s / (BATCH_OVERHEAD_SHARE * mission_s))
     by_progress = math.floor(BATCH_MAX_S / mission_s)
-    by_balance = math.ceil(max(left, 1) / (BATCHES_PER_THREAD * max(int(threads), 1)))
-    return max(1, min(by_overhead, by_progress, by_balance))
+    by_scheduler = math.ceil(threads * overhead_s / (SCHEDULER_SHARE * mission_s))
+    by_balance = math.ceil(max(left, 1) / (BATCHES_PER_THREAD * threads))
+    return max(1, min(max(min(by_overhead, by_progress), by_scheduler), by_balance))
 
 
 class _Batches:

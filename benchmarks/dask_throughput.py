@@ -16,12 +16,19 @@ nothing written), alternately, ``--repeats`` times each, in one sitting:
 
 Before them it measures the cluster's per-task overhead: trivial tasks
 through the path a campaign's batches take (submitted a window at a time,
-results as they complete), in wall time per task with both workers busy;
+results as they complete), in wall time per task with both workers busy
+and in CPU time per task of all the processes;
 and after them the result bytes per run (a row pickled, as it comes back
 from a worker; and as a line of ``runs.csv``).
 
-Prints missions per second for each campaign, the medians, and Dask's
-median as a share of the local pool's. ``--batch N [N ...]`` adds Dask
+Prints for each campaign its missions per second, as a whole (from the
+call to the last row) and *steady* (after the first tenth of the rows: the
+local pool's start-up left out), and the CPU seconds of every process
+taking part (this one with the client and scheduler, the workers, the
+nannies) per mission; then the medians, and Dask's as a share of the
+local pool's, with the ratio of each pair (a Dask campaign against the
+local one flown just before it: on a shared machine the pairs are what
+can be compared). ``--batch N [N ...]`` adds Dask
 campaigns in fixed batches of N missions (where the campaign API takes a
 batch size) to the round, beside the one whose batches the campaign
 chooses; from their times it fits the per-task overhead as the campaign

@@ -68,11 +68,12 @@ METRICS = {
     **{f"mode_end_{m}_s": f"end of Mode {m} [s]" for m in MODES[:-1]},
 }
 PERCENTILES = (5, 50, 95)
-#: [s] A Dask task's overhead: the wall time per trivial task with both workers of a
-#: ``LocalCluster`` of two single-threaded worker processes busy, tasks submitted a window
-#: at a time and taken as they complete, as a campaign's batches are (the 2-core
-#: development machine, client and scheduler on the same cores;
-#: ``benchmarks/dask_throughput.py``, docs/montecarlo.md).
+#: [s] A Dask task's overhead: the CPU time per trivial task of every process taking part
+#: (client, scheduler, nannies, workers) with both workers of a ``LocalCluster`` of two
+#: single-threaded worker processes busy, tasks submitted a window at a time and taken as
+#: they complete, as a campaign's batches are: 5.0-6.7 ms measured on the 2-core
+#: development machine (wall time per task 3.6-6.4 ms; ``benchmarks/dask_throughput.py``,
+#: docs/montecarlo.md).
 DASK_TASK_OVERHEAD_S = 0.005
 #: Most of a batch's time its task's overhead may take (:func:`batch_size`).
 BATCH_OVERHEAD_SHARE = 0.02
@@ -87,7 +88,7 @@ BATCH_MAX_S = 0.5
 BATCHES_PER_THREAD = 4
 #: Batches timed for the mission time (:class:`_Batches`: the median of the last ones).
 MISSION_TIMES_KEPT = 16
-#: Dask batches in flight per worker thread (one flying, the next ones waiting there).
+#: Dask batches in flight per worker thread (one flying, the others queued).
 IN_FLIGHT_PER_WORKER = 4
 #: [s] time allowed to reach a Dask scheduler
 DASK_CONNECT_TIMEOUT_S = 10.0

@@ -247,8 +247,8 @@ def test_lost_dask_cluster_is_one_line_and_resume_continues(monkeypatch, tmp_pat
         def salvage(self):
             return []
 
-    monkeypatch.setattr(montecarlo, "_dask_stream",
-                        lambda data, jobs, address: (Lost(), lambda interrupted=False: None))
+    monkeypatch.setattr(montecarlo, "_dask_stream", lambda data, jobs, address, batch=None: (
+        Lost(), lambda interrupted=False: None))
     out = tmp_path / "mc"
     code = cli.main(["montecarlo", "--runs", "3", "--scheduler", "tcp://127.0.0.1:1",
                      "--out", str(out), "--quiet"])

@@ -221,6 +221,14 @@ class ResultsFile:
 
     A new file gets the header; an existing one loses a last line torn by a
     crash, so that the next row starts on a line of its own.
+
+    Parameters
+    ----------
+    path : Path
+        The results file.
+    cols : list of str
+        The campaign's columns (:func:`allsky.studies.montecarlo.columns`),
+        the header of a new file and the order of each line's cells.
     """
 
     def __init__(self, path: Path, cols):
@@ -262,8 +270,32 @@ def open_campaign(cfg, runs, out: Path, resume: bool, on_note=None):
     """Create or reopen the campaign directory; return (runs, rows already recorded).
 
     Resuming checks the manifest (:func:`read_manifest`) and the results
-    (:func:`read_results`); ``on_note(text)`` hears of exact duplicate lines
-    left out.
+    (:func:`read_results`).
+
+    Parameters
+    ----------
+    cfg : Scenario
+        The campaign's scenario, with its dispersions.
+    runs : int or None
+        The number of runs (None when resuming: the manifest's; a larger
+        number extends the campaign).
+    out : Path
+        The campaign directory.
+    resume : bool
+        Continue the campaign there (else start one: the directory must not
+        hold one).
+    on_note : callable, optional
+        ``on_note(text)`` hears of exact duplicate lines left out.
+
+    Returns
+    -------
+    (int, list of dict)
+        The campaign's number of runs and the rows already recorded.
+
+    Raises
+    ------
+    CampaignError
+        A directory that holds another campaign, or a damaged record of one.
     """
     mpath = out / MANIFEST
     mine = manifest(cfg, runs or 0)
@@ -385,7 +417,7 @@ class _ProgressBar:
 
 
 def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=False,
-                 progress=False, on_note=None, on_progress=None) -> dict:
+                 progress=False, on_note=None, on_progress=None, batch=None) -> dict:
     """Fly a Monte Carlo campaign, recording each run in ``out`` as it finishes.
 
     Parameters
@@ -415,6 +447,10 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
         ``on_progress(done, total)`` in place of the ``progress`` bar (a
         notebook's, :func:`allsky.montecarlo`), as
         :func:`~allsky.studies.montecarlo.run_campaign` calls it.
+    batch : int, optional
+        With ``scheduler``: runs per Dask task (default: chosen by
+        :func:`allsky.studies.montecarlo.batch_size`). The rows, and so a
+        resumed campaign, do not depend on it.
 
     Returns
     -------
@@ -437,6 +473,7 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
         raise CampaignError("--resume needs --out DIR (the campaign to continue)")
     if scheduler is not None:
         montecarlo.check_scheduler(scheduler)
+    montecarlo.check_batch(batch, scheduler)
     if out is None and runs is None:
         raise CampaignError("--runs N is needed to start a campaign")
     made = _Made(out)  # before the lock makes the directory
@@ -456,7 +493,8 @@ def run_recorded(cfg, runs=None, workers=None, scheduler=None, out=None, resume=
 
         result = montecarlo.run_campaign(cfg, runs, workers=workers, scheduler=scheduler,
                                          done=done, on_row=None if results is None else on_row,
-                                         on_progress=on_progress if bar is None else bar)
+                                         on_progress=on_progress if bar is None else bar,
+                                         batch=batch)
         failed = False
         return result
     except KeyboardInterrupt:
@@ -543,10 +581,15 @@ class _DirectoryLock:
 def format_summary(s: dict, outcomes=False) -> str:
     """The summary (:func:`allsky.studies.montecarlo.summarize`) as a text table.
 
-    ``outcomes``: list the probability of each outcome (complete, or an abort's
-    symptom without the fault's onset time) in place of the abort reasons one
-    by one: a campaign whose scenario has faults, drawn or not, has a reason
-    per onset time.
+    Parameters
+    ----------
+    s : dict
+        The campaign's summary.
+    outcomes : bool
+        List the probability of each outcome (complete, or an abort's symptom
+        without the fault's onset time) in place of the abort reasons one by
+        one: a campaign whose scenario has faults, drawn or not, has a reason
+        per onset time.
     """
     seeds = ("" if s["base_seed"] is None else
              f", seeds {s['base_seed']}..{s['base_seed'] + s['runs'] - 1}")
@@ -592,6 +635,11 @@ def histogram_figure(rows):
     the commonest reasons, rather than six empty axes. With no rows at all
     (a campaign interrupted before its first run) there is nothing to draw:
     None.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The campaign's rows.
 
     Returns
     -------
@@ -663,6 +711,13 @@ def plot_histograms(rows, path):
     """Write :func:`histogram_figure` as PNG at ``path``; returns the path.
 
     Without rows nothing is written and None is returned.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The campaign's rows.
+    path : path-like
+        The PNG file, written atomically.
     """
     fig = histogram_figure(rows)
     if fig is None:
@@ -677,6 +732,18 @@ def run_from_cli(cfg, args) -> int:
     summary of those is written and the campaign ends with exit 130 (a second
     Ctrl-C while it tidies up is ignored). A lost Dask cluster: one line,
     exit 2, ``--resume`` continues.
+
+    Parameters
+    ----------
+    cfg : Scenario
+        The scenario, with its dispersions (``--disperse`` and ``--set`` applied).
+    args : argparse.Namespace
+        The command's options (``allsky montecarlo --help``).
+
+    Returns
+    -------
+    int
+        The exit code.
     """
     from allsky.apps.output import Interrupted, cap_workers, check_output
 
@@ -689,7 +756,8 @@ def run_from_cli(cfg, args) -> int:
             print(f"allsky: {note}", file=sys.stderr)
     try:
         result = run_recorded(cfg, runs=args.runs, workers=workers,
-                              scheduler=args.scheduler, out=args.out, resume=args.resume,
+                              scheduler=args.scheduler, batch=args.batch, out=args.out,
+                              resume=args.resume,
                               progress=not args.quiet and sys.stderr.isatty(),
                               on_note=lambda text: print(f"allsky: {text}", file=sys.stderr))
     except CampaignError as e:

@@ -17,7 +17,8 @@ Commands::
     allsky config check FILE [--set KEY=VALUE ...]
     allsky warm-up
     allsky montecarlo [SCENARIO] --runs N [--disperse SPEC] [--workers N | --scheduler ADDRESS]
-                      [--out DIR] [--resume] [--set KEY=VALUE ...] [--json PATH] [--quiet]
+                      [--batch N] [--out DIR] [--resume] [--set KEY=VALUE ...] [--json PATH]
+                      [--quiet]
 
 Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
 2 a usage, input or output error, or a lost Dask cluster, reported as one
@@ -336,6 +337,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="local worker processes (default: one per core; 1: in this process)")
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="fly on an existing Dask distributed cluster (tcp://HOST:PORT)")
+    mc.add_argument("--batch", type=_positive_int, metavar="N",
+                    help="with --scheduler: runs per Dask task (default: chosen from the task "
+                         "overhead and the mission time measured, docs/montecarlo.md)")
     mc.add_argument("--out", metavar="DIR",
                     help="campaign directory: campaign.json, runs.csv (one row per run, saved "
                          "as it finishes), summary.txt/.json, histograms.png")

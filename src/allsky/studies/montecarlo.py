@@ -25,6 +25,8 @@ import logging
 import math
 import os
 import signal
+import statistics
+import time
 from collections import Counter
 
 import numpy as np
@@ -66,8 +68,27 @@ METRICS = {
     **{f"mode_end_{m}_s": f"end of Mode {m} [s]" for m in MODES[:-1]},
 }
 PERCENTILES = (5, 50, 95)
-#: Dask chunks: runs per task at most, and tasks in flight per worker thread.
-DASK_CHUNK_MAX = 8
+#: [s] A Dask task's overhead: the CPU time per trivial task of every process taking part
+#: (client, scheduler, nannies, workers) with both workers of a ``LocalCluster`` of two
+#: single-threaded worker processes busy, tasks submitted a window at a time and taken as
+#: they complete, as a campaign's batches are: 5.0-6.7 ms measured on the 2-core
+#: development machine (wall time per task 3.6-6.4 ms; ``benchmarks/dask_throughput.py``,
+#: docs/montecarlo.md).
+DASK_TASK_OVERHEAD_S = 0.005
+#: Most of a batch's time its task's overhead may take (:func:`batch_size`).
+BATCH_OVERHEAD_SHARE = 0.02
+#: Most of the time the client and scheduler, which handle the tasks one after another,
+#: may spend on them (:func:`batch_size`: the rule that binds on clusters of many threads).
+SCHEDULER_SHARE = 0.5
+#: [s] Longest a batch is meant to fly: its rows, and the progress, come back at least
+#: this often from each worker thread.
+BATCH_MAX_S = 0.5
+#: Batches per worker thread at least, out of the runs left, so that the last ones end
+#: together (at the end of a campaign the batches shrink).
+BATCHES_PER_THREAD = 4
+#: Batches timed for the mission time (:class:`_Batches`: the median of the last ones).
+MISSION_TIMES_KEPT = 16
+#: Dask batches in flight per worker thread (one flying, the others queued).
 IN_FLIGHT_PER_WORKER = 4
 #: [s] time allowed to reach a Dask scheduler
 DASK_CONNECT_TIMEOUT_S = 10.0
@@ -86,16 +107,43 @@ class ClusterLost(CampaignError):
 # ---------------------------------------------------------------------------
 
 def columns(cfg) -> list:
-    """The row's columns for this scenario (its dispersions decide the input columns)."""
+    """The row's columns for this scenario (its dispersions decide the input columns).
+
+    Parameters
+    ----------
+    cfg : Scenario
+        The campaign's scenario, with its ``[dispersions]``.
+
+    Returns
+    -------
+    list of str
+        :data:`ID_COLUMNS`, the drawn inputs' columns, :data:`RESULT_COLUMNS`.
+    """
     return [*ID_COLUMNS, *dispersions.input_columns(cfg), *RESULT_COLUMNS]
 
 
 def row_from_summary(run: int, seed: int, inputs: dict, summary: dict) -> dict:
     """A campaign row from a mission summary (:meth:`Mission.summary`).
 
-    ``inputs`` are the drawn values as flat columns
-    (:func:`allsky.config.dispersions.flat_inputs`). Values a mission did not reach
-    (modes not flown, no calibration, no final pointing) are None.
+    Values a mission did not reach (modes not flown, no calibration, no final
+    pointing) are None.
+
+    Parameters
+    ----------
+    run : int
+        The run's index in the campaign.
+    seed : int
+        Its mission seed.
+    inputs : dict
+        The drawn values as flat columns
+        (:func:`allsky.config.dispersions.flat_inputs`).
+    summary : dict
+        The mission's summary.
+
+    Returns
+    -------
+    dict
+        The row, by column (:func:`columns`).
     """
     row = {"run": int(run), "seed": int(seed), "status": summary["status"],
            "abort_reason": summary["abort_reason"], **inputs}
@@ -121,6 +169,20 @@ def fly_one(cfg, run: int, seed: int) -> dict:
     A draw that breaks a scenario rule (or that cannot be drawn) gives status
     ``"invalid"``, an unexpected failure status ``"error"``, each with its
     reason; neither stops the campaign.
+
+    Parameters
+    ----------
+    cfg : Scenario
+        The campaign's scenario, with its ``[dispersions]``.
+    run : int
+        The run's index in the campaign.
+    seed : int
+        Its mission seed (the dispersions are drawn for it).
+
+    Returns
+    -------
+    dict
+        The row (:func:`row_from_summary`).
     """
     from allsky.sim.mission import run_mission
 
@@ -154,14 +216,46 @@ _WORKER = {}
 def fly_runs(data: dict, jobs) -> list:
     """Worker entry point: rows of ``jobs`` ((run, seed) pairs) on scenario ``data``.
 
-    ``data`` is :meth:`Scenario.as_dict` output; the scenario is validated once
-    per process and kept while the same data comes back.
+    Parameters
+    ----------
+    data : dict
+        :meth:`Scenario.as_dict` output; the scenario is validated once per
+        process and kept while the same data comes back.
+    jobs : iterable of (int, int)
+        The runs and their mission seeds, flown in this order.
+
+    Returns
+    -------
+    list of dict
+        One row per job (:func:`fly_one`), in the order of ``jobs``.
+    """
+    return fly_batch(data, jobs)[0]
+
+
+def fly_batch(data: dict, jobs) -> tuple:
+    """Worker entry point of a Dask batch: its rows, and the time its missions took.
+
+    Parameters
+    ----------
+    data : dict
+        :meth:`Scenario.as_dict` output (see :func:`fly_runs`).
+    jobs : list of (int, int)
+        The batch's runs and their mission seeds, flown in this order.
+
+    Returns
+    -------
+    (list of dict, float)
+        The rows, in the order of ``jobs``, and the seconds spent flying them
+        (the scenario's validation and the compiled loop's loading left out),
+        from which the campaign sizes its next batches (:func:`batch_size`).
     """
     key = json.dumps(data, sort_keys=True)
     if _WORKER.get("key") != key:
         _WORKER.update(key=key, cfg=scenario_from_dict(data))
         _compile_once_per_machine()
-    return [fly_one(_WORKER["cfg"], run, seed) for run, seed in jobs]
+    t0 = time.perf_counter()
+    rows = [fly_one(_WORKER["cfg"], run, seed) for run, seed in jobs]
+    return rows, time.perf_counter() - t0
 
 
 def _compile_once_per_machine():
@@ -184,6 +278,14 @@ def stop_pool(pool, interrupted):
 
     The jobs under way were waited for already (:meth:`WorkerPool.finish`);
     what is left is idle workers, or jobs a second Ctrl-C gave up on.
+
+    Parameters
+    ----------
+    pool : WorkerPool
+        The pool to end.
+    interrupted : bool
+        Whether the campaign was interrupted (or ends with runs not flown):
+        the workers are then terminated rather than asked to stop.
     """
     pool.close(at_once=interrupted)
 
@@ -294,7 +396,18 @@ def ordered_rows(fly, jobs, workers, on_progress=None, fly_here=None, total=None
 
 
 def died_row_maker(cfg):
-    """``died(job, reason)`` for :func:`ordered_rows` over runs of ``cfg``."""
+    """``died(job, reason)`` for :func:`ordered_rows` over runs of ``cfg``.
+
+    Parameters
+    ----------
+    cfg : Scenario
+        The campaign's scenario (the row's drawn inputs are drawn again).
+
+    Returns
+    -------
+    callable
+        ``died((run, seed), reason)`` -> a row of status ``worker_died``.
+    """
     def died(job, reason):
         run, seed = job
         try:
@@ -315,55 +428,142 @@ def _fly_local(job):
 # Executors: runs in flight, results as they come
 # ---------------------------------------------------------------------------
 
-class _InFlight:
-    """Chunks of runs submitted to an executor, at most ``window`` at a time.
+def batch_size(mission_s, threads: int, left: int, overhead_s=DASK_TASK_OVERHEAD_S) -> int:
+    """Runs per Dask task: overhead a small share, rows still flowing, workers even.
 
-    Iterating yields each finished chunk's rows; :meth:`salvage` (after an
+    * the overhead rule: a task's overhead ``overhead_s`` at most
+      :data:`BATCH_OVERHEAD_SHARE` of its batch's time, ``ceil(overhead_s /
+      (share * mission_s))`` runs;
+    * the progress rule caps it: a batch flies at most :data:`BATCH_MAX_S`, so
+      that rows (and progress) come back at least that often from each worker
+      thread;
+    * the scheduler rule: the client and scheduler handle the tasks one after
+      another, ``overhead_s`` each; with ``threads`` worker threads a batch has
+      at least ``threads * overhead_s / (SCHEDULER_SHARE * mission_s)`` runs,
+      so that they are busy at most :data:`SCHEDULER_SHARE` of the time (on
+      more than about 25 threads this rule, not the progress rule, binds: rows
+      still arrive often, from many threads);
+    * the balance rule caps all: at least :data:`BATCHES_PER_THREAD` batches
+      per worker thread out of the ``left`` runs, so that the last batches end
+      together.
+
+    Parameters
+    ----------
+    mission_s : float or None
+        [s] Time of one mission on a worker thread; None (not yet measured)
+        gives batches of one run, which are measured.
+    threads : int
+        Worker threads of the cluster.
+    left : int
+        Runs not yet handed out.
+    overhead_s : float
+        [s] Overhead of one task (:data:`DASK_TASK_OVERHEAD_S`).
+
+    Returns
+    -------
+    int
+        The number of runs in the next batch (the rows do not depend on it).
+    """
+    if mission_s is None or not mission_s > 0:
+        return 1
+    threads = max(int(threads), 1)
+    by_overhead = math.ceil(overhead_s / (BATCH_OVERHEAD_SHARE * mission_s))
+    by_progress = math.floor(BATCH_MAX_S / mission_s)
+    by_scheduler = math.ceil(threads * overhead_s / (SCHEDULER_SHARE * mission_s))
+    by_balance = math.ceil(max(left, 1) / (BATCHES_PER_THREAD * threads))
+    return max(1, min(max(min(by_overhead, by_progress), by_scheduler), by_balance))
+
+
+class _Batches:
+    """Batches of runs on an executor, a window at a time; each batch's rows as it ends.
+
+    ``submit(jobs)`` starts a batch (a future of :func:`fly_batch`'s result);
+    ``wait_first(futures)`` returns the ones that have finished. Each batch's
+    size is :func:`batch_size` of the mission time measured so far (the
+    median of the last :data:`MISSION_TIMES_KEPT` batches), or ``batch`` when
+    given. Rows come out in the order of each batch; the batches in the order
+    they finish.
+
+    A batch whose workers died (Dask's ``KilledWorker``: the cluster flew it on
+    several workers and each died) is flown again one run a task, so that the
+    other runs of the batch are saved; a single run whose workers died becomes
+    the row ``died(job, reason)`` (status ``worker_died``), as on local
+    workers. Without ``died`` the error is raised. :meth:`salvage` (after an
     interruption) cancels what has not started and returns the rows of the
-    chunks that finished but were not yet yielded.
+    batches that finished but were not yet yielded.
     """
 
-    def __init__(self, submit, wait_first, chunks, window):
-        self.submit, self.wait_first = submit, wait_first
-        self.chunks, self.window = iter(chunks), window
-        self.pending = set()
+    def __init__(self, submit, wait_first, jobs, threads, batch=None, died=None):
+        self.submit, self.wait_first, self.died = submit, wait_first, died
+        self.jobs, self.left = iter(jobs), len(jobs)
+        self.threads, self.batch = max(1, int(threads)), batch
+        self.window = IN_FLIGHT_PER_WORKER * self.threads
+        self.pending = {}  # future -> its jobs
+        self.again = []  # runs of a batch whose workers died, flown one a task
+        self.mission_times = []  # [s] per mission, of the last batches
+        self.sizes = []  #: the size of each batch handed out, in order
+
+    def mission_s(self):
+        """[s] The mission time measured so far (None before the first batch ends)."""
+        return statistics.median(self.mission_times) if self.mission_times else None
+
+    def _next_batch(self):
+        if self.again:
+            return [self.again.pop(0)]
+        size = self.batch or batch_size(self.mission_s(), self.threads, self.left)
+        chunk = list(itertools.islice(self.jobs, size))
+        self.left -= len(chunk)
+        return chunk
 
     def _fill(self):
         while len(self.pending) < self.window:
-            chunk = next(self.chunks, None)
-            if chunk is None:
+            chunk = self._next_batch()
+            if not chunk:
                 return
-            self.pending.add(self.submit(chunk))
+            self.sizes.append(len(chunk))
+            self.pending[self.submit(chunk)] = chunk
+
+    def _rows(self, f, chunk):
+        try:
+            rows, seconds = f.result()
+        except Exception as e:
+            if self.died is None or type(e).__name__ != "KilledWorker":
+                raise
+            if len(chunk) > 1:
+                self.again += chunk
+                return []
+            tries = getattr(e, "allowed_failures", None)
+            times = f"{tries + 1} times" if isinstance(tries, int) else "each time"
+            return [self.died(chunk[0], f"its Dask workers died {times} flying it "
+                                        "(KilledWorker)")]
+        if rows:
+            self.mission_times = [*self.mission_times, seconds / len(rows)][
+                -MISSION_TIMES_KEPT:]
+        return rows
 
     def __iter__(self):
         self._fill()
         while self.pending:
-            done = self.wait_first(self.pending)
-            for f in done:
-                rows = f.result()
-                self.pending.discard(f)
-                yield rows
-            self._fill()
+            for f in self.wait_first(set(self.pending)):
+                chunk = self.pending.pop(f)
+                rows = self._rows(f, chunk)
+                self._fill()  # the next batch is on its way before these are recorded
+                if rows:
+                    yield rows
 
     def salvage(self) -> list:
+        """After a Ctrl-C: cancel the batches not finished; the rows of those that did."""
         for f in self.pending:
             f.cancel()
         rows = []
-        for f in self.pending:
+        for f, chunk in self.pending.items():
             if f.done() and not f.cancelled():
                 try:
-                    rows += f.result()
-                except Exception:  # noqa: BLE001, S112 - a failed chunk has nothing to save
+                    rows += self._rows(f, chunk)
+                except Exception:  # noqa: BLE001, S112 - a failed batch has nothing to save
                     continue
-        self.pending = set()
+        self.pending, self.again = {}, []
         return rows
-
-
-def _chunks(jobs, size):
-    """Lists of up to ``size`` jobs, drawn from the iterator ``jobs`` as needed."""
-    jobs = iter(jobs)
-    while chunk := list(itertools.islice(jobs, size)):
-        yield chunk
 
 
 class _LocalStream:
@@ -407,8 +607,12 @@ def _local_stream(data, jobs, workers):
     return stream, lambda interrupted=False: stop_pool(stream.pool, interrupted)
 
 
-def _dask_stream(data, jobs, address):
-    """Rows on the Dask distributed cluster whose scheduler is at ``address``."""
+def _dask_stream(data, jobs, address, batch=None):
+    """Rows on the Dask distributed cluster whose scheduler is at ``address``.
+
+    Runs go in batches (:class:`_Batches`) of ``batch`` runs, or of the size
+    :func:`batch_size` chooses from the mission time measured as they fly.
+    """
     try:
         from distributed import Client
         from distributed import wait as dask_wait
@@ -426,7 +630,6 @@ def _dask_stream(data, jobs, address):
         quiet()
         raise
     threads = max(1, sum(client.nthreads().values()))
-    size = max(1, min(DASK_CHUNK_MAX, math.ceil(len(jobs) / (16 * threads))))
     # Scatter the scenario as the single element of a list: a dict would be taken
     # as {key: value} and each section would become a cluster-global key
     # ("control", "gyro", ...) that another campaign on the same cluster could
@@ -434,12 +637,13 @@ def _dask_stream(data, jobs, address):
     [data_future] = client.scatter([data], broadcast=True, hash=False)
 
     def submit(chunk):
-        return client.submit(fly_runs, data_future, chunk, pure=False)
+        return client.submit(fly_batch, data_future, chunk, pure=False)
 
     def wait_first(fs):
         return dask_wait(list(fs), return_when="FIRST_COMPLETED").done
 
-    stream = _InFlight(submit, wait_first, _chunks(jobs, size), IN_FLIGHT_PER_WORKER * threads)
+    stream = _Batches(submit, wait_first, jobs, threads, batch=batch,
+                      died=died_row_maker(scenario_from_dict(data)))
 
     def close(interrupted=False):
         try:
@@ -499,6 +703,13 @@ def _cluster_lost(e) -> bool:
 def check_seeds(cfg, runs: int):
     """Refuse more than :data:`RUNS_MAX` runs, or seeds past the largest.
 
+    Parameters
+    ----------
+    cfg : Scenario
+        The scenario; its ``mission.seed`` is the first run's seed.
+    runs : int
+        The number of runs asked for.
+
     Raises
     ------
     CampaignError
@@ -513,10 +724,46 @@ def check_seeds(cfg, runs: int):
 
 
 def check_scheduler(address: str):
-    """Refuse an empty Dask scheduler address (Dask would start a cluster of its own)."""
+    """Refuse an empty Dask scheduler address (Dask would start a cluster of its own).
+
+    Parameters
+    ----------
+    address : str
+        The ``--scheduler`` given.
+
+    Raises
+    ------
+    CampaignError
+        An empty or blank address.
+    """
     if not str(address).strip():
         raise CampaignError("--scheduler: an empty address; give the scheduler's, "
                             "tcp://HOST:PORT, or leave --scheduler out to fly on this machine")
+
+
+def check_batch(batch, scheduler):
+    """Refuse a batch size below 1 or not whole, or one without a Dask scheduler.
+
+    Parameters
+    ----------
+    batch : int or None
+        Runs per Dask task asked for (None: chosen by :func:`batch_size`).
+    scheduler : str or None
+        The Dask scheduler's address; local workers fly one run at a time, so
+        that the parent knows which run a dead worker took with it.
+
+    Raises
+    ------
+    CampaignError
+        Naming ``--batch``.
+    """
+    if batch is None:
+        return
+    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
+        raise CampaignError(f"--batch {batch!r}: a batch is a whole number of runs, 1 or more")
+    if scheduler is None:
+        raise CampaignError("--batch: batches are for a Dask cluster (--scheduler); local "
+                            "workers fly one run at a time")
 
 
 class Jobs:
@@ -526,6 +773,15 @@ class Jobs:
     the runs in ``finished``. Nothing is held per run, so a campaign of
     :data:`RUNS_MAX` runs starts as quickly, and in as little memory, as one
     of ten.
+
+    Parameters
+    ----------
+    runs : int
+        The campaign's number of runs (indices ``0 .. runs - 1``).
+    base : int
+        The first run's mission seed; run i flies seed ``base + i``.
+    finished : set of int, optional
+        The runs already flown (a campaign resumed), left out.
     """
 
     def __init__(self, runs: int, base: int, finished=frozenset()):
@@ -539,7 +795,7 @@ class Jobs:
 
 
 def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=None,
-                 on_progress=None) -> dict:
+                 on_progress=None, batch=None) -> dict:
     """Fly a Monte Carlo campaign; return its rows and summary.
 
     Parameters
@@ -564,6 +820,10 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
     on_progress : callable, optional
         ``on_progress(done, total)``: once before the first run with the runs
         of ``done``, then after each finished run.
+    batch : int, optional
+        With ``scheduler``: runs per Dask task (default: :func:`batch_size`
+        chooses from the measured task overhead and mission time). The rows
+        do not depend on it.
 
     Returns
     -------
@@ -584,6 +844,7 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
     check_seeds(cfg, runs)
     if scheduler is not None:
         check_scheduler(scheduler)
+    check_batch(batch, scheduler)
     base = int(cfg.mission.seed)
     rows = list(done)
     finished = {r["run"] for r in rows}
@@ -591,7 +852,7 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
     data = cfg.as_dict()
     flown, interrupted = [], False
     workers = max(1, min(workers or os.cpu_count() or 1, len(jobs) or 1))
-    stream, close = (_dask_stream(data, jobs, scheduler) if scheduler else
+    stream, close = (_dask_stream(data, jobs, scheduler, batch=batch) if scheduler else
                      _local_stream(data, jobs, workers))
 
     def record(new_rows):
@@ -602,10 +863,28 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
             if on_progress is not None:
                 on_progress(len(finished) + len(flown), runs)
 
+    def arriving():
+        # The stream's errors only are the cluster's: one raised by on_row (a results file
+        # that cannot be written) goes on as it is.
+        chunks = iter(stream)
+        while True:
+            try:
+                chunk_rows = next(chunks)
+            except StopIteration:
+                return
+            except Exception as e:
+                if scheduler is None or isinstance(e, CampaignError) or not _cluster_lost(e):
+                    raise
+                first = (str(e).strip().splitlines() or [""])[0].rstrip(":")
+                why = f"{type(e).__name__}{': ' + first[:120] if first else ''}"
+                raise ClusterLost(f"lost the Dask cluster at {scheduler} ({why}) after "
+                                  f"{len(flown)} runs of this session") from None
+            yield chunk_rows
+
     try:
         if on_progress is not None:
             on_progress(len(finished), runs)
-        for chunk_rows in stream:
+        for chunk_rows in arriving():
             record(chunk_rows)
     except KeyboardInterrupt:
         interrupted = True
@@ -614,13 +893,6 @@ def run_campaign(cfg, runs: int, workers=None, scheduler=None, done=(), on_row=N
             record(salvaged)
     except PoolError as e:
         raise CampaignError(f"the local worker processes cannot fly: {e}") from None
-    except Exception as e:
-        if scheduler is None or isinstance(e, CampaignError) or not _cluster_lost(e):
-            raise
-        first = (str(e).strip().splitlines() or [""])[0].rstrip(":")
-        why = f"{type(e).__name__}{': ' + first[:120] if first else ''}"
-        raise ClusterLost(f"lost the Dask cluster at {scheduler} ({why}) after {len(flown)} "
-                          "runs of this session") from None
     finally:
         if close is not None:
             with interrupts_held():
@@ -644,8 +916,27 @@ def _stats(values) -> dict:
 
 
 def summarize(rows, runs=None, base_seed=None) -> dict:
-    """Campaign statistics: counts by status, abort reasons, and per metric
-    (:data:`METRICS`, over the complete missions) mean, std, percentiles 5/50/95."""
+    """Campaign statistics: counts by status, abort reasons, statistics of each metric.
+
+    Per metric (:data:`METRICS`, over the complete missions): mean, std,
+    percentiles 5/50/95, min and max.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The campaign's rows.
+    runs : int, optional
+        The campaign's number of runs (default: the number of rows).
+    base_seed : int, optional
+        The first run's mission seed, for the table's heading.
+
+    Returns
+    -------
+    dict
+        ``runs``, ``recorded``, ``base_seed``, the count of each status,
+        ``abort_reasons``, ``outcomes`` (:func:`outcome_probabilities`) and
+        ``metrics``.
+    """
     status = Counter(r["status"] for r in rows)
     complete = [r for r in rows if r["status"] == "complete"]
     reasons = Counter(r["abort_reason"] for r in rows if r["status"] != "complete")
@@ -668,6 +959,16 @@ def outcome_probabilities(rows) -> dict:
     The symptom is the abort reason without the fault and its onset time
     (:func:`allsky.sim.faults.symptom`), so that runs whose faults started at
     drawn times fall in one outcome.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The campaign's rows.
+
+    Returns
+    -------
+    dict
+        ``{outcome: {"runs": n, "probability": p}}``, commonest first.
     """
     n = len(rows) or 1
     counts = Counter("complete" if r["status"] == "complete"

@@ -299,6 +299,12 @@ class WorkerPool:
 
         ``result`` is a :class:`Died` for a job whose worker died twice. An
         exception raised by ``fn`` is raised here.
+
+        Parameters
+        ----------
+        jobs : iterable of (key, job)
+            Drawn one at a time, as a worker comes free; ``key`` names the
+            job in the results (each key once), ``job`` is ``fn``'s argument.
         """
         self._jobs = iter(jobs)
         while len(self._idle) + len(self._busy) < self._size:

@@ -27,6 +27,7 @@ from allsky.config import ConfigError, load_scenario
 from allsky.sim import frame_loop, mission, recorder
 from allsky.studies import compare as compare_study
 from allsky.studies import montecarlo as mc_study
+from allsky.studies.montecarlo import CampaignError
 
 SCENARIO = {"target.star": "Vega", "mission.seed": 7}
 
@@ -369,6 +370,9 @@ def test_montecarlo_arguments_are_checked(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match="not a directory"):
         allsky.montecarlo(runs=2, out=tmp_path / "file" / "mc")
+    # batch means what --batch means: runs per Dask task, nothing without a scheduler
+    with pytest.raises(CampaignError, match="batches are for a Dask cluster"):
+        allsky.montecarlo(runs=2, batch=3)
 
 
 def test_montecarlo_interrupted_keeps_the_runs_finished(monkeypatch):

@@ -833,7 +833,7 @@ def montecarlo(runs: int, scenario: str | os.PathLike | Scenario | Mapping | Non
                scheduler: str | None = None, *, set: Mapping | None = None,
                disperse: str | os.PathLike | None = None, workers: int | None = None,
                out: str | os.PathLike | None = None, resume: bool = False,
-               progress: bool | None = None) -> pandas.DataFrame:
+               progress: bool | None = None, batch: int | None = None) -> pandas.DataFrame:
     """Fly a Monte Carlo campaign, as ``allsky montecarlo``; its rows as a DataFrame.
 
     Run i flies ``mission.seed + i`` with the scenario's ``[dispersions]``
@@ -866,6 +866,11 @@ def montecarlo(runs: int, scenario: str | os.PathLike | Scenario | Mapping | Non
     progress : bool, optional
         Show a progress bar (None: in Jupyter with ipywidgets, or on a
         terminal).
+    batch : int, optional
+        With ``scheduler``: runs per Dask task, as ``--batch`` (None: chosen
+        from the task overhead and the missions' time,
+        :func:`allsky.studies.montecarlo.batch_size`). The rows do not
+        depend on it.
 
     Returns
     -------
@@ -911,7 +916,7 @@ def montecarlo(runs: int, scenario: str | os.PathLike | Scenario | Mapping | Non
 
     try:
         result = campaign.run_recorded(cfg, runs=runs, workers=workers, scheduler=scheduler,
-                                       out=out, resume=resume,
+                                       out=out, resume=resume, batch=batch,
                                        on_progress=None if bar_class is None else on_progress,
                                        on_note=lambda text: warnings.warn(text, stacklevel=4))
     finally:

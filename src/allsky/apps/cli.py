@@ -609,7 +609,7 @@ def _runs(text):
     v = _positive_int(text)
     if v > RUNS_MAX:
         raise argparse.ArgumentTypeError(f"{v} is more than {RUNS_MAX} runs (a campaign keeps "
-                                         "each finished run's row in memory, about 2 kB)")
+                                         "each finished run's row in memory, about 3 kB)")
     return v
 
 

@@ -15,6 +15,7 @@ import itertools
 import numpy as np
 import pytest
 
+from allsky.config.scenario import load_scenario
 from allsky.hardware.control_amp import ControlParams
 from allsky.hardware.switch_bank import new_bank, operate
 from allsky.hardware.updown_counter import WRAP
@@ -23,6 +24,7 @@ from allsky.hardware.wiring import N_POSITION_SOURCES, ROUTING
 from allsky.sequencer.dither import DitherParams
 from allsky.sequencer.legs import PROGRAM_MODE1, PROGRAM_NONE
 from allsky.sim import frame_loop
+from allsky.sim.mission import Mission
 from allsky.sim.state import ElectronicsParams
 
 LSB_ARCSEC = 0.25  # register / DAC 28-30 step (scenario default)
@@ -221,3 +223,47 @@ def test_s18_holds_the_roll_integral_at_zero():
 
 def test_the_mode_1_controller_holds_every_integral():
     assert control_integral((), program=PROGRAM_MODE1).tolist() == [0.0, 0.0, 0.0]
+
+
+# -- the loop is compiled with its arrays declared not to alias (jit.njit_noalias) ----------
+
+def _array_leaves(value, path="", out=None):
+    """``(path, array)`` of every array in ``value``, through nested (named) tuples."""
+    out = [] if out is None else out
+    if isinstance(value, np.ndarray):
+        out.append((path, value))
+    elif isinstance(value, tuple):
+        for name, v in zip(getattr(value, "_fields", None) or range(len(value)), value):
+            _array_leaves(v, f"{path}.{name}", out)
+    return out
+
+
+@pytest.mark.parametrize("case", ["jets", "wheels", "fault", "dither"])
+def test_no_array_the_loop_writes_shares_memory_with_another(monkeypatch, case):
+    # njit_noalias promises LLVM that no two array arguments overlap; the promise holds
+    # only if the mission never hands the loop an array that it writes (state, leg,
+    # buffers) beside another view of the same memory.
+    from allsky.config import scenario_from_dict
+    from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN
+
+    data = load_scenario("stuck-jet-roll-calibration" if case == "fault" else None).as_dict()
+    if case == "wheels":
+        data["actuators"]["kind"] = "wheels"
+    overlaps, legs = set(), [0]
+    original = frame_loop.run_leg
+
+    def checked(*args):
+        legs[0] += 1
+        arrays = _array_leaves(args)
+        written = {id(a) for _, a in _array_leaves(args[1:])}
+        for i, (path_a, a) in enumerate(arrays):
+            for path_b, b in arrays[i + 1:]:
+                if (id(a) in written or id(b) in written) and a.size and b.size \
+                        and np.shares_memory(a, b):
+                    overlaps.add((path_a, path_b))
+        return original(*args)
+
+    monkeypatch.setattr(frame_loop, "run_leg", checked)
+    Mission(scenario_from_dict(data), plan=DITHER_PLAN if case == "dither" else LEGACY_PLAN
+            ).run()
+    assert legs[0] > 5 and not overlaps, sorted(overlaps)

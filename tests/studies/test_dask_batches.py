@@ -262,6 +262,9 @@ def _kill_on(run, mark):
     montecarlo.fly_one = fly_one
 
 
+# The module's cluster holds the scheduler's HTTP port (8787, on loopback: Dask serves its
+# health routes there even without a dashboard); this cluster's scheduler takes another.
+@pytest.mark.filterwarnings("ignore:Port 8787 is already in use")
 def test_a_worker_killed_mid_batch_loses_no_row(cfg, reference, tmp_path):
     """Run 5 of the batch 4..7 kills its worker once: the cluster flies the batch again.
 

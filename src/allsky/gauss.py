@@ -97,27 +97,13 @@ def standard_normal(rng):
 
 @njit
 def _standard_normal_rest(rng, b):
-    """:func:`standard_normal` from a first try ``b`` (53 bits) that its layer did not accept."""
-    i = b & 127
-    negative = (b >> 7) & 1
-    x = (b >> 8) * TWO_M45 * X[i]
-    if i == 0:  # the tail beyond R
-        while True:
-            t = -math.log(1.0 - uniform(rng)) / R
-            y = -math.log(1.0 - uniform(rng))
-            if y + y > t * t:
-                x = R + t
-                return -x if negative else x
-    elif F[i] + uniform(rng) * (F[i + 1] - F[i]) < math.exp(-0.5 * x * x):
-        return -x if negative else x
-    return _standard_normal_tries(rng)
+    """:func:`standard_normal` from a first try ``b`` (53 bits) that its layer did not accept.
 
-
-@njit
-def _standard_normal_tries(rng):
-    """The whole ziggurat: tries until one is accepted (after a first try was rejected)."""
+    The ziggurat's tries from there: ``b``'s wedge or tail test, then new
+    tries until one is accepted (``b``'s layer test, made again, fails again).
+    """
+    b = np.int64(b)  # one integer type for the first try and the new ones (53 bits)
     while True:
-        b = bits53(rng)
         i = b & 127
         negative = (b >> 7) & 1
         x = (b >> 8) * TWO_M45 * X[i]
@@ -132,6 +118,7 @@ def _standard_normal_tries(rng):
                     return -x if negative else x
         elif F[i] + uniform(rng) * (F[i + 1] - F[i]) < math.exp(-0.5 * x * x):
             return -x if negative else x
+        b = np.int64(bits53(rng))
 
 
 def new_generator(value=1) -> np.ndarray:

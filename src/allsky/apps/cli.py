@@ -917,12 +917,9 @@ def _exit_now(code):
     die by SIGINT after saying it exited 130. Every file is closed by now and
     the workers are ended; only the console's buffers remain to flush.
     """
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            if stream is not None:
-                stream.flush()
-        except (OSError, ValueError):
-            pass
+    from allsky.apps.output import flush_console
+
+    flush_console()
     os._exit(code)
 
 

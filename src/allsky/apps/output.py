@@ -123,14 +123,19 @@ def torn_writes() -> list:
     return list(_torn)
 
 
+def flush_console():
+    """Flush ``sys.stdout`` and ``sys.stderr``; a closed or missing stream is passed over."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):
+            pass
+
+
 def _write_fd(fd: int, data: bytes):
     if fd in (1, 2):  # what this process printed goes first
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                if stream is not None:
-                    stream.flush()
-            except (OSError, ValueError):
-                pass
+        flush_console()
     view = memoryview(data)
     while view:
         view = view[os.write(fd, view):]

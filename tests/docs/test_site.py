@@ -10,7 +10,6 @@ tutorial in Debian's chromium and drives the replay inline in it.
 import json
 import os
 import re
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -23,6 +22,8 @@ sys.path.insert(0, str(DOCS / "_ext"))
 
 import api_reference
 import site_links
+
+from tests.apps.test_replay_browser import new_driver
 
 #: The build command: README, .ci/run and docs/conf.py say the same.
 BUILD = "sphinx-build -W -n -b html docs docs/_build/html"
@@ -129,32 +130,15 @@ def test_the_built_site_has_every_page_tutorial_and_replay():
     assert site_links.broken_links(site) == []
 
 
-INSTALL = "apt-get update && apt-get install -y chromium chromium-driver"
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-#: Chromium flags: headless, and nothing of its own that reaches the network.
-BROWSER_FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu",
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync", "--disable-quic")
 #: [s] bounds, not expectations: the page is ready in about a second.
 LOAD_TIMEOUT_S, READY_TIMEOUT_S = 180, 120
 
 
 def test_the_first_tutorial_plays_its_replay_inline_offline(saved_states):
     site = _site()
-    webdriver = pytest.importorskip("selenium.webdriver", reason=f"pip install selenium; "
-                                    f"browser: {INSTALL}")
-    from selenium.webdriver.chrome.service import Service
+    driver = new_driver()  # skips, naming the install command, without selenium or chromium
     from selenium.webdriver.common.by import By
 
-    if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
-        pytest.skip(f"chromium/chromedriver not installed; install with: {INSTALL}")
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for flag in BROWSER_FLAGS:
-        opts.add_argument(flag)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL", "performance": "ALL"})
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
     try:
         driver.set_page_load_timeout(LOAD_TIMEOUT_S)
         driver.get((site / "tutorials" / "first_mission.html").as_uri())

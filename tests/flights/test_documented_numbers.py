@@ -20,6 +20,7 @@ from allsky.config import load_scenario
 from allsky.sim.mission import Mission, reference_star_inertial
 from allsky.units import RAD2ARCSEC
 from allsky.vehicle import sky
+from tests.sky_geometry import sun_azimuth_deg
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 
@@ -144,13 +145,8 @@ def test_faults_a_wrong_star_taken_in_mode_5_corrupts_yaw_into_roll():
     s = m.run()
     date = cfg.mission.date_utc
     sun = sky.sun_direction_inertial(date)
-
-    def across(v):
-        w = v - (v @ sun) * sun
-        return w / np.linalg.norm(w)
-    a = across(sky.star_direction_inertial("Canopus", date))
-    b = across(sky.star_direction_inertial("Avior", date))
-    dphi = math.degrees(math.atan2(np.cross(a, b) @ sun, a @ b))
+    dphi = sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", date),
+                           sky.star_direction_inertial("Canopus", date))
     predicted = dphi * (1 + cfg.gyro.scale_factor_error_ppm[0] * 1e-6) / 360.0 * RAD2ARCSEC
     stored = s["calibration"]["cross_coupling"]["yaw_into_roll"] * RAD2ARCSEC
     truth = s["truth"]["cross_coupling"]["yaw_into_roll"] * RAD2ARCSEC
@@ -167,13 +163,8 @@ def test_faults_a_wrong_star_added_in_mode_3_ends_the_roll_short_of_a_turn():
     counted = m.counted_arcsec["roll"][0] / 3600.0
     date = m.cfg.mission.date_utc
     sun = sky.sun_direction_inertial(date)
-
-    def across(v):
-        w = v - (v @ sun) * sun
-        return w / np.linalg.norm(w)
-    a = across(sky.star_direction_inertial("Canopus", date))
-    b = across(sky.star_direction_inertial("Avior", date))
-    dphi = abs(math.degrees(math.atan2(np.cross(a, b) @ sun, a @ b)))
+    dphi = abs(sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", date),
+                               sky.star_direction_inertial("Canopus", date)))
     assert counted == pytest.approx((360.0 - dphi) * 1.0015, abs=0.05)
     quotes("faults.md", f"counter 14 holds {counted:.1f} deg",
            f"({s['target']['pointing_error_arcsec']:.0f}\")")

@@ -25,6 +25,7 @@ from allsky.sim.mission import Mission
 from allsky.sim.telemetry import COLUMNS
 from allsky.units import DEG2ARCSEC
 from allsky.vehicle import sky
+from tests.sky_geometry import sun_azimuth_deg
 
 CARDS = (Path(__file__).resolve().parents[2] / "docs" / "faults.md").read_text()
 TURN_CHECK = "sequencer.turn_check_ppm=10000"
@@ -82,13 +83,8 @@ def test_voyager_the_calibration_roll_re_acquires_alpha_centauri():
     # The roll from Canopus to Rigil Kentaurus about the Sun line, as the roll gyro reads it.
     date = m.cfg.mission.date_utc
     sun = sky.sun_direction_inertial(date)
-
-    def across(v):
-        w = v - (v @ sun) * sun
-        return w / np.linalg.norm(w)
-    a = across(sky.star_direction_inertial("Canopus", date))
-    b = across(sky.star_direction_inertial("Rigil Kentaurus", date))
-    azimuth_deg = math.degrees(math.atan2(np.cross(a, b) @ sun, a @ b)) % 360.0
+    azimuth_deg = sun_azimuth_deg(sun, sky.star_direction_inertial("Rigil Kentaurus", date),
+                                  sky.star_direction_inertial("Canopus", date)) % 360.0
     assert azimuth_deg == pytest.approx(58.5, abs=0.05)
     assert counted_deg == pytest.approx(azimuth_deg * 1.0015, abs=0.05)
     scale = s["calibration"]["scale_factor"]["roll"]

@@ -16,6 +16,7 @@ from allsky.sim.mission import Mission, build_params, tracker_star_names
 from allsky.studies.faults import fault_matrix
 from allsky.units import ARCSEC2RAD, DEG2ARCSEC
 from allsky.vehicle import quaternion, sky
+from tests.sky_geometry import sun_azimuth_deg
 
 
 def _cfg(*faults, extra=()):
@@ -419,15 +420,6 @@ def test_aborts_name_mode_symptom_and_fault(fault, words):
         assert r.end_s - r.start_s <= m.mode_timeout_s(r.mode) + 1.0
 
 
-def _sun_azimuth_deg(sun, star, reference):
-    """Azimuth [deg] of ``star`` about the Sun line from ``reference``, right-handed."""
-    def across(x):
-        v = x - (x @ sun) * sun
-        return v / np.linalg.norm(v)
-    a, b = across(reference), across(star)
-    return math.degrees(math.atan2(np.cross(a, b) @ sun, a @ b))
-
-
 def test_a_wrong_star_met_first_points_where_its_geometry_says():
     """On the default date Avior crosses the slit 5.83 deg of roll before Canopus: Mode 2
     locks it, the tracker holds it, and Mode 4's roll, leaving it, meets Canopus, loses it
@@ -446,7 +438,7 @@ def test_a_wrong_star_met_first_points_where_its_geometry_says():
     cfg, d = m.cfg, m.cfg.mission.date_utc
     sun = m.params.sun0_inertial + m.params.sun_rate_inertial * m.timeline[5].start_s
     sun /= np.linalg.norm(sun)
-    dphi = math.radians(_sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
+    dphi = math.radians(sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
                                          sky.star_direction_inertial("Canopus", d)))
     assert abs(math.degrees(dphi)) == pytest.approx(5.83, abs=0.01)
     theta = math.acos(sun @ sky.star_direction_inertial(cfg.target.star, d))
@@ -469,7 +461,7 @@ def test_a_wrong_star_met_after_canopus_ends_the_calibration_roll():
     assert locks[:2] == ["Canopus", "Avior"]
     d = m.cfg.mission.date_utc
     sun = sky.sun_direction_inertial(d)
-    dphi = _sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
+    dphi = sun_azimuth_deg(sun, sky.star_direction_inertial("Avior", d),
                             sky.star_direction_inertial("Canopus", d))
     assert abs(dphi) == pytest.approx(9.46, abs=0.01)
     # Counter 14 holds the roll from Canopus to Avior, as the roll gyro (+1500 ppm) reads it.

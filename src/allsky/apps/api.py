@@ -707,15 +707,18 @@ def comparison_rows(result: Mapping) -> list:
         ``scale_factor_error_ppm.roll``, ``mode_time_s.4`` ...; the methods
         in the order flown (legacy, dither, then the Kalman filter on the
         legacy manoeuvres, ``kalman``, and on the dither's,
-        ``kalman_dither``). A seed's information limit (its ``crlb``) is not
-        a method and makes no row; the campaign's bounds are in the result's
-        ``crlb`` section.
+        ``kalman_dither``; the sections of
+        ``allsky.studies.compare.METHOD_KEYS``). A seed's information
+        limit (its ``crlb``) is not a method and makes no row; the campaign's
+        bounds are in the result's ``crlb`` section.
     """
+    from allsky.studies.compare import METHOD_KEYS
+
     rows = []
     for r in result["rows"]:
-        for method, metrics in r.items():
-            if method not in ("seed", "crlb") and isinstance(metrics, Mapping):
-                rows.append(_flat("", metrics, {"seed": r["seed"], "method": method}))
+        for method in METHOD_KEYS:
+            if method in r:
+                rows.append(_flat("", r[method], {"seed": r["seed"], "method": method}))
     return rows
 
 

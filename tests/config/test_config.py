@@ -713,3 +713,16 @@ def test_symmetric_eigenvalues_match_numpys():
         got = symmetric_eigenvalues(m.tolist())
         scale = float(np.abs(want).max())
         assert np.allclose(got, want, rtol=0, atol=1e-13 * scale), (m, got, want)
+
+
+def test_every_fault_field_of_the_vocabulary_has_a_rule():
+    # validate_fault checks each field by name; a field the vocabulary adds without a rule
+    # there would reach its last branch, which refuses it as a programming error.
+    import inspect
+
+    from allsky.config import faults as config_faults
+    from allsky.vocabulary import FAULT_KINDS
+
+    source = inspect.getsource(config_faults.validate_fault)
+    fields = {f for k in FAULT_KINDS for f in (*k.fields, *k.optional)}
+    assert fields and not [f for f in sorted(fields) if f'k == "{f}"' not in source]

@@ -124,7 +124,7 @@ def torn_writes() -> list:
 
 
 def flush_console():
-    """Flush ``sys.stdout`` and ``sys.stderr``; a closed or missing stream is passed over."""
+    """Flush ``sys.stdout`` and ``sys.stderr``, passing over a closed or missing one."""
     for stream in (sys.stdout, sys.stderr):
         try:
             if stream is not None:

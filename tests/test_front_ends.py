@@ -29,6 +29,8 @@ READERS = {
                   "/proc/cpuinfo for the CPU they were built for",
     "allsky.sources": "the package's own sources, hashed (with the allsky modules each one "
                   "imports) into the key of numba's on-disk cache",
+    "allsky.vehicle.ephemeris": "the DE421 ephemeris's coefficient arrays, the de421 "
+                                "package's data files, memory-mapped",
     "allsky.sim.warm_up": "the frame loop's own source, opened read-only to hold an flock "
                           "on it: the machine's compile lock (one process compiles, the "
                           "others wait and load its cache)",

@@ -30,12 +30,12 @@ CASES = {
 
 #: sha256 of (summary JSON, telemetry bytes) per case, and of ``compare --runs 5``.
 EXPECTED = {
-    "dither-seed1": "24d937b29046a80bfebbe805c2aa74a0",
-    "dither-seed5": "114fd52e2ce83813b2f7c1edc4db120e",
-    "legacy-seed1": "cc01586624e80f1ab50836735e5a8f2b",
-    "legacy-seed23-vega": "7afb5caf674e790a9f30b217a7f092cf",
-    "legacy-seed7": "1a74979ebdc38566646daec3869ad458",
-    "compare-runs5": "74a41bd424e5995606644d0cdbd042ee",
+    "dither-seed1": "4e11adc3bcb98db8fd282d0899959afd",
+    "dither-seed5": "6192035fccbc5e773712bb469eb25f67",
+    "legacy-seed1": "3af38920b1f2fec8d07369af427fb142",
+    "legacy-seed23-vega": "c96f0b3b83ede62aa215fc2105005b18",
+    "legacy-seed7": "03095837ddb5a8f30d0443851e9b0251",
+    "compare-runs5": "b3040f970eb5b16e33ed6020112def6a",
 }
 
 
@@ -65,11 +65,11 @@ def mission_hash(plan, seed, overrides) -> str:
 ADDED_WITH_THE_JOURNAL = ("drift_dac_clipped", "end", "warnings", "events")
 #: The hashes of :data:`CASES` before the journal (format-1 view, :func:`format1_hash`).
 EXPECTED_FORMAT1 = {
-    "dither-seed1": "21b2cb04b424a3abf81f278c2bf5e8be",
-    "dither-seed5": "75a13db6b9d886ede8d7795f8494ba19",
-    "legacy-seed1": "ce4060111f2178c129c8ed1c203e5910",
-    "legacy-seed23-vega": "fc3f4465b1849c05ba5df86b3e502296",
-    "legacy-seed7": "08c44c688fc6a765434f6fa149437ed4",
+    "dither-seed1": "815a3bbfdd511629487a1e2a548fcaab",
+    "dither-seed5": "6a91f6f13f8722084a28e1031f899483",
+    "legacy-seed1": "f84f42933afd33f961fd2727fb707c54",
+    "legacy-seed23-vega": "acf7293252c519ef7f7ff8e629512222",
+    "legacy-seed7": "7cb56f487130fa13b2280b6954576d7a",
 }
 
 
@@ -111,3 +111,36 @@ def test_mission_results_are_unchanged(name):
 
 def test_compare_results_are_unchanged():
     _check("compare-runs5", compare_hash())
+
+
+#: The CPU-dependent paths a machine may take, switched to their plainest: glibc's libm
+#: without its FMA and AVX2 variants, numba compiling for a generic x86-64 (or CPU), NumPy
+#: without its SIMD dispatch targets, OpenBLAS on its oldest x86 kernels. A flight that
+#: used any of them would change its bits here (docs/design.md, "The same bits everywhere").
+def plain_machine_env() -> dict:
+    import platform
+
+    from numpy._core import _multiarray_umath as umath
+
+    env = {**os.environ, "NUMBA_CPU_NAME": "generic",
+           "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX2_Usable,-FMA_Usable",
+           "NPY_DISABLE_CPU_FEATURES": " ".join(
+               f for f in umath.__cpu_dispatch__ if umath.__cpu_features__.get(f))}
+    if platform.machine() in ("x86_64", "AMD64"):
+        env["OPENBLAS_CORETYPE"] = "Prescott"
+    return env
+
+
+def test_the_results_are_the_same_bits_on_a_plainer_machine():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = ("import json, sys; sys.path.insert(0, 'tests'); import test_results_hash as t; "
+            "out = {n: t.mission_hash(*t.CASES[n]) for n in t.CASES}; "
+            "out['compare-runs5'] = t.compare_hash(); print(json.dumps(out))")
+    run = subprocess.run([sys.executable, "-c", code], env=plain_machine_env(),
+                         cwd=Path(__file__).resolve().parents[1], capture_output=True,
+                         text=True, timeout=900, check=False)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert json.loads(run.stdout.strip().splitlines()[-1]) == EXPECTED

@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from allsky import xmath
 from allsky.jit import njit, njit_stage
 
 N_LAYERS = 128
@@ -35,16 +36,18 @@ V = 9.91256303526217e-3
 def _edges():
     """Layer edges ``X[0..128]``: X[0] = V/f(R) (the base layer's virtual width), X[1] = R."""
     x = np.zeros(N_LAYERS + 1)
-    x[0] = V / math.exp(-0.5 * R * R)
+    x[0] = V / xmath.exp(-0.5 * R * R)
     x[1] = R
     for i in range(2, N_LAYERS):
-        x[i] = math.sqrt(-2.0 * math.log(V / x[i - 1] + math.exp(-0.5 * x[i - 1] ** 2)))
+        prev = float(x[i - 1])
+        x[i] = math.sqrt(-2.0 * xmath.log(V / prev + xmath.exp(-0.5 * (prev * prev))))
     x[N_LAYERS] = 0.0
     return x
 
 
 X = _edges()
-F = np.exp(-0.5 * X * X)  #: density at each edge (F[128] = 1)
+#: density at each edge (F[128] = 1)
+F = np.array([xmath.exp(-0.5 * (float(x) * float(x))) for x in X])
 TWO53 = 9007199254740992.0
 TWO_M45 = 2.0 ** -45
 
@@ -111,12 +114,12 @@ def _standard_normal_rest(rng, b):
             return -x if negative else x
         if i == 0:  # the tail beyond R
             while True:
-                t = -math.log(1.0 - uniform(rng)) / R
-                y = -math.log(1.0 - uniform(rng))
+                t = -xmath.log(1.0 - uniform(rng)) / R
+                y = -xmath.log(1.0 - uniform(rng))
                 if y + y > t * t:
                     x = R + t
                     return -x if negative else x
-        elif F[i] + uniform(rng) * (F[i + 1] - F[i]) < math.exp(-0.5 * x * x):
+        elif F[i] + uniform(rng) * (F[i + 1] - F[i]) < xmath.exp(-0.5 * x * x):
             return -x if negative else x
         b = np.int64(bits53(rng))
 

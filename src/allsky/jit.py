@@ -57,6 +57,8 @@ from allsky import aot
 _numba = None
 #: Every CompiledFunction made before numba was loaded.
 _waiting = []
+#: Every :func:`jitable` function declared before numba was loaded.
+_jitable_waiting = []
 _loading = threading.RLock()
 
 
@@ -82,6 +84,9 @@ def load_numba():
                 warnings.warn(f"allsky: the package's cache locator failed ({type(e).__name__}"
                               f": {e}); compiled functions are cached by numba's own",
                               RuntimeWarning, stacklevel=2)
+            for f in _jitable_waiting:  # before anything compiles that calls them
+                _register_jitable(numba, f)
+            _jitable_waiting.clear()
             for f in _waiting:
                 f._make(numba)
             _waiting.clear()
@@ -142,6 +147,29 @@ class CompiledFunction:
 
     def __repr__(self):
         return f"<compiled function {self.__qualname__} (numba loads on first use)>"
+
+
+def jitable(py_func):
+    """A plain Python function ``py_func`` that compiled code may call as if compiled.
+
+    The function stays what it is: Python calls it as Python, without
+    loading numba (the exact arithmetic of :mod:`allsky.xmath`, called while
+    a scenario is built). Once numba is loaded it is registered with numba
+    (``numba.extending.register_jitable``), so that compiled functions that
+    call it compile its body into their own code, with the same arithmetic
+    and therefore the same bits.
+    """
+    if _numba is not None:
+        _register_jitable(_numba, py_func)
+    else:
+        _jitable_waiting.append(py_func)
+    return py_func
+
+
+def _register_jitable(numba, py_func):
+    from numba.extending import register_jitable
+
+    register_jitable(py_func)
 
 
 def _njit(numba, options, py_func):

@@ -37,10 +37,12 @@ LAYERS = (
     Layer("config", "configuration",
           "scenario rules, loading and merging, dispersions"),
     Layer("vehicle", "vehicle and sky",
-          "rigid body (compiled and python-control), quaternions, Sun and stars, envelopes"),
+          "rigid body (compiled and python-control), quaternions, Sun (the DE421 ephemeris) "
+          "and stars, envelopes"),
     Layer("", "foundations", "units and conversions, the vocabulary (modes, fault kinds, "
-          "axes, actions, journal kinds), the jit decorators and their caches (the on-disk "
-          "key, the functions built ahead of time), the noise source"),
+          "axes, actions, journal kinds), the exact arithmetic (the same bits on every "
+          "machine), the jit decorators and their caches (the on-disk key, the functions "
+          "built ahead of time), the noise source"),
 )
 #: Package -> rank (0 = bottom).
 RANK = {layer.package: len(LAYERS) - 1 - i for i, layer in enumerate(LAYERS)}

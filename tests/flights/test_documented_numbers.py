@@ -94,19 +94,19 @@ def test_error_budget_the_sun_and_the_settling_roll_loop_in_the_drift_count():
     rate = np.array([turn[1, 2] - turn[2, 1], turn[2, 0] - turn[0, 2], turn[0, 1] - turn[1, 0]])
     rate_deg_h = rate / 2.0 * RAD2ARCSEC / (count.end_s - count.start_s)  # 1 deg/h = 1"/s
     sun_arcsec_s = np.linalg.norm(p.sun_rate_inertial) * RAD2ARCSEC
-    assert counted["roll"] - rate_deg_h[0] == pytest.approx(0.020, abs=0.001)
+    assert counted["roll"] - rate_deg_h[0] == pytest.approx(0.018, abs=0.001)
     frozen = [_mode3_count(f"sequencer.drift_count_s={t}", frozen_sun=True)[1]["roll"]
               for t in (40, 60, 120)]
     # A fixed roll of the settling loop spread over the count: counts x T about constant.
     spread = [f * t for f, t in zip(frozen, (40, 60, 120))]
-    assert max(spread) - min(spread) < 0.25  # [deg/h s]: 0.7 arcsec within 0.25 arcsec
+    assert max(spread) - min(spread) < 0.35  # [deg/h s = arcsec]: within 3 pulses of 0.1"
     quotes("error_budget.md", f"the Sun moves {sun_arcsec_s:.3f}″/s",
            f"turns at {rate_deg_h[2]:.3f} deg/h about yaw, +{rate_deg_h[0]:.4f} deg/h about "
            f"roll and +{rate_deg_h[1]:.4f} deg/h about pitch",
            f"the count reads +{counted['roll']:.4f} deg/h on roll, {counted['yaw']:.3f} on yaw",
            f"+{counted['roll'] - rate_deg_h[0]:.3f} deg/h, is the roll loop still closing",
            f"+{frozen[0]:.4f} deg/h over 40 s, +{frozen[1]:.3f} over 60 s, "
-           f"+{frozen[2]:.3f} over 120 s")
+           f"+{frozen[2]:.3f} over 120 s", f"a roll of {min(spread):.1f}-{max(spread):.1f}″")
 
 
 def test_error_budget_arw_and_quantisation():

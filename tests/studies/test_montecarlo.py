@@ -403,7 +403,9 @@ def test_ctrl_c_saves_what_finished_and_exits_130(spec_path, tmp_path, monkeypat
     assert code == 130, err
     assert "Traceback" not in err and f"continue with --resume --out {out}" in err
     rows = read_rows(out)
-    assert 1 <= len(rows) < 200 and all(r["status"] == "complete" for r in rows)
+    # Every row is a finished run (a dispersed draw may abort: a weak yaw couple can leave
+    # the Sun inside the hand-over threshold when Mode 5's blanking ends).
+    assert 1 <= len(rows) < 200 and all(r["status"] in ("complete", "aborted") for r in rows)
     assert (out / RESULTS).read_bytes().endswith(b"\n")
 
 

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xmath
 
 
 def reference_frame(sun_inertial, star_inertial) -> np.ndarray:
@@ -27,10 +27,10 @@ def reference_frame(sun_inertial, star_inertial) -> np.ndarray:
     +z toward the star. ValueError when the star is on the Sun line.
     """
     x = np.asarray(sun_inertial, dtype=float)
-    x = x / np.linalg.norm(x)
+    x = x / xmath.norm3(x)
     c = np.asarray(star_inertial, dtype=float)
-    z = c - (c @ x) * x
-    nz = np.linalg.norm(z)
+    z = c - xmath.dot3(c, x) * x
+    nz = xmath.norm3(z)
     if nz < 1e-6:
         raise ValueError("the reference star is on the Sun line: no roll reference")
     z = z / nz
@@ -45,7 +45,8 @@ def programmed_angles_deg(sun_inertial, star_inertial, target_inertial) -> tuple
     ``star_inertial`` define (:func:`reference_frame`); ``target_inertial`` is
     the target's direction. All three are (3,) in inertial axes, any length.
     """
-    t = reference_frame(sun_inertial, star_inertial) @ np.asarray(target_inertial, dtype=float)
+    t = xmath.matmul(reference_frame(sun_inertial, star_inertial),
+                     np.asarray(target_inertial, dtype=float))
     return angles_to_deg(t)
 
 
@@ -56,9 +57,11 @@ def angles_to_deg(direction) -> tuple:
     one with ``|roll| <= 90 deg``.
     """
     t = np.asarray(direction, dtype=float)
-    t = t / np.linalg.norm(t)
-    phi = math.atan2(t[2], t[1])
-    psi = math.atan2(math.hypot(t[1], t[2]), t[0])
+    t = t / xmath.norm3(t)
+    # A target a rounding error from the roll = +-90 deg boundary (in the y-z plane's
+    # z axis) rolls by sign(z) 90 deg, whatever the sign of the rounding error in y.
+    phi = xmath.atan2(t[2], abs(t[1]) if abs(t[1]) <= 1e-15 else t[1])
+    psi = xmath.atan2(xmath.hypot(t[1], t[2]), t[0])
     if phi > math.pi / 2:
         phi -= math.pi
         psi = -psi
@@ -75,8 +78,8 @@ def pointing_direction(roll_deg, yaw_deg) -> np.ndarray:
     register 24 (:func:`programmed_angles_deg`).
     """
     phi, psi = roll_deg * units.DEG2RAD, yaw_deg * units.DEG2RAD
-    return np.array([math.cos(psi), math.sin(psi) * math.cos(phi),
-                     math.sin(psi) * math.sin(phi)])
+    return np.array([xmath.cos(psi), xmath.sin(psi) * xmath.cos(phi),
+                     xmath.sin(psi) * xmath.sin(phi)])
 
 
 def attitude_after(roll_deg, yaw_deg) -> np.ndarray:
@@ -87,10 +90,10 @@ def attitude_after(roll_deg, yaw_deg) -> np.ndarray:
     column is :func:`pointing_direction`.
     """
     phi, psi = roll_deg * units.DEG2RAD, yaw_deg * units.DEG2RAD
-    cf, sf, cp, sp = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
+    cf, sf, cp, sp = xmath.cos(phi), xmath.sin(phi), xmath.cos(psi), xmath.sin(psi)
     rx = np.array([[1.0, 0.0, 0.0], [0.0, cf, -sf], [0.0, sf, cf]])
     rz = np.array([[cp, -sp, 0.0], [sp, cp, 0.0], [0.0, 0.0, 1.0]])
-    return rx @ rz
+    return xmath.matmul(rx, rz)
 
 
 def turn_to_deg(body_axes, to_roll_deg, to_yaw_deg) -> tuple:
@@ -111,8 +114,8 @@ def turn_to_deg(body_axes, to_roll_deg, to_yaw_deg) -> tuple:
     but not in general their roll about it.
     """
     body = np.asarray(body_axes, dtype=float)
-    roll, yaw = angles_to_deg(body.T @ pointing_direction(to_roll_deg, to_yaw_deg))
-    return roll, yaw, body @ attitude_after(roll, yaw)
+    roll, yaw = angles_to_deg(xmath.matmul(body.T, pointing_direction(to_roll_deg, to_yaw_deg)))
+    return roll, yaw, xmath.matmul(body, attitude_after(roll, yaw))
 
 
 def turn_between_deg(from_roll_deg, from_yaw_deg, to_roll_deg, to_yaw_deg) -> tuple:

@@ -12,6 +12,7 @@ import functools
 import math
 from datetime import UTC, date, datetime, time
 
+from allsky import xmath
 from allsky.config.rules import (
     EPHEMERIS_END_UTC,
     EPHEMERIS_START_UTC,
@@ -82,9 +83,9 @@ def symmetric_eigenvalues(m) -> tuple:
     det = (b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1])
            - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
            + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]))
-    phi = math.acos(min(1.0, max(-1.0, det / 2.0))) / 3.0
-    largest = q + 2.0 * p * math.cos(phi)
-    smallest = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+    phi = xmath.acos(min(1.0, max(-1.0, det / 2.0))) / 3.0
+    largest = q + 2.0 * p * xmath.cos(phi)
+    smallest = q + 2.0 * p * xmath.cos(phi + 2.0 * math.pi / 3.0)
     return smallest, 3.0 * q - largest - smallest, largest
 
 
@@ -149,7 +150,7 @@ def attitude(key, v):
     import numpy as np  # only here: validating a scenario otherwise needs no NumPy
 
     q = np.array(given) / big  # scaled first so that 1e-320 or 1e308 normalise too
-    return tuple(float(x) for x in q / np.linalg.norm(q))
+    return tuple(float(x) for x in q / math.sqrt(xmath.dot(q, q)))
 
 
 def mode_timeouts(*conds: Cond):

@@ -59,6 +59,7 @@ from datetime import datetime, timedelta
 
 import numpy as np
 
+from allsky import xmath
 from allsky.config.dispersion_table import DATE_KEY, TARGET_KEY, value_shape
 from allsky.config.faults import is_fault_key
 from allsky.config.rules import ConfigError
@@ -93,6 +94,22 @@ def _draw_number(key, e, value, seed):
         return _draw_number_of(key, e, value, seed)
 
 
+def standard_normals(rng, n) -> np.ndarray:
+    """``n`` N(0, 1) deviates from ``rng``'s uniforms, by Box and Muller's transform.
+
+    NumPy's own normal deviates take a logarithm or an exponential from the
+    C library now and then, whose last bit depends on the CPU; these are
+    computed with the exact arithmetic of :mod:`allsky.xmath`.
+    """
+    u = rng.random(2 * ((n + 1) // 2))
+    out = []
+    for k in range(0, u.size, 2):
+        r = math.sqrt(-2.0 * xmath.log(1.0 - float(u[k])))
+        angle = 2.0 * math.pi * float(u[k + 1])
+        out += [r * xmath.cos(angle), r * xmath.sin(angle)]
+    return np.array(out[:n])
+
+
 def _draw_number_of(key, e, value, seed):
     base = np.array(value, dtype=float)
     free = _free_mask(key, base.shape)
@@ -103,7 +120,7 @@ def _draw_number_of(key, e, value, seed):
                            else (1.0 if rel else base), base.shape)
     if e["dist"] == "normal":
         sigma = np.broadcast_to(np.asarray(e["sigma"], dtype=float), base.shape)
-        draw = mean[free] + sigma[free] * rng.standard_normal(n)
+        draw = mean[free] + sigma[free] * standard_normals(rng, n)
     else:
         if "half_width" in e:
             hw = np.broadcast_to(np.asarray(e["half_width"], dtype=float), base.shape)
@@ -140,7 +157,7 @@ def _draw_target(e, seed):
         return {"star": e["stars"][int(rng.integers(len(e["stars"])))]}
     u = rng.random(2)
     return {"ra_deg": 360.0 * float(u[0]),
-            "dec_deg": math.degrees(math.asin(2.0 * float(u[1]) - 1.0))}
+            "dec_deg": math.degrees(xmath.asin(2.0 * float(u[1]) - 1.0))}
 
 
 def _draw_fault(key, e, seed):

@@ -51,6 +51,7 @@ onset uniformly in that span (:func:`validate_dispersion`,
 from collections.abc import Mapping
 from pathlib import Path
 
+from allsky import xmath
 from allsky.config.checkers import star_name
 from allsky.config.rules import (
     MODE_KEYS,
@@ -213,8 +214,8 @@ def _slit_meets(key, name, values):
     from allsky.vehicle import sky
 
     date = values["mission.date_utc"]
-    cos = float(sky.sun_direction_inertial(date) @ sky.star_direction_inertial(name, date))
-    angle = math.degrees(math.acos(max(-1.0, min(1.0, cos))))
+    cos = xmath.dot3(sky.sun_direction_inertial(date), sky.star_direction_inertial(name, date))
+    angle = math.degrees(xmath.acos(max(-1.0, min(1.0, cos))))
     half = values["star_tracker.fov_long_half_deg"]
     if abs(angle - 90.0) > half:
         raise ConfigError(key, name, f"{angle:.1f} deg from the Sun on mission.date_utc: the "

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
+from allsky import xmath
 from allsky.config.checkers import (
     attitude,
     boolean,
@@ -188,8 +189,9 @@ def wheel_axes(key, v):
     import numpy as np  # only to normalise: validating a scenario otherwise needs no NumPy
 
     a = np.array(g)
-    return tuple(tuple(float(x) for x in (r if abs(float(r @ r) - 1.0) <= 4e-16 else r / n))
-                 for r, n in zip(a, np.linalg.norm(a, axis=1), strict=True))
+    return tuple(tuple(float(x) for x in (r if abs(xmath.dot(r, r) - 1.0) <= 4e-16
+                                          else r / math.sqrt(xmath.dot(r, r))))
+                 for r in a)
 
 
 wheel_axes.allowed = (f"an array of 3 to {WHEELS_MAX} spin axes [x, y, z] spanning 3-D, "

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xmath
 from allsky.gauss import standard_normal
 from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
@@ -61,7 +61,7 @@ def make_params(drift_deg_h, scale_factor_error_ppm, misalignment_arcsec, arw_de
     m = np.array(misalignment_arcsec, dtype=float) * units.ARCSEC2RAD
     np.fill_diagonal(m, 0.0)
     sf = np.array(scale_factor_error_ppm, dtype=float) * units.PPM2FRACTION
-    s = np.diag(1.0 + sf) @ (np.eye(3) + m)
+    s = xmath.matmul(np.diag(1.0 + sf), np.eye(3) + m)
     return GyroParams(
         sensitivity=s,
         drift_arcsec_s=np.array(drift_deg_h, dtype=float) * units.DEG_H2ARCSEC_S,

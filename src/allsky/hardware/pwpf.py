@@ -23,6 +23,7 @@ Static characteristic for a constant input ``e > 0`` (continuous time):
 import math
 from typing import NamedTuple
 
+from allsky import xmath
 from allsky.jit import njit
 
 
@@ -56,7 +57,7 @@ def make_params(filter_gain, time_constant_s, on_threshold_v, off_threshold_v, f
     frame_s : float
         [s] frame length (the filter is discretised over it).
     """
-    return PwpfParams(float(filter_gain), math.exp(-frame_s / time_constant_s),
+    return PwpfParams(float(filter_gain), xmath.exp(-frame_s / time_constant_s),
                       float(on_threshold_v), float(off_threshold_v), float(full_on_v),
                       max(1, math.ceil(min_on_time_s / frame_s - 1e-9)))
 
@@ -107,6 +108,6 @@ def static_on_off_times_s(p_gain, tau_s, u_on, u_off, u_m, e):
         return 0.0, math.inf
     if p_gain * (e - u_m) >= u_off:
         return math.inf, 0.0
-    t_on = tau_s * math.log((u_on - p_gain * (e - u_m)) / (u_off - p_gain * (e - u_m)))
-    t_off = tau_s * math.log((p_gain * e - u_off) / (p_gain * e - u_on))
+    t_on = tau_s * xmath.log((u_on - p_gain * (e - u_m)) / (u_off - p_gain * (e - u_m)))
+    t_off = tau_s * xmath.log((p_gain * e - u_off) / (p_gain * e - u_on))
     return t_on, t_off

@@ -44,6 +44,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky import xmath
 from allsky.gauss import standard_normal
 from allsky.jit import njit, njit_stage
 from allsky.units import RAD2ARCSEC
@@ -146,8 +147,8 @@ def seen_magnitude(magnitudes) -> float:
     ``magnitudes`` are their visual magnitudes; with none the slit is dark
     (+inf).
     """
-    flux = math.fsum(10.0 ** (-0.4 * m) for m in magnitudes)
-    return -2.5 * math.log10(flux) if flux > 0 else math.inf
+    flux = math.fsum(xmath.exp10(-0.4 * m) for m in magnitudes)
+    return -2.5 * xmath.log10(flux) if flux > 0 else math.inf
 
 
 @njit
@@ -159,8 +160,8 @@ def _sight(p, r0, r1, r2, k):
         return False, 0.0, 0.0
     sx = r0[0] * a + r0[1] * b + r0[2] * c
     sy = r1[0] * a + r1[1] * b + r1[2] * c
-    yaw = np.arctan2(-sy, sz)
-    pitch = np.arctan2(sx, sz)
+    yaw = xmath.atan2(-sy, sz)
+    pitch = xmath.atan2(sx, sz)
     inside = abs(yaw) <= p.fov_narrow_half_rad and abs(pitch) <= p.fov_long_half_rad
     return inside, yaw, pitch
 

@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky import xmath
 from allsky.jit import njit
 from allsky.units import RAD2ARCSEC
 
@@ -49,7 +50,7 @@ def sun_acquisition(p, linear_range_arcsec, fine, coarse_body, gyro_arcsec_s, po
     ey = -coarse_body[2]
     ez = coarse_body[1]
     n = np.sqrt(ey * ey + ez * ez)
-    angle = np.arctan2(n, coarse_body[0])
+    angle = xmath.atan2(n, coarse_body[0])
     cmd = min(p.slew_gain_per_s * angle * RAD2ARCSEC, p.slew_rate_max_arcsec_s)
     if n > 1e-12:
         ey /= n

@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky import xmath
 from allsky.gauss import standard_normal
 from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
@@ -50,8 +51,8 @@ def sun_sensor(p, sun_body, out, rng):
         out[2] = 0.0
         return
     lim = p.linear_range_arcsec
-    pitch = np.arctan2(-sz, sx) * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
-    yaw = np.arctan2(sy, sx) * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
+    pitch = xmath.atan2(-sz, sx) * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
+    yaw = xmath.atan2(sy, sx) * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
     out[0] = min(max(pitch, -lim), lim)
     out[1] = min(max(yaw, -lim), lim)
     out[2] = 1.0

@@ -24,10 +24,12 @@ leakage. Noise limit (derived in docs/comparison.md):
 record of length T.
 """
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 
+from allsky import xmath
 from allsky.jit import njit
 from allsky.units import RAD2ARCSEC
 
@@ -51,7 +53,7 @@ def dither_command(p, t_s, angle_arcsec, ff_volts):
     """
     # a(t) = -A w^2 sin(w t) [rad/s^2], kept in ff_volts until the torque is formed
     for i in range(3):
-        s = np.sin(p.omega_rad_s[i] * t_s)
+        s = xmath.sin(p.omega_rad_s[i] * t_s)
         angle_arcsec[i] = p.amplitude_arcsec[i] * s
         ff_volts[i] = -p.amplitude_arcsec[i] * p.omega_rad_s[i] ** 2 * s / RAD2ARCSEC
     a0, a1, a2 = ff_volts[0], ff_volts[1], ff_volts[2]
@@ -68,14 +70,40 @@ def feedforward_torque_n_m(inertia_kg_m2, amplitude_rad, omega_rad_s, t_s):
     ``amplitude_rad`` the (3,) dither amplitudes [rad], ``omega_rad_s`` their
     angular frequencies [rad/s] and ``t_s`` the time [s].
     """
-    a = -np.asarray(amplitude_rad) * np.asarray(omega_rad_s) ** 2 * np.sin(
-        np.asarray(omega_rad_s) * t_s)
-    return np.asarray(inertia_kg_m2) @ a
+    a = [-float(amp) * float(w) ** 2 * xmath.sin(float(w) * t_s)
+         for amp, w in zip(amplitude_rad, omega_rad_s, strict=True)]
+    return xmath.matmul(inertia_kg_m2, np.array(a))
 
 
 # ---------------------------------------------------------------------------
 # Detector
 # ---------------------------------------------------------------------------
+# The detectors feed register 23, so every sum, phasor and fit below is exact
+# arithmetic (allsky.xmath): the same estimates, to the bit, on every machine.
+
+def phasor(angle_rad) -> complex:
+    """exp(i ``angle_rad``) [-], from the exact sine and cosine."""
+    return complex(xmath.cos(angle_rad), xmath.sin(angle_rad))
+
+
+def magnitude(c) -> float:
+    """|``c``| of a complex number (``abs`` of one calls the C library's hypot)."""
+    return xmath.hypot(float(c.real), float(c.imag))
+
+
+def _weighted_sum(values) -> float:
+    """The correctly rounded sum of ``values`` (``math.fsum``)."""
+    return math.fsum(float(v) for v in values)
+
+
+def hann(n) -> np.ndarray:
+    """The ``n``-point Hann window, ``0.5 - 0.5 cos(2 pi k / (n - 1))``, k = 0 .. n-1.
+
+    The window ``numpy.hanning`` gives, with the exact cosine."""
+    if n == 1:
+        return np.ones(1)
+    return np.array([0.5 - 0.5 * xmath.cos(2.0 * math.pi * k / (n - 1)) for k in range(n)])
+
 
 def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
     """Complex amplitude ``c`` of ``x`` at ``freq_hz``, from one DFT bin.
@@ -97,13 +125,13 @@ def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
     ``c`` has the units of ``x``.
     """
     x = np.asarray(x, dtype=float)
-    omega = 2.0 * np.pi * freq_hz
+    omega = 2.0 * math.pi * freq_hz
     if integrating:
         y = np.diff(x)
-        t = np.arange(1, y.size + 1) * sample_s
+        first = 1
     else:
         y = x[:-1]
-        t = np.arange(y.size) * sample_s
+        first = 0
     n = y.size
     k = freq_hz * n * sample_s
     if window == "rect":
@@ -112,11 +140,16 @@ def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
                              " use window='hann' or lsq_amplitude")
         w = np.ones(n)
     else:
-        w = np.hanning(n)
-    y = y - np.sum(w * y) / np.sum(w)
+        w = hann(n)
+    w_sum = _weighted_sum(w)
+    y = y - _weighted_sum(w * y) / w_sum
+    angles = [omega * ((j + first) * sample_s) for j in range(n)]
+    wy = w * y
+    re = _weighted_sum(wy * np.array([xmath.cos(a) for a in angles]))
+    im = -_weighted_sum(wy * np.array([xmath.sin(a) for a in angles]))
     # For |c| sin(w t + arg c) = Im(c e^{i w t}) the single-bin DFT gives c / (2i).
-    c = 2j * np.sum(w * y * np.exp(-1j * omega * t)) / np.sum(w)
-    return c / (1.0 - np.exp(-1j * omega * sample_s)) if integrating else c
+    c = 2j * complex(re, im) / w_sum
+    return c / (1.0 - phasor(-omega * sample_s)) if integrating else c
 
 
 def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):
@@ -131,10 +164,13 @@ def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):
     """
     x = np.asarray(x, dtype=float)
     t = np.arange(x.size) * sample_s
-    wt = 2.0 * np.pi * freq_hz * t
+    wt = 2.0 * math.pi * freq_hz * t
     tn = t / max(t[-1], 1e-12)
-    cols = [np.sin(wt), np.cos(wt)] + [tn ** k for k in range(trend_order + 1)]
-    coef, *_ = np.linalg.lstsq(np.column_stack(cols), x, rcond=None)
+    cols = [np.array([xmath.sin(float(a)) for a in wt]),
+            np.array([xmath.cos(float(a)) for a in wt]), np.ones_like(tn)]
+    for _ in range(trend_order):
+        cols.append(cols[-1] * tn)  # tn^k by products: NumPy's power calls the C library
+    coef = xmath.lstsq(np.column_stack(cols), x)
     return complex(coef[0], coef[1])  # a sin + b cos = |.| sin(wt + atan2(b, a))
 
 
@@ -143,7 +179,7 @@ def projected(c, ref):
 
     It has the units of ``c``.
     """
-    return float(np.real(c * np.conj(ref)) / abs(ref))
+    return float((c * ref.conjugate()).real) / magnitude(ref)
 
 
 def scale_factor_sigma(arw_arcsec_rt_s, record_s, amplitude_arcsec, omega_rad_s):
@@ -154,4 +190,4 @@ def scale_factor_sigma(arw_arcsec_rt_s, record_s, amplitude_arcsec, omega_rad_s)
     amplitude A [arcsec] and ``omega_rad_s`` its angular frequency w [rad/s]
     (docs/comparison.md derives it).
     """
-    return arw_arcsec_rt_s * np.sqrt(2.0 / record_s) / (amplitude_arcsec * omega_rad_s)
+    return arw_arcsec_rt_s * math.sqrt(2.0 / record_s) / (amplitude_arcsec * omega_rad_s)

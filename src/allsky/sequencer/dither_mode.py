@@ -29,6 +29,8 @@ flies unchanged with the dither's calibration:
   otherwise the cross-coupling of register 23 stays neutral (zero).
 """
 
+import math
+
 import numpy as np
 
 from allsky.computer import word_registers as wr
@@ -95,7 +97,7 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
         amp = amplitude_arcsec[a]
         if amp == 0.0:
             continue
-        f = omega_rad_s[a] / (2 * np.pi)
+        f = omega_rad_s[a] / (2 * math.pi)
 
         def amp_of(x, integrating, f=f):
             if detector == "lsq":
@@ -104,20 +106,21 @@ def analyse(rec, sample_s, lead_in_s, record_s, amplitude_arcsec, omega_rad_s,
                                         else "rect", integrating=integrating)
 
         # The dither phase at the record start: sin(w (t0 + k dt)).
-        phase = np.exp(1j * omega_rad_s[a] * r[0, 0])
+        phase = dither.phasor(float(omega_rad_s[a] * r[0, 0]))
         g = [amp_of(r[:, 1 + b], True) / phase for b in range(3)]
         box = boxcar_response(omega_rad_s[a], sample_s, optics_frames)
         o = [amp_of(r[:, 4 + b], False) / phase / box for b in range(3)]
         gc = _less_known_cross_counts(g, o, cross_coupling)[a]
-        seen = abs(o[a]) > 0.0  # no optical reference (e.g. on the target): nan
-        cross = {AXES[b]: dither.projected(g[b] - o[b], o[a]) / abs(o[a]) if seen else np.nan
+        size = dither.magnitude
+        seen = size(o[a]) > 0.0  # no optical reference (e.g. on the target): nan
+        cross = {AXES[b]: dither.projected(g[b] - o[b], o[a]) / size(o[a]) if seen else np.nan
                  for b in range(3) if b != a}
         out[AXES[a]] = {
             "gyro": g[a], "optical": o[a], "commanded_arcsec": amp,
-            "scale_factor_optical": (dither.projected(o[a], gc) / abs(gc) if seen
+            "scale_factor_optical": (dither.projected(o[a], gc) / size(gc) if seen
                                      else np.nan),
-            "scale_factor_command": amp / abs(gc),
-            "tracking_ratio": abs(o[a]) / amp,
+            "scale_factor_command": amp / size(gc),
+            "tracking_ratio": size(o[a]) / amp,
             "cross": cross,
         }
     return out
@@ -135,7 +138,8 @@ def boxcar_response(omega_rad_s, sample_s, frames):
     """
     m = max(1, int(frames))
     dt = sample_s / m
-    return complex(np.mean(np.exp(-1j * omega_rad_s * dt * np.arange(m))))
+    terms = [dither.phasor(-omega_rad_s * dt * j) for j in range(m)]
+    return complex(math.fsum(t.real for t in terms) / m, math.fsum(t.imag for t in terms) / m)
 
 
 #: Register 23 slot of each cross-coupling word: (counting gyro axis, moving axis) -> slot.

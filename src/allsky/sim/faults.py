@@ -34,7 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xmath
 from allsky.config.faults import MAX_FAULTS, describe
 from allsky.hardware import star_tracker as st
 from allsky.hardware.star_tracker import FALSE_TARGET, StarTrackerParams
@@ -353,7 +353,7 @@ def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gy
             m = fp.magnitude[i]
             bright = not np.isnan(m)
             if bright:
-                glint_flux += 10.0 ** (-0.4 * m)
+                glint_flux += xmath.exp10(-0.4 * m)
             take = (not bright or (star == -1 and tracker_p.window_bright_mag <= m
                                    <= tracker_p.window_faint_mag))
             if star == FALSE_TARGET or (take and not _glint_refused(tracker_p, lock,
@@ -379,13 +379,13 @@ def _bright_gate(tracker_p, lock, star, glint_flux, trk):
     """
     flux = glint_flux
     if star >= 0:
-        flux += 10.0 ** (-0.4 * tracker_p.magnitudes[star])
-    over = flux > 0.0 and -2.5 * np.log10(flux) < tracker_p.bright_gate_mag
+        flux += xmath.exp10(-0.4 * tracker_p.magnitudes[star])
+    over = flux > 0.0 and -2.5 * xmath.log10(flux) < tracker_p.bright_gate_mag
     if over:
         if star != -1 and (lock[st.GATE] == 0.0 or lock[st.DROPPED] != star):
             lock[st.NEW_DROP] = star
             lock[st.DROPPED] = star
-            lock[st.SEEN_MAG] = -2.5 * np.log10(flux)
+            lock[st.SEEN_MAG] = -2.5 * xmath.log10(flux)
         trk[0] = 0.0
         trk[1] = 0.0
         trk[2] = 0.0

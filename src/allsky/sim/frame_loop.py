@@ -35,6 +35,7 @@ mission can be saved and resumed between legs.
 
 import numpy as np
 
+from allsky import xmath
 from allsky.computer.computer_sequencer import sequencer_step
 from allsky.computer.cpu import target_step
 from allsky.gauss import seed as gauss_seed
@@ -909,4 +910,4 @@ def _rotation_angle(qa, qb):
     x = qa[0] * qb[1] - qa[1] * qb[0] - qa[2] * qb[3] + qa[3] * qb[2]
     y = qa[0] * qb[2] + qa[1] * qb[3] - qa[2] * qb[0] - qa[3] * qb[1]
     z = qa[0] * qb[3] - qa[1] * qb[2] + qa[2] * qb[1] - qa[3] * qb[0]
-    return 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), abs(w))
+    return 2.0 * xmath.atan2(np.sqrt(x * x + y * y + z * z), abs(w))

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xmath
 from allsky.computer import targeting
 from allsky.computer import word_registers as wr
 from allsky.config import faults as fault_config
@@ -136,7 +136,7 @@ def build_params(cfg) -> sim_state.Params:
                               cfg.gyro.rrw_deg_h_rt_h, cfg.gyro.range_deg_s),
         sun=sun_sensor.SunSensorParams(
             float(cfg.sun_sensor.linear_range_arcsec),
-            math.cos(cfg.sun_sensor.presence_half_angle_deg * units.DEG2RAD),
+            xmath.cos(cfg.sun_sensor.presence_half_angle_deg * units.DEG2RAD),
             float(cfg.sun_sensor.noise_arcsec), cfg.sun_sensor.coarse_noise_deg * units.DEG2RAD),
         tracker=tracker,
         vfc=vfc.VfcParams(float(el.vfc_pulse_weight_arcsec), float(el.vfc_max_rate_pps),
@@ -321,8 +321,8 @@ def reference_cone_deg(cfg) -> float:
     1 deg a day, 0.02 deg in a mission of 30 minutes). ``cfg`` is the scenario.
     """
     sun = sky.sun_direction_inertial(cfg.mission.date_utc)
-    cos = float(sun @ reference_star_inertial(cfg))
-    return star_tracker.cone_angle_deg(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
+    cos = xmath.dot3(sun, reference_star_inertial(cfg))
+    return star_tracker.cone_angle_deg(math.degrees(xmath.acos(max(-1.0, min(1.0, cos)))))
 
 
 def tracker_star_names(cfg) -> list:

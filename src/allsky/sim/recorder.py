@@ -18,6 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky import xmath
 from allsky.hardware.wiring import N_SWITCHES, SELECTORS
 from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
@@ -283,7 +284,7 @@ def true_error_arcsec(x, target_inertial):
     cx = ey * tz - ez * ty
     cy = ez * tx - ex * tz
     cz = ex * ty - ey * tx
-    return np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz), ex * tx + ey * ty + ez * tz) \
+    return xmath.atan2(np.sqrt(cx * cx + cy * cy + cz * cz), ex * tx + ey * ty + ez * tz) \
         * RAD2ARCSEC
 
 
@@ -330,7 +331,7 @@ def record_dither(rec, rec_rows, every_frames, t_leg_s, frame, counters, pulse_w
     # yaw_out = -roll + yaw tan(pitch_out), so roll = -yaw_out + yaw tan(pitch_out).
     pitch = -fine[0]
     yaw = -fine[1]
-    roll = -trk[0] + yaw * np.tan(trk[1] / RAD2ARCSEC)
+    roll = -trk[0] + yaw * xmath.tan(trk[1] / RAD2ARCSEC)
     r = rec[k]
     if k == 0:
         r[0] = 0.0  # the buffer is not cleared: the first row starts its own sums

@@ -7,8 +7,8 @@ the machine's own judgement (:func:`warnings`), and for flying a mission
 while measuring its calibration modes (:func:`fly_calibrating`).
 """
 
-import math
 
+from allsky import xmath
 from allsky.units import FRACTION2PPM, RAD2ARCSEC
 from allsky.vocabulary import AXES, CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES
 
@@ -193,7 +193,7 @@ def timed_warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
                        f"errors settled, the vehicle did not; likely cause: "
                        f"{_likely_cause(summary, t_s, describe)}")
         computed = tgt.get("computed_error_arcsec") or {}
-        own = math.hypot(computed.get("pitch", 0.0), computed.get("yaw", 0.0))
+        own = xmath.hypot(computed.get("pitch", 0.0), computed.get("yaw", 0.0))
         bound = max(own, settle_threshold_arcsec)
         true = tgt.get("pointing_error_arcsec")
         if true is not None and true > TRUTH_FACTOR * bound:

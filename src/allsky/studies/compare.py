@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xmath
 from allsky.computer import word_registers as wr
 from allsky.sequencer.dither_mode import analyse, cross_coupling_words
 from allsky.sim.mission import DITHER_PLAN, LEGACY_PLAN, Mission
@@ -107,7 +107,7 @@ def slew_tracking_error_arcsec(scale_factor_error_ppm, target) -> float | None:
     if roll is None or yaw is None:
         return None
     deg = 3600.0 / FRACTION2PPM
-    return float(math.hypot(scale_factor_error_ppm["roll"] * roll * deg,
+    return float(xmath.hypot(scale_factor_error_ppm["roll"] * roll * deg,
                             scale_factor_error_ppm["yaw"] * yaw * deg))
 
 
@@ -328,7 +328,7 @@ def predicted(cfg, legacy_time_s=None, drift_sigma_deg_h=None) -> dict:
         w = 2 * math.pi / d.period_s[i]
         gyro_term = n_arw * math.sqrt(2.0 / d.record_s) / (amp * w)
         opt_term = opt_noise[a] * math.sqrt(2.0 / n_frames) / amp
-        out["dither"][a] = FRACTION2PPM * math.hypot(gyro_term, opt_term if d.estimator == "optical"
+        out["dither"][a] = FRACTION2PPM * xmath.hypot(gyro_term, opt_term if d.estimator == "optical"
                                             else 0.0)
     t_d = cfg.sequencer.drift_count_s
     for a in AXES:
@@ -622,7 +622,7 @@ def smoother_metrics(cfg, cross_coupling=None) -> dict:
                                "cross_coupling_arcsec": sig["cross_coupling_arcsec"],
                                "drift_deg_h": sig["drift_deg_h"]}
         e = smoother.errors(f.mission, sm)
-        out["nees"] = float(e @ np.linalg.solve(sm.covariance, e))
+        out["nees"] = xmath.dot(e, xmath.solve(sm.covariance, e))
         out["filter_s"] = f.smoother_s
         out["iterations"] = sm.iterations
     return out

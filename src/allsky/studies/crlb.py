@@ -41,7 +41,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xarrays
 from allsky.jit import njit
 from allsky.studies import kalman_mekf as km
 from allsky.studies.kalman_mekf import E_INDEX
@@ -142,10 +142,10 @@ def linearise(model: km.FilterModel, samples: km.Samples, params_true) -> Linear
     c = np.eye(3) + e
     dt = np.asarray(samples.dt_s, dtype=float)
     u = np.asarray(samples.gyro_rad, dtype=float) - np.outer(dt, p[0:3])
-    d = u @ c.T
-    ang = np.linalg.norm(d, axis=1)
+    d = xarrays.matvec_rows(c, u)  # (I + E) u, row by row
+    ang = xarrays.norm_rows(d)
     axis = np.where(ang[:, None] > 1e-15, d / np.where(ang > 1e-15, ang, 1.0)[:, None], 0.0)
-    cos, sin = np.cos(ang), np.sin(ang)
+    cos, sin = xarrays.cos_many(ang), xarrays.sin_many(ang)
     ax = np.zeros((d.shape[0], 3, 3))  # [a x]
     ax[:, 0, 1], ax[:, 0, 2], ax[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
     ax[:, 1, 0], ax[:, 2, 0], ax[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
@@ -154,8 +154,8 @@ def linearise(model: km.FilterModel, samples: km.Samples, params_true) -> Linear
     a_body = dcm_many(q)
     # The Sun as the loop has it (sim.frame_loop.sun_inertial): linear in time, renormalised.
     sun_i = model.sun0_inertial + np.outer(samples.time_s, model.sun_rate_inertial)
-    sun_i /= np.linalg.norm(sun_i, axis=1)[:, None]
-    s_sun = np.einsum("nij,nj->ni", a_body, sun_i)
+    sun_i /= xarrays.norm_rows(sun_i)[:, None]
+    s_sun = xarrays.matvec_rows(a_body, sun_i)
     h = np.zeros((q.shape[0], 4, 3))
     valid = np.zeros((q.shape[0], 4))
     sun_ok = (samples.sun[:, km.VALID] > 0.5) & (s_sun[:, 0] > 0.0)
@@ -164,10 +164,9 @@ def linearise(model: km.FilterModel, samples: km.Samples, params_true) -> Linear
     valid[:, 0] = valid[:, 1] = sun_ok
     trk_ok = samples.tracker[:, km.VALID] > 0.5
     stars = np.asarray(model.stars_inertial, dtype=float)
-    s_all = np.einsum("nij,mj->nmi", a_body, stars)  # (n, stars, 3)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ey = np.arctan2(-s_all[..., 1], s_all[..., 2]) - samples.tracker[:, None, 0]
-        ep = np.arctan2(s_all[..., 0], s_all[..., 2]) - samples.tracker[:, None, 1]
+    s_all = xarrays.matvec_rows(a_body[:, None], stars[None])  # (n, stars, 3)
+    ey = xarrays.atan2_many(-s_all[..., 1], s_all[..., 2]) - samples.tracker[:, None, 0]
+    ep = xarrays.atan2_many(s_all[..., 0], s_all[..., 2]) - samples.tracker[:, None, 1]
     miss = np.where(s_all[..., 2] > 0.0, ey * ey + ep * ep, np.inf)
     star = np.argmin(miss, axis=1)
     s_trk = s_all[np.arange(q.shape[0]), star]

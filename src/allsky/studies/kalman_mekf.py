@@ -43,7 +43,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xarrays, xmath
 from allsky.computer import word_registers as wr
 from allsky.hardware.dac import dac
 from allsky.jit import njit, njit_alloc
@@ -225,13 +225,13 @@ def _back_one_frame(q, dtheta):
     """Attitudes one frame earlier, ``q (x) dq(-dtheta)``, row by row (n, 4)."""
     h = -0.5 * np.atleast_2d(dtheta)
     n = np.sqrt(np.sum(h * h, axis=1))
-    k = np.where(n > 0, np.sin(n) / np.where(n > 0, n, 1.0), 1.0)
-    dw, dx, dy, dz = np.cos(n), h[:, 0] * k, h[:, 1] * k, h[:, 2] * k
+    k = np.where(n > 0, xarrays.sin_many(n) / np.where(n > 0, n, 1.0), 1.0)
+    dw, dx, dy, dz = xarrays.cos_many(n), h[:, 0] * k, h[:, 1] * k, h[:, 2] * k
     q = np.atleast_2d(q)
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     out = np.column_stack((w * dw - x * dx - y * dy - z * dz, w * dx + x * dw + y * dz - z * dy,
                            w * dy - x * dz + y * dw + z * dx, w * dz + x * dy - y * dx + z * dw))
-    return out / np.linalg.norm(out, axis=1)[:, None]
+    return out / xarrays.norm_rows(out)[:, None]
 
 
 def samples_from_legs(m: Mission, legs_flown, modes, truth=True) -> Samples:
@@ -750,7 +750,7 @@ def sensitivity(params) -> np.ndarray:
     for a in range(3):
         for j in range(3):
             e[a, j] = params[E_INDEX[a, j] - 3]
-    return np.linalg.inv(np.eye(3) + e)
+    return xmath.inv(np.eye(3) + e)
 
 
 def _register_values(params) -> np.ndarray:
@@ -820,7 +820,7 @@ def sigmas(params, cov) -> dict:
         up[k] += h
         dn[k] -= h
         jac[:, k] = (_register_values(up) - _register_values(dn)) / (2 * h)
-    sd = np.sqrt(np.diag(jac @ np.asarray(cov)[3:, 3:] @ jac.T))
+    sd = np.sqrt(np.diag(xmath.matmul(xmath.matmul(jac, np.asarray(cov)[3:, 3:]), jac.T)))
     return {"drift_deg_h": dict(zip(AXES, (float(x) for x in sd[0:3]))),
             "scale_factor_ppm": {"roll": float(sd[3] * units.FRACTION2PPM),
                                  "yaw": float(sd[4] * units.FRACTION2PPM)},
@@ -838,7 +838,7 @@ def true_parameters(m: Mission, bias_rad_s) -> np.ndarray:
     ``E`` comes from mission ``m``'s true gyro sensitivity; ``bias_rad_s`` is
     the (3,) true drift [rad/s].
     """
-    e = np.linalg.inv(np.asarray(m.params.gyro.sensitivity)) - np.eye(3)
+    e = xmath.inv(np.asarray(m.params.gyro.sensitivity)) - np.eye(3)
     out = np.empty(12)
     out[0:3] = bias_rad_s
     for a in range(3):

@@ -24,7 +24,7 @@ limit cycle's dependence on the path.
 
 import numpy as np
 
-from allsky import units
+from allsky import units, xmath
 from allsky.computer import word_registers as wr
 from allsky.vocabulary import AXES
 
@@ -101,8 +101,7 @@ def decompose(history, arrays) -> dict | None:
     base = _fly_mode6(history, arrays, true_w, true_d)
     if total is None or base is None:
         return None
-    out = {"total_arcsec": float(np.linalg.norm(total)),
-           "targeting_arcsec": float(np.linalg.norm(base))}
+    out = {"total_arcsec": xmath.norm3(total), "targeting_arcsec": xmath.norm3(base)}
     parts = np.zeros(3)
     for group in GROUPS:
         w, d = true_w.copy(), true_d.copy()
@@ -114,7 +113,7 @@ def decompose(history, arrays) -> dict | None:
         e = _fly_mode6(history, arrays, w, d)
         if e is None:
             return None
-        out[f"{group}_arcsec"] = float(np.linalg.norm(e - base))
+        out[f"{group}_arcsec"] = xmath.norm3(e - base)
         parts += e - base
-    out["interaction_arcsec"] = float(np.linalg.norm(total - base - parts))
+    out["interaction_arcsec"] = xmath.norm3(total - base - parts)
     return out

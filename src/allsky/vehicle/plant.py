@@ -23,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky import xmath
 from allsky.jit import njit, njit_stage
 
 N_STATE = 7
@@ -43,7 +44,7 @@ def make_params(inertia_kg_m2) -> RigidBodyParams:
     ``inertia_kg_m2`` is the vehicle's tensor in body axes (9 numbers, or 3x3).
     """
     j = np.array(inertia_kg_m2, dtype=float).reshape(3, 3)
-    return RigidBodyParams(j, np.linalg.inv(j))
+    return RigidBodyParams(j, xmath.inv(j))
 
 
 @njit
@@ -310,8 +311,8 @@ def gyrostat_momentum_inertial(p: RigidBodyParams, x, wheel_momentum_body_n_m_s)
     """
     from allsky.vehicle.quaternion import dcm_body_from_inertial
 
-    h_body = p.inertia_kg_m2 @ np.asarray(x[4:7]) + np.asarray(wheel_momentum_body_n_m_s)
-    return dcm_body_from_inertial(np.asarray(x[0:4])).T @ h_body
+    h_body = xmath.matmul(p.inertia_kg_m2, np.asarray(x[4:7])) + np.asarray(wheel_momentum_body_n_m_s)
+    return xmath.matmul(dcm_body_from_inertial(np.asarray(x[0:4])).T, h_body)
 
 
 def gyrostat_energy_j(p: RigidBodyParams, x, h_n_m_s, wheel_inertia_kg_m2) -> float:
@@ -332,7 +333,7 @@ def gyrostat_energy_j(p: RigidBodyParams, x, h_n_m_s, wheel_inertia_kg_m2) -> fl
     """
     w = np.asarray(x[4:7])
     h = np.asarray(h_n_m_s, dtype=float)
-    return 0.5 * float(w @ p.inertia_kg_m2 @ w) + 0.5 * float(np.sum(h * h
+    return 0.5 * xmath.dot(w, xmath.matmul(p.inertia_kg_m2, w)) + 0.5 * float(np.sum(h * h
                                                                       / wheel_inertia_kg_m2))
 
 
@@ -344,8 +345,8 @@ def angular_momentum_inertial(p: RigidBodyParams, x) -> np.ndarray:
     """
     from allsky.vehicle.quaternion import dcm_body_from_inertial
 
-    h_body = p.inertia_kg_m2 @ np.asarray(x[4:7])
-    return dcm_body_from_inertial(np.asarray(x[0:4])).T @ h_body
+    h_body = xmath.matmul(p.inertia_kg_m2, np.asarray(x[4:7]))
+    return xmath.matmul(dcm_body_from_inertial(np.asarray(x[0:4])).T, h_body)
 
 
 def kinetic_energy_j(p: RigidBodyParams, x) -> float:
@@ -355,4 +356,4 @@ def kinetic_energy_j(p: RigidBodyParams, x) -> float:
     body rate [rad/s]).
     """
     w = np.asarray(x[4:7])
-    return 0.5 * float(w @ p.inertia_kg_m2 @ w)
+    return 0.5 * xmath.dot(w, xmath.matmul(p.inertia_kg_m2, w))

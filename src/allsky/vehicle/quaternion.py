@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from allsky import xmath
 from allsky.jit import njit, njit_alloc
 
 
@@ -64,9 +65,9 @@ def body_axis_inertial(q, axis):
 def from_axis_angle(axis, angle_rad):
     """Quaternion of a frame rotated by ``angle_rad`` about ``axis`` (right hand)."""
     axis = np.asarray(axis, dtype=float)
-    axis = axis / np.linalg.norm(axis)
+    axis = axis / xmath.norm3(axis)
     h = 0.5 * angle_rad
-    return np.array([math.cos(h), *(math.sin(h) * axis)])
+    return np.array([xmath.cos(h), *(xmath.sin(h) * axis)])
 
 
 def multiply(p, q):
@@ -107,7 +108,7 @@ def from_dcm(c):
                       (c[1, 2] + c[2, 1]) / (4 * z), z])
     if q[0] < 0:
         q = -q
-    return q / np.linalg.norm(q)
+    return q / math.sqrt(xmath.dot(q, q))
 
 
 def random_unit(rng):
@@ -117,6 +118,6 @@ def random_unit(rng):
     """
     u1, u2, u3 = rng.random(3)
     a, b = math.sqrt(1 - u1), math.sqrt(u1)
-    q = np.array([a * math.sin(2 * math.pi * u2), a * math.cos(2 * math.pi * u2),
-                  b * math.sin(2 * math.pi * u3), b * math.cos(2 * math.pi * u3)])
+    q = np.array([a * xmath.sin(2 * math.pi * u2), a * xmath.cos(2 * math.pi * u2),
+                  b * xmath.sin(2 * math.pi * u3), b * xmath.cos(2 * math.pi * u3)])
     return q if q[0] >= 0 else -q

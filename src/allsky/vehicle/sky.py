@@ -1,19 +1,23 @@
 """The sky for the emulator: the Sun's direction and the bright-star catalog.
 
-Everything comes from PyEphem: its Sun theory (VSOP87, good across
-:data:`EPHEMERIS_YEARS`) and its bundled catalog of bright stars
-(``ephem.stars``: Hipparcos positions and proper motions, visual magnitudes,
-e.g. Canopus -0.62, Sirius -1.44). Nothing is downloaded; it works offline.
+The Sun comes from JPL's DE421 ephemeris (:mod:`allsky.vehicle.ephemeris`),
+the stars from the bright-star catalog PyEphem carries (``ephem.stars``:
+Hipparcos positions for J2000.0 and proper motions, visual magnitudes, e.g.
+Canopus -0.62, Sirius -1.44), read as data. Every angle is computed with the
+exact arithmetic of :mod:`allsky.xmath`, so that the sky is the same bits on
+every machine. Nothing is downloaded; it works offline.
 
 Frame
 -----
-The inertial frame (``_inertial``) is equatorial J2000: x toward the mean
-equinox of J2000.0, z toward the mean north celestial pole of J2000.0. A
-direction is the astrometric geocentric position, PyEphem's ``a_ra`` and
-``a_dec`` after ``body.compute(date, epoch='2000')``: light-time is included;
-precession and nutation to the date and aberration are not. The apparent
-place of date differs from it by precession (about 50"/yr in longitude, so
-up to ~0.5 deg over decades), nutation (< 20") and aberration (about 20").
+The inertial frame (``_inertial``) is equatorial J2000 (the ICRF, to 0.02"):
+x toward the mean equinox of J2000.0, z toward the mean north celestial pole
+of J2000.0. A direction is the astrometric geocentric position: light-time is
+included; precession and nutation to the date and aberration are not. The
+apparent place of date differs from it by precession (about 50"/yr in
+longitude, so up to ~0.5 deg over decades), nutation (< 20") and aberration
+(about 20"). A star's place at a date is its J2000.0 place moved on by its
+proper motion (linear in right ascension and declination, as PyEphem moves
+it: within 0.2" of PyEphem's over a century).
 
 Model limits
 ------------
@@ -33,7 +37,8 @@ Model limits
 Dates
 -----
 Dates are ``datetime`` objects in UTC: naive ones are taken as UTC, aware
-ones are converted to UTC. PyEphem applies Delta T (TT - UT) itself.
+ones are converted to UTC. The time scales (leap seconds, Delta T before
+1972) are :mod:`allsky.vehicle.ephemeris`'s.
 """
 
 from __future__ import annotations
@@ -41,20 +46,24 @@ from __future__ import annotations
 import difflib
 import functools
 import math
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from typing import TYPE_CHECKING, NamedTuple
 
-import ephem
-import ephem.stars
-
+from allsky import xmath
 from allsky.units import HOUR_S
 
 if TYPE_CHECKING:  # NumPy is imported where it computes: checking a scenario needs none
     import numpy as np
 
-#: First and last calendar years (inclusive, UTC) of accepted dates.
-#: PyEphem's Sun theory is good across them.
+#: First and last calendar years (inclusive, UTC) of accepted dates (DE421 spans
+#: 1899-07-29 to 2199-06-22; the catalog's proper motions are linear).
 EPHEMERIS_YEARS = (1900, 2100)
+#: [s] A Julian year, the unit of the catalog's proper motions (mas/yr).
+JULIAN_YEAR_S = 365.25 * 86400.0
+#: J2000.0, the catalog's epoch, as a UTC calendar date.
+J2000_UTC = datetime(2000, 1, 1, 12, 0, 0)
+#: [rad] per milliarcsecond
+MAS2RAD = math.pi / (180.0 * 3600.0 * 1000.0)
 
 
 class Star(NamedTuple):
@@ -106,14 +115,6 @@ def check_date(date_utc: datetime) -> None:
                          f"{lo_year}-{hi_year}")
 
 
-def _ephem_date(date_utc: datetime) -> float:
-    """PyEphem date (Dublin Julian Day, UT) of a checked ``datetime``."""
-    check_date(date_utc)
-    d_utc = _naive_utc(date_utc)
-    return float(ephem.Date((d_utc.year, d_utc.month, d_utc.day, d_utc.hour, d_utc.minute,
-                             d_utc.second + d_utc.microsecond * 1e-6)))
-
-
 def radec_to_unit(ra_deg: float, dec_deg: float) -> np.ndarray:
     """Unit vector of a right ascension and declination.
 
@@ -130,9 +131,8 @@ def radec_to_unit(ra_deg: float, dec_deg: float) -> np.ndarray:
     import numpy as np  # here, not above: scenario checks use this module without NumPy
 
     ra_rad, dec_rad = math.radians(ra_deg), math.radians(dec_deg)
-    return np.array([math.cos(dec_rad) * math.cos(ra_rad),
-                     math.cos(dec_rad) * math.sin(ra_rad),
-                     math.sin(dec_rad)])
+    cd = xmath.cos(dec_rad)
+    return np.array([cd * xmath.cos(ra_rad), cd * xmath.sin(ra_rad), xmath.sin(dec_rad)])
 
 
 def unit_to_radec(u) -> tuple[float, float]:
@@ -151,10 +151,10 @@ def unit_to_radec(u) -> tuple[float, float]:
         Declination [deg] in [-90, 90].
     """
     x, y, z = (float(c) for c in u)
-    ra_deg = math.degrees(math.atan2(y, x)) % 360.0
+    ra_deg = math.degrees(xmath.atan2(y, x)) % 360.0
     if ra_deg >= 360.0:  # -tiny % 360 rounds to 360.0
         ra_deg = 0.0
-    return ra_deg, math.degrees(math.atan2(z, math.hypot(x, y)))
+    return ra_deg, math.degrees(xmath.atan2(z, xmath.hypot(x, y)))
 
 
 def separation_deg(u, v) -> float:
@@ -176,8 +176,8 @@ def separation_deg(u, v) -> float:
     import numpy as np
 
     u_arr, v_arr = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
-    return math.degrees(math.atan2(float(np.linalg.norm(np.cross(u_arr, v_arr))),
-                                   float(u_arr @ v_arr)))
+    return math.degrees(xmath.atan2(xmath.norm3(np.cross(u_arr, v_arr)),
+                                    xmath.dot3(u_arr, v_arr)))
 
 
 def sun_direction_inertial(date_utc: datetime) -> np.ndarray:
@@ -198,9 +198,10 @@ def sun_direction_inertial(date_utc: datetime) -> np.ndarray:
     ValueError
         If the date is outside :data:`EPHEMERIS_YEARS`.
     """
-    sun = ephem.Sun()
-    sun.compute(_ephem_date(date_utc), epoch="2000")
-    return radec_to_unit(math.degrees(sun.a_ra), math.degrees(sun.a_dec))
+    from allsky.vehicle import ephemeris
+
+    check_date(date_utc)
+    return ephemeris.sun_direction_icrf(date_utc)
 
 
 def sun_motion(date_utc: datetime):
@@ -215,10 +216,8 @@ def sun_motion(date_utc: datetime):
     (numpy.ndarray, numpy.ndarray)
         Shape (3,) each: the unit vector, and its derivative [1/s].
     """
-    from datetime import timedelta
-
     s0 = sun_direction_inertial(date_utc)
-    s1 = sun_direction_inertial(date_utc + timedelta(hours=1))
+    s1 = sun_direction_inertial(date_utc + timedelta(seconds=HOUR_S))
     return s0, (s1 - s0) / HOUR_S
 
 
@@ -231,7 +230,7 @@ def star_names() -> tuple[str, ...]:
         Sorted. The catalog lists a few stars twice under variant names
         (e.g. Adara/Adhara, Alcaid/Alkaid).
     """
-    return tuple(sorted(ephem.stars.stars))
+    return tuple(sorted(_catalog()))
 
 
 @functools.cache
@@ -244,7 +243,7 @@ def _canonical(name: str) -> str:
         If no catalog star has that name; the message (``args[0]``) names it
         and up to 3 nearest catalog names.
     """
-    by_lower = {n.lower(): n for n in ephem.stars.stars}
+    by_lower = {n.lower(): n for n in _catalog()}
     key = name.strip().lower()
     if key not in by_lower:
         near = difflib.get_close_matches(key, list(by_lower), n=3, cutoff=0.5)
@@ -254,12 +253,53 @@ def _canonical(name: str) -> str:
     return by_lower[key]
 
 
+class CatalogEntry(NamedTuple):
+    """A star as the catalog gives it: its J2000.0 place and proper motion."""
+
+    ra_rad: float  #: [rad] right ascension at J2000.0
+    dec_rad: float  #: [rad] declination at J2000.0
+    pm_ra_mas_yr: float  #: [mas/yr] proper motion in right ascension, times cos(dec)
+    pm_dec_mas_yr: float  #: [mas/yr] proper motion in declination
+    magnitude: float  #: visual magnitude
+
+
+@functools.cache
+def _catalog() -> dict:
+    """The bright-star catalog by name, read from PyEphem's database text.
+
+    Each line is ``name,f|S|type,ra_h|pm_ra,dec_deg|pm_dec,mag``: right
+    ascension in hours and declination in degrees at J2000.0, proper
+    motions in mas/yr (the right ascension's times cos dec), and the visual
+    magnitude.
+    """
+    import ephem.stars  # its database text only: the C library computes nothing here
+
+    out = {}
+    for line in ephem.stars.db.splitlines():
+        if not line.strip():
+            continue
+        name, rest = line.split(",", 1)
+        fields = rest.split(",")
+        ra_h, pm_ra = fields[1].split("|")
+        dec_deg, pm_dec = fields[2].split("|")
+        out[name] = CatalogEntry(math.radians(float(ra_h) * 15.0), math.radians(float(dec_deg)),
+                                 float(pm_ra), float(pm_dec), float(fields[3]))
+    return out
+
+
 @functools.lru_cache(maxsize=8192)
-def _star_at(name: str, date_ephem: float) -> Star:
-    """A catalog star computed for a PyEphem date (cached; ``Star`` is immutable)."""
-    body = ephem.star(name)
-    body.compute(date_ephem, epoch="2000")
-    return Star(name, math.degrees(body.a_ra), math.degrees(body.a_dec), float(body.mag))
+def _star_at(name: str, years: float) -> Star:
+    """A catalog star ``years`` Julian years after J2000.0 (cached; ``Star`` is immutable)."""
+    e = _catalog()[name]
+    dec_rad = e.dec_rad + e.pm_dec_mas_yr * MAS2RAD * years
+    ra_rad = e.ra_rad + e.pm_ra_mas_yr * MAS2RAD * years / xmath.cos(e.dec_rad)
+    return Star(name, math.degrees(ra_rad) % 360.0, math.degrees(dec_rad), e.magnitude)
+
+
+def _years_since_j2000(date_utc: datetime) -> float:
+    """Julian years from J2000.0 to a checked ``datetime``."""
+    check_date(date_utc)
+    return (_naive_utc(date_utc) - J2000_UTC) / timedelta(seconds=JULIAN_YEAR_S)
 
 
 def star(name: str, date_utc: datetime | None = None) -> Star:
@@ -285,8 +325,8 @@ def star(name: str, date_utc: datetime | None = None) -> Star:
     ValueError
         If the date is outside :data:`EPHEMERIS_YEARS`.
     """
-    date_ephem = float(ephem.J2000) if date_utc is None else _ephem_date(date_utc)
-    return _star_at(_canonical(name), date_ephem)
+    years = 0.0 if date_utc is None else _years_since_j2000(date_utc)
+    return _star_at(_canonical(name), years)
 
 
 def stars_in_magnitude_window(mag_min: float, mag_max: float,

@@ -11,6 +11,7 @@ import numba
 import numpy as np
 import pytest
 
+from allsky import clock
 from allsky.config.scenario import load_scenario
 from allsky.jit import njit, njit_alloc, njit_stage
 from allsky.sequencer import legs, watch
@@ -110,8 +111,8 @@ def _leg_allocations(program, frames):
     from numba.core.runtime import rtsys
 
     m = Mission(load_scenario(), telemetry=False)
-    leg = legs.Leg(1, 1.0, program, legs.WATCH_ELAPSED, 0, 0, 0.0,
-                     frames * m.params.frame_s, 1e9)
+    leg = legs.Leg(1, 1.0, program, legs.WATCH_ELAPSED, 0, 0, 0, frames,
+                   clock.NEVER)
     args = (np.empty((0, recorder.N_TLM)), np.zeros(1, dtype=np.int64),
             np.empty((0, recorder.N_REC)), np.zeros(1, dtype=np.int64))
     before = rtsys.get_allocation_stats().alloc

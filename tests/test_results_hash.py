@@ -30,12 +30,12 @@ CASES = {
 
 #: sha256 of (summary JSON, telemetry bytes) per case, and of ``compare --runs 5``.
 EXPECTED = {
-    "dither-seed1": "4e11adc3bcb98db8fd282d0899959afd",
-    "dither-seed5": "6192035fccbc5e773712bb469eb25f67",
-    "legacy-seed1": "3af38920b1f2fec8d07369af427fb142",
-    "legacy-seed23-vega": "c96f0b3b83ede62aa215fc2105005b18",
-    "legacy-seed7": "03095837ddb5a8f30d0443851e9b0251",
-    "compare-runs5": "b3040f970eb5b16e33ed6020112def6a",
+    "dither-seed1": "4aaf5a7c7b2f5e8e02318e086503c416",
+    "dither-seed5": "439328918ed7020a02ad9df94ce7b8a5",
+    "legacy-seed1": "279ad0772a9a036be7e92b3e38c756e3",
+    "legacy-seed23-vega": "7e292633ce18f300c0390f54830f98fb",
+    "legacy-seed7": "d31546f3c1821f3088cdeb14c944875f",
+    "compare-runs5": "22b091e30a59020e35185be47d10610e",
 }
 
 
@@ -65,11 +65,11 @@ def mission_hash(plan, seed, overrides) -> str:
 ADDED_WITH_THE_JOURNAL = ("drift_dac_clipped", "end", "warnings", "events")
 #: The hashes of :data:`CASES` before the journal (format-1 view, :func:`format1_hash`).
 EXPECTED_FORMAT1 = {
-    "dither-seed1": "815a3bbfdd511629487a1e2a548fcaab",
-    "dither-seed5": "6a91f6f13f8722084a28e1031f899483",
-    "legacy-seed1": "f84f42933afd33f961fd2727fb707c54",
-    "legacy-seed23-vega": "acf7293252c519ef7f7ff8e629512222",
-    "legacy-seed7": "7cb56f487130fa13b2280b6954576d7a",
+    "dither-seed1": "134c0bd8de5c35975e70d823ea17b187",
+    "dither-seed5": "c26a558bd685def6dbd9eb777316a981",
+    "legacy-seed1": "752e1aac947e010b2b7ce093851816f4",
+    "legacy-seed23-vega": "f0f1dc96b60e333031eb343ede02ce8c",
+    "legacy-seed7": "f0ef1cb2b519dfbb05817e7b3720e659",
 }
 
 

@@ -76,9 +76,9 @@ with localcontext() as _ctx:
     PIO2_HI, PIO2_LO = _split(_PI / 2, 53, 2)
     PIO4 = float(_PI / 4)
     TWO_OVER_PI = float(2 / _PI)
-    #: pi/2 in pieces for the argument reduction: n * piece is exact for |n| < 2^26
+    #: pi/2 in pieces for the argument reduction: ``n * piece`` is exact for ``abs(n) < 2**26``
     PIO2_1, PIO2_2, PIO2_3, PIO2_4, PIO2_5 = _split(_PI / 2, 27, 5)
-    #: ln 2 in two pieces: n * LN2_HI is exact for |n| < 2^13
+    #: ln 2 in two pieces: ``n * LN2_HI`` is exact for ``abs(n) < 2**13``
     LN2_HI, LN2_LO = _split(_LN2, 40, 2)
     INV_LN2 = float(1 / _LN2)
     #: ln 10 and 1/ln 10, for the powers and logarithms of ten
@@ -354,7 +354,7 @@ def log10(x):
 # -- small vectors and matrices ----------------------------------------------------------
 @jitable
 def hypot(x, y):
-    """sqrt(``x``^2 + ``y``^2), the same bits everywhere (unscaled, for physics)."""
+    """``sqrt(x*x + y*y)``, the same bits everywhere (unscaled, for physics)."""
     return math.sqrt(x * x + y * y)
 
 

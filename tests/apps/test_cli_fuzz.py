@@ -189,7 +189,7 @@ def modes_not_flown(monkeypatch):
     """Each mode ends at once: the state file is what is under test, not the flight."""
     def run_mode(m, hooks=None):
         name = m.plan[m.next_mode]
-        t = float(m.state.time_s[0])
+        t = m.now_s()
         rec = ModeRecord(name, t, t, "not flown in this test")
         m.timeline.append(rec)
         m.next_mode += 1

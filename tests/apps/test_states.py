@@ -35,12 +35,12 @@ def test_resumed_from_a_snapshot_flies_on_bit_for_bit(saved_states):
     assert again.summary() == saved_states["mission"].summary()
 
 
-def test_file_layout_is_state_format_3(saved_states):
-    assert STATE_FORMAT == 3
+def test_file_layout_is_state_format_4(saved_states):
+    assert STATE_FORMAT == 4
     with np.load(saved_states["4"], allow_pickle=False) as z:
         assert set(z.files) == {"history"} | {f"state_{k}" for k in sim_state.State._fields}
         history = json.loads(str(z["history"]))
-    assert history["format"] == 3 and history["next_mode"] == 3
+    assert history["format"] == 4 and history["next_mode"] == 3
     assert [r[0] for r in history["timeline"]] == ["1", "2", "3"]
 
 
@@ -103,9 +103,9 @@ def test_load_refuses_a_file_that_is_not_a_state(tmp_path, content, words):
 def test_load_refuses_another_format(saved_states, tmp_path):
     history, arrays = states.load(saved_states["2"], telemetry=False).snapshot()
     path = _written(tmp_path, {**history, "format": 2}, arrays, "v2.npz")
-    with pytest.raises(states.StateError, match=r"^format 2, not 3$"):
+    with pytest.raises(states.StateError, match=r"^format 2, not 4$"):
         states.load(path)
-    with pytest.raises(ValueError, match="format 3"):
+    with pytest.raises(ValueError, match="format 2, not 4"):
         Mission.from_snapshot({**history, "format": 2}, arrays)
 
 
@@ -147,7 +147,8 @@ def _edit_scenario(section, key, value):
     (_edit_history(leg_count=-1), "leg_count = -1 is not a count"),
     (_edit_history(counted_arcsec={"roll": [1.0, None, 2.0]}), "counted_arcsec = "),
     (_edit_history(programmed_roll_deg=float("nan")), "programmed_roll_deg = nan is not a finite"),
-    (_edit_history(format=3.0), "format 3.0, not 3"),
+    (_edit_history(format=4.0), "format 4.0, not 4"),
+    (_edit_history(format=3), "format 3, not 4"),  # a file of the summed clock
     (_edit_scenario("gyro", "arw_deg_rt_h", -1), ("its scenario: gyro.arw_deg_rt_h = -1.0: must "
                                                   "be >= 0")),
     (_edit_scenario("mission", "frame_s", 1e-12), ("its scenario: mission.frame_s = 1e-12: must "
@@ -161,7 +162,7 @@ def _edit_scenario(section, key, value):
                                     "selector 0, 1 or 2)")),
     (_edit_array("switches", 2, 4), "state_switches: S4 = 2"),
     (_edit_array("pwpf_out", 5, 1), "state_pwpf_out = [0, 5, 0]: each must be one of -1, 0, 1"),
-    (_edit_array("time_s", -1.0), "state_time_s and state_frame must be >= 0"),
+    (_edit_array("frame", -1), "state_frame (the mission clock) must be >= 0"),
     (_replace_array("x", np.zeros(6)), ("state_x is float64 of shape (6,), not float64 of shape "
                                        "(7,)")),
     (_replace_array("counters", np.zeros(3)), ("state_counters is float64 of shape (3,), not "

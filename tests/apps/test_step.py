@@ -191,7 +191,7 @@ def test_pauses_every_n_seconds_do_not_change_the_flight(default_cfg, saved_stat
     ends = [s["mode"] for s in shown if s["kind"] == "mode end"]
     assert ends == MODE_ORDER
     # One stop per multiple of 97 s that falls inside a leg, on the frame.
-    assert len(inside) >= int(straight.state.time_s[0] // 97.0) - 2
+    assert len(inside) >= int(straight.now_s() // 97.0) - 2
     for s in inside:
         k = round(s["time_s"] / 97.0)
         assert s["time_s"] == pytest.approx(97.0 * k, abs=0.011)

@@ -126,10 +126,10 @@ def test_faults_a_dead_roll_gyro_runs_its_counter_on_the_applied_drift():
     while m.plan[m.next_mode] != "6-2":
         m.run_mode()
     applied = m.calibration()["drift_applied_deg_h"]["roll"]
-    before, t0 = int(m.state.counters[0]), float(m.state.time_s[0])
+    before, t0 = int(m.state.counters[0]), m.now_s()
     m.run_mode()
     # The loop turns the vehicle, but the dead gyro sees none of it: only the DAC counts.
-    rate = (int(m.state.counters[0]) - before) / (float(m.state.time_s[0]) - t0)
+    rate = (int(m.state.counters[0]) - before) / (m.now_s() - t0)
     pulses_s = -applied / m.pulse_weight_arcsec  # 1 deg/h = 1"/s at the summing amplifier
     assert rate == pytest.approx(pulses_s, rel=0.02)
     quotes("faults.md", f"stored roll drift (+{applied:.2f} deg/h)",

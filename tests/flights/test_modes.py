@@ -41,7 +41,7 @@ def body_axes(m):
 
 def sun_now(m):
     p = m.params
-    s = p.sun0_inertial + p.sun_rate_inertial * m.state.time_s[0]
+    s = p.sun0_inertial + p.sun_rate_inertial * m.now_s()
     return s / np.linalg.norm(s)
 
 

@@ -11,6 +11,7 @@ scenario's ``sensor_loss_s`` (5 s).
 
 import numpy as np
 
+from allsky import clock
 from allsky.hardware.switch_bank import new_bank
 from allsky.hardware.wiring import ROUTING
 from allsky.sequencer import legs
@@ -23,8 +24,10 @@ from allsky.sequencer.watch import (
 )
 from allsky.sim.state import SequencerParams
 
-SQ = SequencerParams(settle_threshold_arcsec=50.0, handover_arcsec=7200.0, sensor_loss_s=5.0)
-DT_S = 0.125  # a binary fraction: leg times add up exactly
+DT_S = 0.125  # a binary fraction
+CLOCK = clock.clock(DT_S)
+SQ = SequencerParams(settle_threshold_arcsec=50.0, handover_arcsec=7200.0,
+                     sensor_loss_frames=clock.frames_within(CLOCK, 5.0))
 SUN = np.array([10.0, -10.0, 1.0])  # sun sensor 104: pitch, yaw [arcsec], present
 STAR = np.array([20.0, 5.0, 1.0])  # star tracker 105: yaw, pitch [arcsec], present
 NO_ERRORS = np.zeros(6)  # CPU 22 working store: no computed errors
@@ -32,25 +35,40 @@ NO_ERRORS = np.zeros(6)  # CPU 22 working store: no computed errors
 
 def leg(watch_kind=legs.WATCH_SETTLE, mask=legs.SETTLE_OPTICAL, signal=legs.SIG_TRACKER_YAW,
         blank_s=0.0, hold_s=10.0):
-    return legs.Leg(1, 2.0, legs.PROGRAM_NONE, watch_kind, mask, signal, blank_s, hold_s, 1e9)
+    """A leg, its times in seconds turned into frames as the mission driver turns them."""
+    return legs.Leg(1, 2.0, legs.PROGRAM_NONE, watch_kind, mask, signal,
+                    clock.frames_within(CLOCK, blank_s), clock.frames_for(CLOCK, hold_s),
+                    clock.NEVER)
 
 
 class Harness:
-    """The watch over successive frames, its clocks carried as the frame loop carries them."""
+    """The watch over successive frames, its counts carried as the frame loop carries them."""
 
     def __init__(self, the_leg, closed=(14, 15)):
         self.leg = the_leg
         self.bank = new_bank()
         self.bank[list(closed)] = 1
-        self.t_s = self.settle_s = self.sun_gone_s = self.star_gone_s = 0.0
+        self.n = self.settled = self.sun_gone = self.star_gone = 0
         self.sig = np.zeros(legs.N_SIGNALS)
 
+    @property
+    def t_s(self):
+        return clock.time_s(CLOCK, self.n)
+
+    @property
+    def settle_s(self):
+        return clock.time_s(CLOCK, self.settled)
+
+    @property
+    def sun_gone_s(self):
+        return clock.time_s(CLOCK, self.sun_gone)
+
     def frame(self, fine=SUN, trk=STAR, tank_ok=True, cpu=NO_ERRORS):
-        self.t_s += DT_S
+        self.n += 1
         sun_in_use, star_in_use = sensors_in_use(self.bank, ROUTING)
-        code, self.settle_s, self.sun_gone_s, self.star_gone_s = watch(
-            SQ, self.leg, sun_in_use, star_in_use, tank_ok, fine, trk, cpu, self.sig, DT_S,
-            self.t_s, self.settle_s, self.sun_gone_s, self.star_gone_s)
+        code, self.settled, self.sun_gone, self.star_gone = watch(
+            SQ, self.leg, sun_in_use, star_in_use, tank_ok, fine, trk, cpu, self.sig, self.n,
+            self.settled, self.sun_gone, self.star_gone)
         return code
 
     def frames(self, n, **kw):
@@ -191,7 +209,7 @@ def test_an_elapsed_leg_times_its_settle_mask_for_the_next_leg():
     assert (code, n, h.t_s) == (legs.EXIT_DONE, 80, 40.0)
     assert h.settle_s == 10.0
     h.leg = leg(hold_s=10.0)._replace(carry_settle=1)
-    h.t_s = 0.0
+    h.n = 0
     assert h.frame() == legs.EXIT_DONE
 
 

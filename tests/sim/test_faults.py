@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from allsky import clock
 from allsky.apps.cli import main
 from allsky.config import ConfigError, load_scenario
 from allsky.config import dispersions as disp
@@ -26,8 +27,14 @@ def _cfg(*faults, extra=()):
 def _params(*faults, extra=()):
     cfg = _cfg(*faults, extra=extra)
     fs = sf.new_fault_state()
-    sf.arm(fs, cfg.faults)
-    return cfg, build_params(cfg), fs
+    p = build_params(cfg)
+    sf.arm(fs, cfg.faults, p.clock)
+    return cfg, p, fs
+
+
+def _frame(p, t_s):
+    """The frame a mission time [s] lands on (the clock's rule)."""
+    return clock.frame_at(p.clock, t_s)
 
 
 # -- validation -----------------------------------------------------------------------
@@ -130,7 +137,8 @@ def _sense(p, fs, t, gyro=(10.0, 20.0, 30.0), dtheta=(1e-4, 0.0, 0.0)):
     fine = np.array([5.0, 6.0, 1.0])
     trk = np.array([7.0, 8.0, 1.0])
     g = np.array(gyro)
-    star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.array(dtheta), fine, trk,
+    star = sf.fault_sense(p.faults, p.faults.tracker, fs, _frame(p, t), 0.01, np.array(dtheta),
+                          fine, trk,
                           g, new_lock(), 3, True)
     return fine, trk, g, star
 
@@ -190,7 +198,7 @@ def test_blind_sun_sensor_dropout_and_stray_light():
 def _tracker_frame(p, fs, t, lock, star=0):
     """``fault_sense`` after a tracker that found ``star``: (trk, star)."""
     trk = np.array([7.0, 8.0, 1.0]) if star >= 0 else np.zeros(3)
-    star = sf.fault_sense(p.faults, p.faults.tracker, fs, t, 0.01, np.zeros(3),
+    star = sf.fault_sense(p.faults, p.faults.tracker, fs, _frame(p, t), 0.01, np.zeros(3),
                           np.array([5.0, 6.0, 1.0]), trk, np.zeros(3), lock, star, True)
     return trk, star
 
@@ -258,7 +266,7 @@ def test_a_glint_with_a_brightness_is_locked_only_by_an_empty_tracker_inside_the
     assert lock[trk.HELD] == FALSE_TARGET  # the glint acts: held
     _, p, fs = _params('{kind="tracker_stray_light", offset_deg=1.5, duration_s=1}',
                        extra=extra)
-    sf.fault_release(p.faults, fs, 2.0, lock)
+    sf.fault_release(p.faults, fs, _frame(p, 2.0), lock)
     assert lock[trk.HELD] == trk.NONE  # over: forgotten, the tracker searches again
 
 
@@ -269,9 +277,9 @@ def test_a_wrong_star_joins_the_window_and_is_locked_on_boresight():
     names = [s.name for s in sky.stars_in_magnitude_window(*cfg.star_tracker.magnitude_window,
                                                              cfg.mission.date_utc)]
     assert "Rigil Kentaurus" not in names
-    before = sf.fault_tracker(p.faults, p.tracker, fs, 0.0)
+    before = sf.fault_tracker(p.faults, p.tracker, fs, _frame(p, 0.0))
     assert before.stars_inertial.shape[0] == len(names)
-    extended = sf.fault_tracker(p.faults, p.tracker, fs, 10.0)
+    extended = sf.fault_tracker(p.faults, p.tracker, fs, _frame(p, 10.0))
     k = extended.stars_inertial.shape[0] - 1
     assert k == len(names)
     # An attitude with the wrong star on the tracker's boresight (+z).
@@ -292,10 +300,10 @@ def test_an_upset_flips_exactly_that_bit_once(reg, bit, start, expect):
     words = [np.zeros(3, dtype=np.int64) for _ in range(3)]  # drift, up/down, registers
     index = sf.WORD_INDEX[reg]
     words[index // 3][index % 3] = start
-    sf.fault_upset(p.faults, fs, 1.0, *words)
+    sf.fault_upset(p.faults, fs, _frame(p, 1.0), *words)
     assert words[index // 3][index % 3] == start
-    sf.fault_upset(p.faults, fs, 2.0, *words)
-    sf.fault_upset(p.faults, fs, 3.0, *words)  # once only
+    sf.fault_upset(p.faults, fs, _frame(p, 2.0), *words)
+    sf.fault_upset(p.faults, fs, _frame(p, 3.0), *words)  # once only
     assert words[index // 3][index % 3] == expect
     flat = np.concatenate(words)
     assert np.count_nonzero(flat) == (1 if expect else 0)
@@ -306,7 +314,7 @@ def _actuate(p, fs, valve, kg=1.0, feed=1.0):
     torque = np.array([v * p.jets.torque_n_m[i] * feed for i, v in enumerate(valve)])
     tank = np.array([kg - feed * sum(abs(v) * f * 0.01
                                      for v, f in zip(valve, p.jets.flow_kg_s))])
-    ok = sf.fault_actuate(p.faults, fs, 0.0, p.jets, 0.01, np.array(valve, dtype=np.int64),
+    ok = sf.fault_actuate(p.faults, fs, 0, p.jets, 0.01, np.array(valve, dtype=np.int64),
                           tank, torque, True, feed)
     return ok, torque, kg - tank[0]
 
@@ -372,12 +380,12 @@ def test_a_leak_with_a_torque_turns_the_vehicle_as_euler_says():
     assert cfg.faults[0]["torque_n_m"] == (0.0, 0.002, 0.0)
     x = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     tank = np.array([1.0])
-    time_s, frame = np.zeros(1), np.zeros(1, dtype=np.int64)
+    frame = np.zeros(1, dtype=np.int64)
     for _ in range(5000):
         torque = np.zeros(3)
-        assert sf.fault_actuate(p.faults, fs, time_s[0], p.jets, 0.01,
+        assert sf.fault_actuate(p.faults, fs, frame[0], p.jets, 0.01,
                                 np.zeros(3, dtype=np.int64), tank, torque, True, 1.0)
-        advance(p.plant, 0.01, torque, x, np.zeros(3), time_s, frame, np.zeros(4), np.zeros(1))
+        advance(p.plant, 0.01, torque, x, np.zeros(3), frame, np.zeros(4), np.zeros(1))
     assert x[5] == pytest.approx(0.002 * 50.0 / 650.0, rel=1e-9)
     assert x[4] == x[6] == 0.0
     # The pitch angle turned: w t / 2 over the 50 s (a quaternion's half angle, small).
@@ -613,7 +621,7 @@ def test_saved_states_keep_the_faults_and_older_files_load(tmp_path):
     states.save(m, path)
     resumed = states.load(path, telemetry=False)
     assert np.all(np.isfinite(resumed.state.fault_state))
-    assert list(resumed.state.fault_state[sf.ONSET, :2]) == [10.0, sf.UNKNOWN_S]
+    assert list(resumed.state.fault_state[sf.ONSET, :2]) == [1000.0, sf.UNKNOWN]
     assert resumed.run() == m.run()
     plain = Mission(load_scenario(), telemetry=False)
     plain.run_mode()

@@ -9,6 +9,7 @@ buffer.
 import numpy as np
 import pytest
 
+from allsky import clock
 from allsky.config.faults import describe
 from allsky.hardware import star_tracker as trk
 from allsky.hardware.star_tracker import FALSE_TARGET, new_lock
@@ -21,16 +22,17 @@ def buffer():
     return J.new_buffer(WHEELS, FAULTS)
 
 
-def decoder():
+def decoder(frame_s=1.0):
+    """A decoder whose clock turns frame k into k * frame_s seconds."""
     faults = [{"kind": "tracker_dropout", "duration_s": 5.0},
               {"kind": "gyro_dead", "axis": "pitch"}]
-    return J.Decoder(["Canopus", "Avior"], faults, describe, 0.0025, reference_cone_deg=-9.95,
-                     cone_check_deg=2.0, gate_magnitude=-2.88)
+    return J.Decoder(["Canopus", "Avior"], faults, describe, 0.0025, clock.clock(frame_s),
+                     reference_cone_deg=-9.95, cone_check_deg=2.0, gate_magnitude=-2.88)
 
 
-def drained(buf, n, mode="2"):
+def drained(buf, n, mode="2", frame_s=1.0):
     j = J.Journal()
-    j.drain(buf, n, mode, decoder())
+    j.drain(buf, n, mode, decoder(frame_s))
     return j
 
 
@@ -39,9 +41,8 @@ def test_the_star_in_the_slit_is_journaled_at_each_change_only():
     overflow = np.zeros(6, dtype=np.int64)
     stars = [-1, -1, 0, 0, 0, -1, 1, FALSE_TARGET, -1]
     for k, star in enumerate(stars):
-        J.note_frame(buf, n, seen, 0.01 * k, star, 1.0, -36000.0 * (star >= 0), overflow,
-                     new_lock())
-    j = drained(buf, n)
+        J.note_frame(buf, n, seen, k, star, 1.0, -36000.0 * (star >= 0), overflow, new_lock())
+    j = drained(buf, n, frame_s=0.01)  # times from frames: exact decimals
     assert [(e["t_s"], e["star"], e["previous"]) for e in j.events] == [
         (0.02, "Canopus", None), (0.05, None, "Canopus"), (0.06, "Avior", None),
         (0.07, "stray light", "Avior"), (0.08, None, "stray light")]
@@ -125,8 +126,8 @@ def test_a_fault_s_onset_and_end():
     buf, n, seen = buffer()
     first = J.SEEN_WHEEL + WHEELS
     state = np.zeros((3, FAULTS))
-    state[0] = [2.0, 5.0]  # onsets [s]
-    duration = np.array([5.0, np.inf])
+    state[0] = [2.0, 5.0]  # onsets [frames]
+    duration = np.array([5, clock.NEVER], dtype=np.int64)  # [frames]
     for k in range(12):
         J.note_faults(buf, n, seen, first, float(k), 2, state, 0, duration)
     j = drained(buf, n, mode="4")

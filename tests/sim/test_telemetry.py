@@ -16,6 +16,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+from allsky import clock
 from allsky.apps import telemetry_files
 from allsky.apps.cli import main
 from allsky.hardware import switch_bank
@@ -49,7 +50,6 @@ def test_columns_have_unique_names_a_unit_and_a_meaning():
 
 def test_the_recorder_writes_every_value_under_its_name():
     s = new_state(np.array([0.5, 0.5, -0.5, 0.5]), [1e-3, -2e-3, 3e-3], 3.25)
-    s.time_s[0] = 12.5
     s.counters[:] = [14, 16, 18]
     s.drift_counters[:] = [13, 15, 17]
     s.registers[:] = [25, 26, 27]
@@ -65,7 +65,7 @@ def test_the_recorder_writes_every_value_under_its_name():
     s.target_inertial[:] = sky.radec_to_unit(30.0, -40.0)
     s.jet_on_s[:] = [1.25, 2.5, 3.75]
     hb, ub = np.array([0.5, -0.25, 0.125]), np.array([0.01, 0.02, -0.03])
-    args = (s, 6.2, fine, trk, volts, hb, ub, 1)
+    args = (clock.clock(0.625), s, 6.2, fine, trk, volts, hb, ub, 1)  # frame 20: 12.5 s
     recorder.record_telemetry(tlm, rows, 7, *args)  # frame 20: not a 7th
     assert rows[0] == 0
     recorder.record_telemetry(tlm, rows, 10, *args)

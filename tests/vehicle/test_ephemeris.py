@@ -69,8 +69,9 @@ def test_time_scales_follow_the_leap_seconds():
 
 def test_dates_beyond_the_coefficients_are_refused():
     first, last = ephemeris.coverage_jd()
-    with pytest.raises(ValueError, match="outside DE421"):
-        ephemeris.chebyshev_km("sun", last + 1.0)
+    for jd in (first - 1.0, last + 1.0):
+        with pytest.raises(ValueError, match="outside DE421"):
+            ephemeris.chebyshev_km("sun", jd)
 
 
 @pytest.mark.parametrize("when", [datetime(1900, 3, 1), datetime(1964, 11, 28),

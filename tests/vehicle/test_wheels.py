@@ -7,6 +7,7 @@ import numba
 import numpy as np
 import pytest
 
+from allsky import clock
 from allsky.apps.cli import main
 from allsky.config.scenario import load_scenario
 from allsky.sim.mission import DITHER_PLAN, Mission, dither_params, wheel_params
@@ -377,8 +378,8 @@ def _wheel_leg_allocations(frames):
     from allsky.sim import frame_loop, recorder
 
     m = Mission(load_scenario(overrides=WHEELS), telemetry=False)
-    leg = legs.Leg(1, 1.0, legs.PROGRAM_MODE1, legs.WATCH_ELAPSED, 0, 0, 0.0,
-                   frames * m.params.frame_s, 1e9)
+    leg = legs.Leg(1, 1.0, legs.PROGRAM_MODE1, legs.WATCH_ELAPSED, 0, 0, 0, frames,
+                   clock.NEVER)
     args = (np.empty((0, recorder.N_TLM)), np.zeros(1, dtype=np.int64),
             np.empty((0, recorder.N_REC)), np.zeros(1, dtype=np.int64))
     before = rtsys.get_allocation_stats().alloc

@@ -85,7 +85,7 @@ def fly(m, quiet=False, stream=None, bar=None):
             name = m.plan[m.next_mode]
             note = f" ({COMPILE_NOTE})" if first_use else ""
             line.set_description_str(f"Mode {name} {MODE_TITLE[name]}, "
-                                     f"t = {m.state.time_s[0]:.0f} s{note}")
+                                     f"t = {m.now_s():.0f} s{note}")
 
         hooks = Hooks(pause_every_s=PROGRESS_EVERY_S, on_pause=lambda mm, what: describe(),
                       on_slice=lambda mm, what: describe())

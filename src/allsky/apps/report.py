@@ -170,7 +170,7 @@ def tracker_star(cfg):
 def where_stopped(m) -> str:
     """Where interrupted or stopped mission ``m`` is: mission time and mode."""
     mode = m.current_mode or (m.plan[m.next_mode] if not m.finished else None)
-    return f"t = {m.state.time_s[0]:.1f} s" + (f", in Mode {mode}" if mode else "")
+    return f"t = {m.now_s():.1f} s" + (f", in Mode {mode}" if mode else "")
 
 
 def write_outputs(outputs) -> tuple[list, list]:

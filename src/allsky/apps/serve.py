@@ -44,6 +44,7 @@ import time
 import numpy as np
 
 from allsky.apps import replay
+from allsky.sequencer.ground import SEQUENCER_COMMANDS
 from allsky.sim import commands as ground_commands
 
 #: [s] of wall time a slice of the flight lasts: the page's updates and a command's delay.
@@ -119,6 +120,10 @@ class Flight:
         self.reply = reply
         self.pause_when_alone = pause_when_alone
         self.commands = queue.Queue()
+        #: commands taken off the queue that wait for the next boundary, in order
+        self._waiting = []
+        #: the frame at which a plan-changing command closed the boundary (None: open)
+        self._closed_at = None
         self.clients = 0
         self.thread = threading.Thread(target=self._run, name="allsky-flight", daemon=True)
         self.done = threading.Event()
@@ -150,20 +155,24 @@ class Flight:
             self.done.set()
 
     def _pause_at(self, m):
+        if self._closed_at is not None:  # commands wait: the next boundary, at once
+            return m.now_s()
         return m.now_s() + max(self.speed * SLICE_WALL_S, self._frame_s)
 
     def _boundary(self, m, where):
+        self._closed_at = None  # a new boundary: the commands waiting may act
         self._take()
         self._publish()
-        if where == "finished":  # the flight stands still: wait for a command
+        if where == "finished" and self._closed_at is None:  # standing still: wait for one
             self._clock(False)
             self._take(block=True)
             self._publish()
-            if not m.finished:  # a command flies it again: paced, or held while paused
+            if not m.finished and self._closed_at is None:  # flown again: paced or held
                 self._anchor = (time.monotonic(), m.now_s())
                 self._wait()
             return True
-        self._wait()  # before the first mode too: paced, paused or waiting for a client
+        if self._closed_at is None:  # acting on a command takes no mission time: no pacing
+            self._wait()  # before the first mode too: paced, paused or waiting for a client
         return True
 
     def _clock(self, flying):
@@ -186,6 +195,8 @@ class Flight:
     def _wait(self):
         """Pace the flight to the wall clock; hold it while paused (or alone)."""
         while True:
+            if self._closed_at is not None:  # a command to act on: on to the next boundary
+                return
             if self.station.paused or self._alone():
                 self._take(block=True, timeout=0.2)
                 self._publish()  # the page's state catches up with the commands taken
@@ -203,15 +214,33 @@ class Flight:
                 self._publish()
 
     def _take(self, block=False, timeout=None) -> int:
-        """Apply the commands waiting (with ``block``, the first as it comes)."""
-        n = 0
+        """Apply the commands waiting (with ``block``, the first as it comes).
+
+        As a saved session's flight takes them (:meth:`allsky.sim.commands.Station.take`):
+        after a command that changes the plan, the rest wait for the next
+        boundary, where the flight has acted on it (at the same frame).
+        """
+        n, held = 0, []
         while True:
-            try:
-                item = self.commands.get(block=block and n == 0, timeout=timeout)
-            except queue.Empty:
-                return n
+            if self._waiting:
+                item = self._waiting.pop(0)
+            else:
+                try:
+                    item = self.commands.get(block=block and n == 0 and self._closed_at is None,
+                                             timeout=timeout)
+                except queue.Empty:
+                    break
+            # Past a plan-changing command only the session's own clock commands act here.
+            if self._closed_at is not None and item[0]["kind"] not in \
+                    ground_commands.SESSION_CLOCK:
+                held.append(item)
+                continue
             n += 1
             self._apply(*item)
+            if item[0]["kind"] in SEQUENCER_COMMANDS:
+                self._closed_at = self.m.frame
+        self._waiting = held + self._waiting
+        return n
 
     def _apply(self, command, token):
         try:

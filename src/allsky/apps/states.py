@@ -244,8 +244,8 @@ def _check_arrays(arrays, cfg):
     if not 0.0 <= left <= tank:
         raise StateError(f"{ARRAY_PREFIX}propellant_kg = {left!r}: must be within 0..{tank:g} "
                          "kg (jets.propellant_kg, the tank at ejection)")
-    if arrays["time_s"][0] < 0 or arrays["frame"][0] < 0:
-        raise StateError(f"{ARRAY_PREFIX}time_s and {ARRAY_PREFIX}frame must be >= 0")
+    if arrays["frame"][0] < 0:
+        raise StateError(f"{ARRAY_PREFIX}frame (the mission clock) must be >= 0")
     q = arrays["x"][0:4]
     with np.errstate(over="ignore"):  # a norm past the float range is inf: refused below
         norm = float(np.linalg.norm(q))
@@ -261,10 +261,10 @@ def _check_arrays(arrays, cfg):
                          "0 or 1, a selector 0, 1 or 2)")
     fs = arrays["fault_state"]
     onsets = fs[sim_faults.ONSET]
-    if not np.all((onsets == sim_faults.UNKNOWN_S) | (onsets >= 0.0)) \
+    if not np.all((onsets == sim_faults.UNKNOWN) | (onsets >= 0.0)) \
             or not np.all(np.isin(fs[sim_faults.LATCHED], (0.0, 1.0))):
         raise StateError(f"{ARRAY_PREFIX}fault_state: onsets must be >= 0 s or "
-                         f"{sim_faults.UNKNOWN_S:g} (not started), latches 0 or 1")
+                         f"{sim_faults.UNKNOWN:g} (not started), latches 0 or 1")
     for name, allowed in (("rate_sign", (-1, 1)), ("pwpf_out", (-1, 0, 1)),
                           ("overflow", (0, 1))):
         if not np.all(np.isin(arrays[name], allowed)):

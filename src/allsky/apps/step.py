@@ -50,7 +50,7 @@ def _sensor_view(m):
     generator, so looking does not disturb the flight's noise stream.
     """
     p, s = m.params, m.state
-    t = float(s.time_s[0])
+    t = m.now_s()
     sun_i = p.sun0_inertial + p.sun_rate_inertial * t
     sun_i = sun_i / np.linalg.norm(sun_i)
     sun_b = quaternion.dcm_body_from_inertial(s.x[0:4]) @ sun_i
@@ -85,7 +85,7 @@ def snapshot(m, kind, reason) -> dict:
     closed = switch_bank.closed(s.switches)
     return {
         "kind": kind,
-        "time_s": float(s.time_s[0]),
+        "time_s": m.now_s(),
         "mode": mode,
         "mode_title": MODE_TITLE[mode],
         "reason": reason,
@@ -353,7 +353,7 @@ def run_from_cli(cfg, args) -> int:
                                                  or m.timeline[-1].mode != m.current_mode)
         where = (f"inside Mode {m.current_mode}" if inside
                  else f"before Mode {m.plan[m.next_mode]}")
-        print(f"Stepping ended at t = {m.state.time_s[0]:.2f} s, {where}; "
+        print(f"Stepping ended at t = {m.now_s():.2f} s, {where}; "
               f"the report covers the flight so far.", file=out)
     print(report.format_report(summary, report.tracker_star(m.cfg)), file=out)
     outputs = []

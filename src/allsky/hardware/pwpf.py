@@ -23,7 +23,7 @@ Static characteristic for a constant input ``e > 0`` (continuous time):
 import math
 from typing import NamedTuple
 
-from allsky import xmath
+from allsky import clock, xmath
 from allsky.jit import njit
 
 
@@ -59,7 +59,7 @@ def make_params(filter_gain, time_constant_s, on_threshold_v, off_threshold_v, f
     """
     return PwpfParams(float(filter_gain), xmath.exp(-frame_s / time_constant_s),
                       float(on_threshold_v), float(off_threshold_v), float(full_on_v),
-                      max(1, math.ceil(min_on_time_s / frame_s - 1e-9)))
+                      max(1, clock.frames_for(clock.clock(frame_s), min_on_time_s)))
 
 
 @njit

@@ -46,8 +46,11 @@ class Host(Protocol):
     #: frame (a 3x3 list), once it has turned from target to target; None before
     held_axes: list | None
 
+    #: the mission clock: the frame the flight stands at (:mod:`allsky.clock`)
+    frame: int
+
     def now_s(self) -> float:
-        """Mission time [s]."""
+        """Mission time [s]: the time of the frame the flight stands at."""
 
     def note(self, kind: str, **fields) -> dict:
         """Journal an entry of ``kind`` (:data:`allsky.vocabulary.EVENT_KINDS`) now.

@@ -4,12 +4,14 @@ A *leg* is one step of a mode: the program computer 111 runs during it, the
 condition the sequencer's watch waits for (settle, hand-over or elapsed
 time), the watched signals and the time allowed. The loop returns an exit
 code; its progress through the leg is kept in ``State.leg_clock`` so that a
-paused leg resumes exactly.
+paused leg resumes exactly. Every time of a leg is a whole number of frames
+(:mod:`allsky.clock`): the mission driver converts the sequencer's seconds
+by the clock's rule, and the loop counts frames.
 """
 
 from typing import NamedTuple
 
-import numpy as np
+from allsky.clock import NEVER
 
 # Computer programs a leg can run.
 PROGRAM_NONE = 0
@@ -20,9 +22,10 @@ PROGRAM_DITHER = 4  #: comparison mode: dither added to the attitude command of 
 PROGRAM_TARGET_DITHER = 5  #: dither added while the computer holds the target (Mode 6-2 program)
 
 # What ends a leg.
-WATCH_SETTLE = 0  #: all signals of ``settle_mask`` below the threshold for ``hold_s``
-WATCH_HANDOVER = 1  #: ``handover_signal`` inside the hand-over threshold after ``blank_s``
-WATCH_ELAPSED = 2  #: ``hold_s`` of leg time (the ``settle_mask`` signals timed meanwhile)
+WATCH_SETTLE = 0  #: all signals of ``settle_mask`` below the threshold for ``hold_frames``
+#: ``handover_signal`` inside the hand-over threshold once ``blank_frames`` have passed
+WATCH_HANDOVER = 1
+WATCH_ELAPSED = 2  #: ``hold_frames`` of the leg (the ``settle_mask`` signals timed meanwhile)
 
 # Signals the master sequencer watches (index = bit of settle_mask).
 SIG_SUN_PITCH = 0
@@ -42,15 +45,14 @@ EXIT_TIMEOUT = -1
 EXIT_PROPELLANT = -2
 EXIT_SUN_LOST = -3
 EXIT_STAR_LOST = -4
-EXIT_PAUSE = 2  #: the leg reached its ``pause_at_s``; run it again with ``resume=1``
+EXIT_PAUSE = 2  #: the leg reached its ``pause_at_frame``; run it again with ``resume=1``
 
-# Leg progress kept in State.leg_clock, so that a paused leg resumes exactly.
-CLOCK_T_LEG = 0  #: [s] time in the leg
-CLOCK_SETTLE = 1  #: [s] time the settle condition has held
-CLOCK_SUN_GONE = 2  #: [s] time the Sun has been absent while in use
-CLOCK_STAR_GONE = 3  #: [s] time the star has been absent while in use
-CLOCK_FRAMES = 4  #: [frames] frames run in the leg
-N_CLOCK = 5
+# Leg progress kept in State.leg_clock [frames], so that a paused leg resumes exactly.
+CLOCK_FRAMES = 0  #: frames run in the leg
+CLOCK_SETTLE = 1  #: frames the settle condition has held
+CLOCK_SUN_GONE = 2  #: frames the Sun has been absent while in use
+CLOCK_STAR_GONE = 3  #: frames the star has been absent while in use
+N_CLOCK = 4
 
 
 class Leg(NamedTuple):
@@ -62,10 +64,13 @@ class Leg(NamedTuple):
     watch: int  #: WATCH_*
     settle_mask: int  #: bits of the SIG_* signals that must settle
     handover_signal: int  #: SIG_* watched for WATCH_HANDOVER
-    blank_s: float  #: [s] the watched signal is ignored this long after the leg starts
-    hold_s: float  #: [s] settle time (WATCH_SETTLE) or duration (WATCH_ELAPSED)
-    timeout_s: float  #: [s] the leg gives up after this long
-    pause_at_s: float = np.inf  #: [s] mission time at which to pause (EXIT_PAUSE)
+    #: [frames] the watched signal is ignored for this many frames of the leg; a hand-over
+    #: counts from the next
+    blank_frames: int
+    hold_frames: int  #: [frames] settle time (WATCH_SETTLE) or length (WATCH_ELAPSED)
+    timeout_frames: int  #: [frames] the leg gives up after this many
+    #: the mission's frame at which to pause (EXIT_PAUSE); NEVER: none
+    pause_at_frame: int = NEVER
     resume: int = 0  #: 1 = continue a paused leg (clock and noise stream carry on)
     #: 1 = the settle time starts from where the previous leg left it (errors that
     #: have *remained* settled), 0 = from zero

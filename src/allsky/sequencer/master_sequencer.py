@@ -28,7 +28,7 @@ end of Modes 4 and 5) is part of computer 111:
 
 import numpy as np
 
-from allsky import units, vocabulary
+from allsky import clock, units, vocabulary
 from allsky.computer import calibration_sequencer as cal19
 from allsky.computer import cpu, targeting
 from allsky.computer import word_registers as wr
@@ -481,7 +481,7 @@ def record_hold_start(m, records):
     ``records`` the samples the mode's legs kept, by name (not read).
     """
     s = m.state
-    m.hold = {"start_time_s": float(s.time_s[0]),
+    m.hold = {"start_time_s": m.now_s(),
               "start_quaternion": [float(v) for v in s.x[0:4]],
               "start_pointing_error_arcsec": float(m.pointing_error_arcsec())}
 
@@ -507,7 +507,9 @@ def measure_hold(m, records):
     if dq[0] < 0:  # the same rotation, the short way round
         dq = -dq
     rot_arcsec = 2.0 * dq[1:4] * units.RAD2ARCSEC
-    hold_s = float(s.time_s[0]) - h["start_time_s"]
+    # The hold's length from frames, not the difference of two rounded times.
+    ck = m.params.clock
+    hold_s = clock.time_s(ck, m.frame - clock.frame_at(ck, h["start_time_s"]))
     per_min = rot_arcsec / (hold_s / 60.0)
     m.hold = {"hold_s": hold_s,
               "start_pointing_error_arcsec": h["start_pointing_error_arcsec"],

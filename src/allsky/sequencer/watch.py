@@ -10,9 +10,10 @@ compiled into the loop, decides after every frame whether the leg is over:
    for star tracker 105; :data:`allsky.hardware.wiring.ROUTING`);
 2. otherwise, end the leg when its condition holds: WATCH_SETTLE (every
    signal of the settle mask below the settle threshold, 50", for
-   ``hold_s``, 10 s), WATCH_HANDOVER (the watched signal inside the
-   hand-over threshold, 7200", once ``blank_s`` has passed) or
-   WATCH_ELAPSED (``hold_s`` of leg time). An elapsed leg with a settle
+   ``hold_frames``, 10 s), WATCH_HANDOVER (the watched signal inside the
+   hand-over threshold, 7200", once ``blank_frames`` have passed) or
+   WATCH_ELAPSED (``hold_frames`` of the leg). Every time is a count of
+   frames (:mod:`allsky.clock`), never a sum of frame steps. An elapsed leg with a settle
    mask also times how long its signals have been settled, for a following
    leg that carries the settle time on (``Leg.carry_settle``).
 """
@@ -68,11 +69,12 @@ def watched_signals(fine, trk, cpu, sig):
 
 
 @njit_stage
-def leg_condition(sq, leg, sig, dt_s, t_leg_s, settle_s):
+def leg_condition(sq, leg, sig, n_leg, settle_frames):
     """Whether the leg's condition holds after this frame.
 
-    ``settle_s`` is the time the settle condition has held so far [s].
-    Returns ``(done, settle_s)``, the settle time advanced by ``dt_s`` or
+    ``n_leg`` is the frames flown in the leg, this one included;
+    ``settle_frames`` the frames the settle condition has held so far.
+    Returns ``(done, settle_frames)``, the settle count advanced by one, or
     reset to 0 when a watched signal is at or above the threshold.
 
     Parameters
@@ -81,25 +83,22 @@ def leg_condition(sq, leg, sig, dt_s, t_leg_s, settle_s):
         Thresholds of the watch (settle, hand-over [arcsec]).
     leg : allsky.sequencer.legs.Leg
         The leg flown: its condition (``watch``), settle mask, hand-over
-        signal, ``blank_s`` and ``hold_s`` [s].
+        signal, ``blank_frames`` and ``hold_frames``.
     sig : numpy.ndarray
         [arcsec] the watched signals (:func:`watched_signals`).
-    t_leg_s : float
-        [s] time in the leg after this frame.
     """
     if leg.watch == WATCH_HANDOVER:
-        return (t_leg_s > leg.blank_s
-                and abs(sig[leg.handover_signal]) < sq.handover_arcsec), settle_s
+        return (n_leg > leg.blank_frames
+                and abs(sig[leg.handover_signal]) < sq.handover_arcsec), settle_frames
     if leg.watch != WATCH_ELAPSED or leg.settle_mask:
         ok = True
         for k in range(N_SIGNALS):
             if (leg.settle_mask >> k) & 1 and abs(sig[k]) >= sq.settle_threshold_arcsec:
                 ok = False
-        settle_s = settle_s + dt_s if ok else 0.0
-    # Half a frame of slack: leg time is a sum of frame steps, not an exact multiple.
+        settle_frames = settle_frames + 1 if ok else 0
     if leg.watch == WATCH_ELAPSED:
-        return t_leg_s >= leg.hold_s - 0.5 * dt_s, settle_s
-    return settle_s >= leg.hold_s - 0.5 * dt_s, settle_s
+        return n_leg >= leg.hold_frames, settle_frames
+    return settle_frames >= leg.hold_frames, settle_frames
 
 
 @njit_stage
@@ -115,14 +114,14 @@ def sensors_in_use(bank, routing):
 
 
 @njit_stage
-def watch(sq, leg, sun_in_use, star_in_use, tank_ok, fine, trk, cpu, sig, dt_s, t_leg_s,
-          settle_s, sun_gone_s, star_gone_s):
+def watch(sq, leg, sun_in_use, star_in_use, tank_ok, fine, trk, cpu, sig, n_leg,
+          settle_frames, sun_gone, star_gone):
     """One frame of the watch: abort, end the leg, or let it go on.
 
     Parameters
     ----------
     sq : SequencerParams
-        Thresholds (settle, hand-over [arcsec]; sensor loss [s]).
+        Thresholds (settle, hand-over [arcsec]; sensor loss [frames]).
     leg : allsky.sequencer.legs.Leg
     sun_in_use, star_in_use : bool
         Whether the Sun and the star are in use (:func:`sensors_in_use`).
@@ -130,26 +129,26 @@ def watch(sq, leg, sun_in_use, star_in_use, tank_ok, fine, trk, cpu, sig, dt_s, 
         False once jets 39-41 have run the tank dry.
     fine, trk, cpu, sig : numpy.ndarray
         As in :func:`watched_signals`.
-    dt_s, t_leg_s : float
-        Frame step and time in the leg [s].
-    settle_s, sun_gone_s, star_gone_s : float
-        Settle time, and how long the Sun and the star have been absent while
-        in use [s], as left by the previous frame.
+    n_leg : int
+        Frames flown in the leg, this one included.
+    settle_frames, sun_gone, star_gone : int
+        Frames the settle condition has held, and the Sun and the star have
+        been absent while in use, as left by the previous frame.
 
     Returns
     -------
     tuple
-        ``(exit_code, settle_s, sun_gone_s, star_gone_s)``: EXIT_NONE while
+        ``(exit_code, settle_frames, sun_gone, star_gone)``: EXIT_NONE while
         the leg goes on, else an EXIT_* code of :mod:`allsky.sequencer.legs`.
     """
     if not tank_ok:
-        return EXIT_PROPELLANT, settle_s, sun_gone_s, star_gone_s
-    sun_gone_s = sun_gone_s + dt_s if (sun_in_use and fine[2] < 0.5) else 0.0
-    star_gone_s = star_gone_s + dt_s if (star_in_use and trk[2] < 0.5) else 0.0
-    if sun_gone_s > sq.sensor_loss_s:
-        return EXIT_SUN_LOST, settle_s, sun_gone_s, star_gone_s
-    if star_gone_s > sq.sensor_loss_s:
-        return EXIT_STAR_LOST, settle_s, sun_gone_s, star_gone_s
+        return EXIT_PROPELLANT, settle_frames, sun_gone, star_gone
+    sun_gone = sun_gone + 1 if (sun_in_use and fine[2] < 0.5) else 0
+    star_gone = star_gone + 1 if (star_in_use and trk[2] < 0.5) else 0
+    if sun_gone > sq.sensor_loss_frames:
+        return EXIT_SUN_LOST, settle_frames, sun_gone, star_gone
+    if star_gone > sq.sensor_loss_frames:
+        return EXIT_STAR_LOST, settle_frames, sun_gone, star_gone
     watched_signals(fine, trk, cpu, sig)
-    done, settle_s = leg_condition(sq, leg, sig, dt_s, t_leg_s, settle_s)
-    return (EXIT_DONE if done else EXIT_NONE), settle_s, sun_gone_s, star_gone_s
+    done, settle_frames = leg_condition(sq, leg, sig, n_leg, settle_frames)
+    return (EXIT_DONE if done else EXIT_NONE), settle_frames, sun_gone, star_gone

@@ -10,10 +10,21 @@ or the times of a saved session's commands) to apply commands there.
 
 Exactness. The frame loop pauses and resumes a leg bit for bit
 (:mod:`allsky.sequencer.legs`), so where the flight is paused never changes
-it; a command acts from the boundary it is applied at, and the log records
-that boundary's mission time. :func:`fly_log` pauses at exactly those times
-and applies the same commands: the summary and the telemetry are those of
-the session that wrote the log, whatever the speed it was flown at live.
+it; a command acts from the frame boundary it is applied at, and the log
+records that frame's mission time (an exact decimal of the frame grid). A
+command at a time ``t_s`` acts at the first frame starting at or after it
+(:func:`allsky.clock.frame_at`, the rule every scheduled thing follows).
+:func:`fly_log` pauses at exactly those frames and applies the same
+commands: the summary and the telemetry are those of the session that
+wrote the log, whatever the speed it was flown at live.
+
+Several commands at one mission time act in the order given, each
+completely before the next (:meth:`Station.take`): a command that changes
+the plan (:data:`allsky.sequencer.ground.SEQUENCER_COMMANDS`) is the last
+one taken at its boundary; the flight acts on it -- ends the mode it ends,
+journals the hold's end, finishes the mission -- and the next command is
+taken at the next boundary, which is at the same frame. The live server
+and a saved session's flight both take commands so.
 
 What a command changes, it changes through the scenario and the mode
 table, never by writing the state:
@@ -42,6 +53,7 @@ the scenario flown and ``[[commands]]``, each with ``t_s`` and its fields.
 import math
 from collections.abc import Mapping
 
+from allsky import clock
 from allsky.config import scenario_from_dict
 from allsky.config.faults import MAX_FAULTS, describe, validate_fault
 from allsky.config.rules import NON_NEGATIVE, ConfigError, in_open_closed, number, type_name
@@ -57,6 +69,8 @@ from allsky.vocabulary import FAULT_KIND, GROUND_COMMAND
 LOG_FORMAT = 1
 #: Fastest live speed a ``speed`` command may ask for [x real time].
 SPEED_MAX = 10000.0
+#: Commands that act on the live session's clock only, never on the flight.
+SESSION_CLOCK = ("pause", "resume", "speed")
 #: Commands that end a hold on target the ground commanded (``hold``).
 ENDS_A_HOLD = ("proceed", "target", "reacquire", "recycle", "end")
 
@@ -240,6 +254,11 @@ def _target_spec(command) -> dict:
     return {"ra_deg": float(command["ra_deg"]), "dec_deg": float(command["dec_deg"])}
 
 
+def _as_lists(v):
+    """A checked value as a scenario file holds it: tuples (a checked array) as lists."""
+    return [_as_lists(x) for x in v] if isinstance(v, (tuple, list)) else v
+
+
 def _amended(m, change) -> object:
     """The mission's scenario with ``change(data)`` made to its dict; Refused if invalid."""
     data = m.cfg.as_dict()
@@ -305,6 +324,21 @@ class Station:
             self.ended = True
         return entry
 
+    def take(self, commands) -> int:
+        """Apply ``commands`` in order, at this boundary, as far as the rule allows.
+
+        A command that changes the plan is the last one applied here: the
+        flight must act on it before the next (module docstring). Returns how
+        many were applied (each raising :class:`Refused` stops there).
+        """
+        n = 0
+        for command in commands:
+            self.apply(command)
+            n += 1
+            if command["kind"] in ground.SEQUENCER_COMMANDS:
+                break
+        return n
+
     def _prepare(self, kind, fields):
         """``(effect, extra)``: what applying the command does, and the entry's fields."""
         m = self.m
@@ -314,7 +348,7 @@ class Station:
                 raise Refused(f"the scenario holds {MAX_FAULTS} faults already, the frame "
                               "loop's slots")
             entry = {"kind": fields["fault_kind"],
-                     **{k: v for k, v in fields.items() if k != "fault_kind"},
+                     **{k: _as_lists(v) for k, v in fields.items() if k != "fault_kind"},
                      "start_s": m.now_s()}
 
             def add(data):
@@ -346,18 +380,15 @@ class Station:
         faults = data.get("faults", [])
         if index >= len(faults):
             raise Refused(f"no fault {index}: the scenario has {len(faults)}")
-        onset = float(m.state.fault_state[sim_faults.ONSET, index])
-        now = m.now_s()
+        onset = m.state.fault_state[sim_faults.ONSET, index]
+        now = m.frame
         if not 0.0 <= onset < now:
             raise Refused(f"fault {index} ({describe(faults[index])}) has not begun to act")
-        if now >= onset + faults[index].get("duration_s", math.inf):
+        ck = m.params.clock
+        if now >= onset + clock.frames_for(ck, faults[index].get("duration_s", math.inf)):
             raise Refused(f"fault {index} ({describe(faults[index])}) has ended already")
-        # A duration that ends it at this boundary: the loop takes it as acting while
-        # t < onset + duration.
-        d = now - onset
-        while onset + d > now:
-            d = math.nextafter(d, 0.0)
-        faults[index] = {**faults[index], "duration_s": d}
+        # The duration from its onset to this frame, exactly: it acts no more from here.
+        faults[index] = {**faults[index], "duration_s": clock.time_s(ck, now - int(onset))}
 
     def _sequencer(self, kind, fields):
         """The effect of a command to master sequencer 20 (Refused where it cannot act)."""
@@ -428,11 +459,12 @@ def fly_log(m, commands, hooks=None) -> Station:
     ``commands`` are checked by :func:`validate_log`; ``hooks``
     (:class:`allsky.sim.mission.Hooks`, optional) are called as in :func:`fly`.
 
-    The flight pauses at each command's mission time (the first frame
-    boundary at or after it, to half a frame) and applies the commands due
-    there; when the mission has finished, the rest in order. A log written
-    by a live session gives that session's flight, bit for bit. Returns the
-    :class:`Station` (its log holds the times the commands acted at).
+    The flight pauses at each command's frame (the first frame starting at
+    or after its ``t_s``, :func:`allsky.clock.frame_at`) and takes the
+    commands due there (:meth:`Station.take`); when the mission has
+    finished, the rest in order. A log written by a live session gives that
+    session's flight, bit for bit. Returns the :class:`Station` (its log
+    holds the times the commands acted at).
 
     Raises
     ------
@@ -442,22 +474,21 @@ def fly_log(m, commands, hooks=None) -> Station:
     """
     station = Station(m)
     todo = list(commands)
-    half = 0.5 * float(m.cfg.mission.frame_s)
+    ck = m.params.clock
 
     def pause_at(mm):
-        return todo[0]["t_s"] - half if todo else math.inf
+        return todo[0]["t_s"] if todo else math.inf
 
     def boundary(mm, where):
         if where == "finished" and not todo:
             return False
-        due = [c for c in todo if c["t_s"] <= mm.now_s() + half]
+        due = [c for c in todo if clock.frame_at(ck, c["t_s"]) <= mm.frame]
         if where == "finished" and not due:
             due = todo[:1]  # the flight stands still: the next command now
-        for c in due:
-            todo.remove(c)
-            station.apply(c)
-            if c["kind"] == "end":
-                raise Ended
+        n = station.take(due)
+        if any(c["kind"] == "end" for c in due[:n]):
+            raise Ended
+        del todo[:n]
         return True
 
     fly(m, boundary, pause_at, hooks)

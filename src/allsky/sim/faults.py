@@ -3,10 +3,12 @@
 A scenario's ``[[faults]]`` (:mod:`allsky.config.faults`) become a
 :class:`FaultParams` of :data:`MAX_FAULTS` slots: kind code, axis, jet sign,
 duration and size per slot. Their onsets live in the mission state
-(``State.fault_state``, row :data:`ONSET`): a ``start_s`` onset is set at
-ejection (:func:`arm`), a ``start_mode`` onset by the mission driver when
-that mode starts (:func:`on_mode_start`). A fault acts while ``onset <= t <
-onset + duration``.
+(``State.fault_state``, row :data:`ONSET`), as frames of the mission clock
+(:mod:`allsky.clock`): a ``start_s`` onset is set at ejection (:func:`arm`,
+the first frame starting at or after ``start_s``), a ``start_mode`` onset by
+the mission driver when that mode starts (:func:`on_mode_start`). A fault
+acts in the frames ``onset <= n < onset + duration_frames``, its duration
+counted in whole frames from its onset (``clock.frames_for``).
 
 Each helper acts at the block the fault affects, called by the frame loop
 only when the mission has faults (``FaultParams.n > 0``), so that the
@@ -34,7 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import units, xmath
+from allsky import clock, units, xmath
 from allsky.config.faults import MAX_FAULTS, describe
 from allsky.hardware import star_tracker as st
 from allsky.hardware.star_tracker import FALSE_TARGET, StarTrackerParams
@@ -61,11 +63,11 @@ PROPELLANT_LEAK = KIND_CODE["propellant_leak"]
 #: up/down counters 14/16/18 (3-5), storage registers 25-27 (6-8).
 WORD_INDEX = {"13": 0, "15": 1, "17": 2, "14": 3, "16": 4, "18": 5, "25": 6, "26": 7, "27": 8}
 # Rows of State.fault_state.
-ONSET = 0  #: [s] mission time the fault starts (negative: not yet known)
+ONSET = 0  #: [frames] the frame the fault starts in (negative: not yet known)
 MEMORY = 1  #: what the fault remembers (a stuck gyro's output [arcsec/s])
 LATCHED = 2  #: 1.0 once the fault has taken its memory, or its upset has happened
 N_ROWS = 3
-UNKNOWN_S = -1.0  #: the onset of a fault whose mode has not started yet
+UNKNOWN = -1.0  #: the onset of a fault whose mode has not started yet
 
 
 class FaultParams(NamedTuple):
@@ -75,7 +77,8 @@ class FaultParams(NamedTuple):
     kind: np.ndarray  #: (MAX_FAULTS,) int64 kind code
     axis: np.ndarray  #: (MAX_FAULTS,) int64 0 roll, 1 pitch, 2 yaw
     sign: np.ndarray  #: (MAX_FAULTS,) int64 jet of the couple, +1 or -1
-    duration_s: np.ndarray  #: (MAX_FAULTS,) [s] inf = permanent
+    #: (MAX_FAULTS,) int64 [frames] how long each acts from its onset; NEVER = permanent
+    duration_frames: np.ndarray
     #: (MAX_FAULTS,) bias [arcsec/s], scale step [-], stray-light offset [arcsec], leak [kg/s]
     size: np.ndarray
     word: np.ndarray  #: (MAX_FAULTS,) int64 upset word (WORD_INDEX)
@@ -92,7 +95,7 @@ class FaultParams(NamedTuple):
 def new_fault_state() -> np.ndarray:
     """``State.fault_state`` with no onset known yet: (N_ROWS, MAX_FAULTS)."""
     out = np.zeros((N_ROWS, MAX_FAULTS))
-    out[ONSET] = UNKNOWN_S
+    out[ONSET] = UNKNOWN
     return out
 
 
@@ -120,10 +123,11 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
     """
     faults = cfg.faults
     n = len(faults)
+    ck = clock.clock(cfg.mission.frame_s)
     kind = np.zeros(MAX_FAULTS, dtype=np.int64)
     axis = np.zeros(MAX_FAULTS, dtype=np.int64)
     sign = np.ones(MAX_FAULTS, dtype=np.int64)
-    duration = np.full(MAX_FAULTS, np.inf)
+    duration = np.full(MAX_FAULTS, clock.NEVER, dtype=np.int64)
     size = np.zeros(MAX_FAULTS)
     word = np.zeros(MAX_FAULTS, dtype=np.int64)
     bit = np.zeros(MAX_FAULTS, dtype=np.int64)
@@ -136,7 +140,7 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
         kind[i] = KIND_CODE[f["kind"]]
         axis[i] = AXES.index(f.get("axis", "roll"))
         sign[i] = f.get("sign", 1)
-        duration[i] = f.get("duration_s", np.inf)
+        duration[i] = clock.frames_for(ck, f.get("duration_s", math.inf))
         size[i] = (f.get("size_deg_h", 0.0) * units.DEG_H2ARCSEC_S
                    + f.get("size_ppm", 0.0) * units.PPM2FRACTION
                    + f.get("offset_deg", 0.0) * units.DEG2ARCSEC + f.get("rate_kg_s", 0.0))
@@ -160,53 +164,66 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
                        torque, tracker)
 
 
-def arm(fault_state, faults) -> None:
+def arm(fault_state, faults, ck) -> None:
     """Set the onsets given in mission time (``start_s``); mode onsets wait.
 
-    ``fault_state`` is ``State.fault_state``, its :data:`ONSET` row written;
-    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts).
+    ``fault_state`` is ``State.fault_state``, its :data:`ONSET` row written
+    with the first frame starting at or after each ``start_s`` (the clock
+    ``ck``'s rule, :func:`allsky.clock.frame_at`); ``faults`` is the
+    scenario's ``[[faults]]`` (a list of dicts).
     """
     for i, f in enumerate(faults):
         if "start_s" in f:
-            fault_state[ONSET, i] = f["start_s"]
+            fault_state[ONSET, i] = clock.frame_at(ck, f["start_s"])
 
 
-def on_mode_start(fault_state, faults, mode, t_s) -> None:
+def on_mode_start(fault_state, faults, mode, frame) -> None:
     """The mission driver's hook as ``mode`` starts: the onsets of its faults.
 
     A mode flown again (a recovery) does not move an onset already set.
     ``fault_state`` is ``State.fault_state`` (its :data:`ONSET` row written),
-    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts), ``t_s`` [s] the mission time the mode starts.
+    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts), ``frame``
+    the frame the mode starts in.
     """
     for i, f in enumerate(faults):
         if f.get("start_mode") == mode and fault_state[ONSET, i] < 0.0:
-            fault_state[ONSET, i] = t_s
+            fault_state[ONSET, i] = frame
 
 
-def started(fault_state, faults, t_s) -> list:
-    """``(fault, onset_s)`` of the faults that have started by mission time ``t_s``.
+def started(fault_state, faults, frame) -> list:
+    """``(fault, onset frame)`` of the faults that have started by frame ``frame``.
 
-    ``fault_state`` is ``State.fault_state`` (the onsets [s]);
+    ``fault_state`` is ``State.fault_state`` (the onsets [frames]);
     ``faults`` is the scenario's ``[[faults]]`` (a list of dicts).
     """
-    return [(f, float(fault_state[ONSET, i])) for i, f in enumerate(faults)
-            if 0.0 <= fault_state[ONSET, i] <= t_s]
+    return [(f, int(fault_state[ONSET, i])) for i, f in enumerate(faults)
+            if 0.0 <= fault_state[ONSET, i] <= frame]
 
 
-def blame(fault_state, faults, t_s) -> str:
+def acting(fault_state, faults, ck, frame) -> list:
+    """``(fault, onset frame)`` of the faults acting in frame ``frame`` (clock ``ck``).
+
+    ``fault_state`` and ``faults`` as for :func:`started`.
+    """
+    return [(f, onset) for f, onset in started(fault_state, faults, frame)
+            if frame < onset + clock.frames_for(ck, f.get("duration_s", math.inf))]
+
+
+def blame(fault_state, faults, ck, frame) -> str:
     """What an abort reason adds: `` (tracker dropout at 512.0 s)``, or "".
 
-    It names the faults acting at mission time ``t_s`` [s], or else the last to
-    start. ``fault_state`` is ``State.fault_state`` (the onsets [s]);
-    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts).
+    It names the faults acting in frame ``frame``, or else the last to
+    start. ``fault_state`` is ``State.fault_state`` (the onsets [frames]);
+    ``faults`` is the scenario's ``[[faults]]`` (a list of dicts); ``ck``
+    the mission's clock.
     """
-    hit = started(fault_state, faults, t_s)
     # The faults acting at the abort; when none does any more, the last one that started.
-    acting = [(f, onset) for f, onset in hit if t_s < onset + f.get("duration_s", math.inf)]
-    hit = acting or sorted(hit, key=lambda h: h[1])[-1:]
+    hit = acting(fault_state, faults, ck, frame) or sorted(
+        started(fault_state, faults, frame), key=lambda h: h[1])[-1:]
     if not hit:
         return ""
-    return " (" + "; ".join(f"{describe(f)} at {onset:.1f} s" for f, onset in hit) + ")"
+    return " (" + "; ".join(f"{describe(f)} at {clock.time_s(ck, onset):.1f} s"
+                            for f, onset in hit) + ")"
 
 
 _BLAME = re.compile(r" \([^()]* at -?[0-9.]+ s\)$")
@@ -223,14 +240,14 @@ def symptom(reason: str) -> str:
 # -- in the frame loop -------------------------------------------------------------
 
 @njit_stage
-def _active(fp, fault_state, i, t_s):
-    """Whether fault ``i`` acts at mission time ``t_s``."""
+def _active(fp, fault_state, i, frame):
+    """Whether fault ``i`` acts in frame ``frame``."""
     onset = fault_state[ONSET, i]
-    return 0.0 <= onset <= t_s < onset + fp.duration_s[i]
+    return 0.0 <= onset <= frame < onset + fp.duration_frames[i]
 
 
 @njit_stage
-def fault_tracker(fp, tracker_p, fault_state, t_s):
+def fault_tracker(fp, tracker_p, fault_state, frame):
     """Star tracker 105's parameters this frame: with the wrong stars while one acts.
 
     Parameters
@@ -240,18 +257,18 @@ def fault_tracker(fp, tracker_p, fault_state, t_s):
     tracker_p : allsky.hardware.star_tracker.StarTrackerParams
         The tracker without a fault (returned while no wrong star acts).
     fault_state : numpy.ndarray
-        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
-    t_s : float
-        [s] mission time of the frame.
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [frames], memories.
+    frame : int
+        The mission's frame (its clock).
     """
     for i in range(fp.n):
-        if fp.kind[i] == WRONG_STAR and _active(fp, fault_state, i, t_s):
+        if fp.kind[i] == WRONG_STAR and _active(fp, fault_state, i, frame):
             return fp.tracker
     return tracker_p
 
 
 @njit_stage
-def fault_release(fp, fault_state, t_s, lock):
+def fault_release(fp, fault_state, frame, lock):
     """Before ``sense``: a glint held or refused is forgotten once no glint acts.
 
     ``lock`` is star tracker 105's memory (:mod:`allsky.hardware.star_tracker`):
@@ -262,12 +279,12 @@ def fault_release(fp, fault_state, t_s, lock):
     fp : FaultParams
         The scenario's faults.
     fault_state : numpy.ndarray
-        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
-    t_s : float
-        [s] mission time of the frame.
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [frames], memories.
+    frame : int
+        The mission's frame (its clock).
     """
     for i in range(fp.n):
-        if fp.kind[i] == TRACKER_STRAY_LIGHT and _active(fp, fault_state, i, t_s):
+        if fp.kind[i] == TRACKER_STRAY_LIGHT and _active(fp, fault_state, i, frame):
             return
     if lock[st.HELD] == FALSE_TARGET:
         lock[st.HELD] = st.NONE
@@ -292,7 +309,7 @@ def _glint_refused(tracker_p, lock, cone_armed):
 
 
 @njit_stage
-def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gyro, lock, star,
+def fault_sense(fp, tracker_p, fault_state, frame, dt_s, dtheta_rad, fine, trk, gyro, lock, star,
                 cone_armed):
     """Sensor faults on the outputs of ``sense``; returns the star the tracker holds.
 
@@ -313,9 +330,9 @@ def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gy
     fp : FaultParams
         The scenario's faults.
     fault_state : numpy.ndarray
-        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
-    t_s : float
-        [s] mission time of the frame.
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [frames], memories.
+    frame : int
+        The mission's frame (its clock).
     dt_s : float
         [s] frame length.
     star : int
@@ -324,7 +341,7 @@ def fault_sense(fp, tracker_p, fault_state, t_s, dt_s, dtheta_rad, fine, trk, gy
     """
     glint_flux = 0.0  # the glints of known brightness acting in this frame
     for i in range(fp.n):
-        if not _active(fp, fault_state, i, t_s):
+        if not _active(fp, fault_state, i, frame):
             continue
         k = fp.kind[i]
         a = fp.axis[i]
@@ -406,7 +423,7 @@ def _flip(value, bit, width_bits):
 
 
 @njit_stage
-def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
+def fault_upset(fp, fault_state, frame, drift_counters, counters, registers):
     """Counter upsets: flip the fault's bit of counter 13-18 or register 25-27, once.
 
     Returns True in the frame a drift counter 13/15/17 is upset.
@@ -416,9 +433,9 @@ def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
     fp : FaultParams
         The scenario's faults.
     fault_state : numpy.ndarray
-        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
-    t_s : float
-        [s] mission time of the frame.
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [frames], memories.
+    frame : int
+        The mission's frame (its clock).
     drift_counters : numpy.ndarray
         [pulses] drift counters 13, 15, 17.
     counters : numpy.ndarray
@@ -429,7 +446,7 @@ def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
     drift = False
     for i in range(fp.n):
         if fp.kind[i] != COUNTER_UPSET or fault_state[LATCHED, i] != 0.0 \
-                or not 0.0 <= fault_state[ONSET, i] <= t_s:
+                or not 0.0 <= fault_state[ONSET, i] <= frame:
             continue
         fault_state[LATCHED, i] = 1.0
         w = fp.word[i]
@@ -444,7 +461,7 @@ def fault_upset(fp, fault_state, t_s, drift_counters, counters, registers):
 
 
 @njit_stage
-def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torque, tank_ok,
+def fault_actuate(fp, fault_state, frame, jets_p, dt_s, valve, propellant_kg, torque, tank_ok,
                   feed):
     """Jets 39-41 and the tank after ``actuate``; returns False once the tank is dry.
 
@@ -464,9 +481,9 @@ def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torq
     fp : FaultParams
         The scenario's faults.
     fault_state : numpy.ndarray
-        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [s], memories.
-    t_s : float
-        [s] mission time of the frame.
+        ``State.fault_state`` (``N_ROWS``, ``MAX_FAULTS``): onsets [frames], memories.
+    frame : int
+        The mission's frame (its clock).
     jets_p : allsky.hardware.jets.JetParams
         The couples' full-pressure torque and flow.
     dt_s : float
@@ -483,7 +500,7 @@ def fault_actuate(fp, fault_state, t_s, jets_p, dt_s, valve, propellant_kg, torq
     if not tank_ok:
         return False
     for i in range(fp.n):
-        if not _active(fp, fault_state, i, t_s):
+        if not _active(fp, fault_state, i, frame):
             continue
         k = fp.kind[i]
         a = fp.axis[i]

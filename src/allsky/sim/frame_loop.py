@@ -36,6 +36,7 @@ mission can be saved and resumed between legs.
 import numpy as np
 
 from allsky import xmath
+from allsky.clock import frame_time
 from allsky.computer.computer_sequencer import sequencer_step
 from allsky.computer.cpu import target_step
 from allsky.gauss import seed as gauss_seed
@@ -68,7 +69,6 @@ from allsky.sequencer.legs import (
     CLOCK_SETTLE,
     CLOCK_STAR_GONE,
     CLOCK_SUN_GONE,
-    CLOCK_T_LEG,
     EXIT_PAUSE,
     EXIT_TIMEOUT,
     N_SIGNALS,
@@ -122,12 +122,12 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     dither record of a PROGRAM_DITHER leg (:func:`allsky.sim.recorder.record_dither`):
     every ``dither_sample_frames`` frames, time, counters 14/16/18 [arcsec]
     and the attitude the optics see [arcsec] per axis.
-    A leg may pause at mission time ``leg.pause_at_s``: the loop returns
-    EXIT_PAUSE with its progress in ``s.leg_clock``, and the same leg run
-    again with ``resume=1`` carries on as if it had never stopped (the noise
-    generator is not reseeded). A leg ends with its settle time in
+    A leg may pause at the mission's frame ``leg.pause_at_frame``: the loop
+    returns EXIT_PAUSE with its progress in ``s.leg_clock``, and the same leg
+    run again with ``resume=1`` carries on as if it had never stopped (the
+    noise generator is not reseeded). A leg ends with its settle count in
     ``s.leg_clock``, where a next leg with ``carry_settle=1`` starts from it.
-    Returns ``(exit_code, leg_time_s)``.
+    Returns ``(exit_code, frames_flown_in_the_leg)``.
 
     Parameters
     ----------
@@ -261,10 +261,11 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     """
     if not leg.resume:
         gauss_seed(s.rng, leg.seed)
-        carried = s.leg_clock[CLOCK_SETTLE] if leg.carry_settle else 0.0
-        s.leg_clock[:] = 0.0
+        carried = s.leg_clock[CLOCK_SETTLE] if leg.carry_settle else 0
+        s.leg_clock[:] = 0
         s.leg_clock[CLOCK_SETTLE] = carried
     dt = p.frame_s
+    ck = p.clock
     sun_i, sun_b, coarse, fine, trk, gyro, comp = (scratch[0], scratch[1], scratch[2],
                                                    scratch[3], scratch[4], scratch[5],
                                                    scratch[6])
@@ -279,12 +280,11 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     wire_leg(p.routing, el, sw, s.rate_sign, gates, position_gain)
     sun_in_use, star_in_use = sensors_in_use(sw, p.routing)
     cone_armed = sun_holds_pitch(p.routing.position_routes, position_gain)
-    timer = s.leg_clock[CLOCK_SETTLE]
+    settled = s.leg_clock[CLOCK_SETTLE]
     sun_gone = s.leg_clock[CLOCK_SUN_GONE]
     star_gone = s.leg_clock[CLOCK_STAR_GONE]
-    t_leg = s.leg_clock[CLOCK_T_LEG]
-    done = int(s.leg_clock[CLOCK_FRAMES])
-    n_max = int(np.ceil(leg.timeout_s / dt - 1e-9))
+    done = s.leg_clock[CLOCK_FRAMES]
+    n_max = leg.timeout_frames
     # ``wheels_p`` and ``faults`` are None on the patent's vehicle without faults: the
     # branches that test them are dropped when that loop compiles (leg_entry).
     fault_state = s.fault_state
@@ -298,18 +298,18 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
             clip_every_frame = True
     # The Sun's direction of a frame is computed a frame ahead, beside the plant's step (which
     # takes longest and does not depend on it), where it costs no latency of its own.
-    sun_inertial(p.sun0_inertial, p.sun_rate_inertial, s.time_s[0], sun_i)
+    sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, s.frame[0]), sun_i)
     for frame_in_leg in range(done, n_max):
-        t_frame = s.time_s[0]
+        frame = s.frame[0]  # the mission's clock: the frame flown now
         tracker_p = p.tracker
         if faults is not None:
-            tracker_p = fault_tracker(faults, p.tracker, fault_state, t_frame)
-            fault_release(faults, fault_state, t_frame, s.tracker_lock)
+            tracker_p = fault_tracker(faults, p.tracker, fault_state, frame)
+            fault_release(faults, fault_state, frame, s.tracker_lock)
         star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
                      s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, s.tracker_lock,
                      cone_armed, sun_b, fine, trk, gyro)
         if faults is not None:
-            star = fault_sense(faults, tracker_p, fault_state, t_frame, dt, s.dtheta_rad, fine,
+            star = fault_sense(faults, tracker_p, fault_state, frame, dt, s.dtheta_rad, fine,
                                trk, gyro, s.tracker_lock, star, cone_armed)
         if star_in_use and star >= 0:
             s.locked_star[0] = star  # the star the loop is closed on (S12/S13)
@@ -318,9 +318,9 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
                 s.word24, sw, s.cpu, s.registers)
         if faults is not None:  # noqa: SIM102 - alone, so numba drops it on the plain loop
-            if fault_upset(faults, fault_state, t_frame, s.drift_counters, s.counters,
+            if fault_upset(faults, fault_state, frame, s.drift_counters, s.counters,
                            s.registers):
-                note_clip(s.journal, s.journal_n, s.journal_seen, t_frame, s.drift_counters,
+                note_clip(s.journal, s.journal_n, s.journal_seen, frame, s.drift_counters,
                           gates[GATE_DRIFT], dac_hi, dac_lo)
         feed = 1.0  # the jets' thrust over its full-pressure value (a blow-down feed)
         if faults is not None:
@@ -330,8 +330,8 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         else:
             route(el, p.routing.position_routes, position_gain, s.registers, fine, trk, line,
                   sources, pos, rate)
-        control(p.control, p.dither, gates, program, dithering, t_leg, dt, pos, rate,
-                s.amp_integral_arcsec, dith, ff, volts)
+        control(p.control, p.dither, gates, program, dithering, frame_time(ck, frame_in_leg),
+                dt, pos, rate, s.amp_integral_arcsec, dith, ff, volts)
         if wheels_p is None:
             tank_ok = actuate(p.pwpf, p.jets, dt, volts, s.pwpf_filter_v, s.pwpf_out,
                               s.pwpf_on_frames, s.propellant_kg, torque)
@@ -341,51 +341,51 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                                      s.propellant_kg, s.wheel_h, s.wheel_unload, wheel_u, torque,
                                      wheel_hb, wheel_hdot)
         if faults is not None:
-            tank_ok = fault_actuate(faults, fault_state, t_frame, p.jets, dt, s.pwpf_out,
+            tank_ok = fault_actuate(faults, fault_state, frame, p.jets, dt, s.pwpf_out,
                                     s.propellant_kg, torque, tank_ok, feed)
         count_jet_time(s.pwpf_out, dt, s.jet_on_s)
-        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, t_frame + dt, sun_i)  # the next frame's
+        # The next frame's Sun
+        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, frame + 1), sun_i)
         if wheels_p is None:
-            advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.time_s, s.frame,
-                    s.excursion_ref_q, s.max_excursion_rad)
+            advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.frame, s.excursion_ref_q,
+                    s.max_excursion_rad)
         else:
             advance_either(p.plant, wheels_p, p.actuator, dt, torque, wheel_hb, wheel_hdot,
                            wheel_u, s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad,
-                           s.time_s, s.frame, s.excursion_ref_q, s.max_excursion_rad)
-        t_leg += dt
+                           s.frame, s.excursion_ref_q, s.max_excursion_rad)
+        n_leg = frame_in_leg + 1
         if wheels_p is not None and p.telemetry_every > 0 \
                 and s.frame[0] % p.telemetry_every == 0:
             body_vector(wheels_p.axes, s.wheel_h, wheel_hb)  # at the row's time
-        record_telemetry(tlm, tlm_rows, p.telemetry_every, s, leg.mode_code, fine, trk, volts,
-                         wheel_hb, wheel_hdot, s.wheel_unload[0])
-        note_frame(s.journal, s.journal_n, s.journal_seen, t_frame, star, star_in_use, trk[1],
+        record_telemetry(tlm, tlm_rows, p.telemetry_every, ck, s, leg.mode_code, fine, trk,
+                         volts, wheel_hb, wheel_hdot, s.wheel_unload[0])
+        note_frame(s.journal, s.journal_n, s.journal_seen, frame, star, star_in_use, trk[1],
                    s.overflow, s.tracker_lock)
         if clip_every_frame or frame_in_leg == done:
-            note_clip(s.journal, s.journal_n, s.journal_seen, t_frame, s.drift_counters,
+            note_clip(s.journal, s.journal_n, s.journal_seen, frame, s.drift_counters,
                       gates[GATE_DRIFT], dac_hi, dac_lo)
         if wheels_p is not None:
-            note_wheels(s.journal, s.journal_n, s.journal_seen, t_frame, s.wheel_unload[0],
+            note_wheels(s.journal, s.journal_n, s.journal_seen, frame, s.wheel_unload[0],
                         s.wheel_h, wheels_p.max_momentum_n_m_s)
         if faults is not None:
-            note_faults(s.journal, s.journal_n, s.journal_seen, fault_seen, t_frame, faults.n,
-                        fault_state, ONSET, faults.duration_s)
+            note_faults(s.journal, s.journal_n, s.journal_seen, fault_seen, frame, faults.n,
+                        fault_state, ONSET, faults.duration_frames)
         if dithering:
-            record_dither(rec, rec_rows, p.dither_sample_frames, t_leg, s.frame[0], s.counters,
-                          p.vfc.pulse_weight_arcsec, fine, trk)
-        code, timer, sun_gone, star_gone = watch(p.sequencer, leg, sun_in_use, star_in_use,
-                                                 tank_ok, fine, trk, s.cpu, sig, dt, t_leg,
-                                                 timer, sun_gone, star_gone)
+            record_dither(rec, rec_rows, p.dither_sample_frames, frame_time(ck, n_leg),
+                          s.frame[0], s.counters, p.vfc.pulse_weight_arcsec, fine, trk)
+        code, settled, sun_gone, star_gone = watch(p.sequencer, leg, sun_in_use, star_in_use,
+                                                   tank_ok, fine, trk, s.cpu, sig, n_leg,
+                                                   settled, sun_gone, star_gone)
         if code != EXIT_NONE:
-            s.leg_clock[CLOCK_SETTLE] = timer  # for a next leg that carries it on
-            return code, t_leg
-        if s.time_s[0] >= leg.pause_at_s - 0.5 * dt and frame_in_leg + 1 < n_max:
-            s.leg_clock[CLOCK_T_LEG] = t_leg
-            s.leg_clock[CLOCK_SETTLE] = timer
+            s.leg_clock[CLOCK_SETTLE] = settled  # for a next leg that carries it on
+            return code, n_leg
+        if s.frame[0] >= leg.pause_at_frame and n_leg < n_max:
+            s.leg_clock[CLOCK_SETTLE] = settled
             s.leg_clock[CLOCK_SUN_GONE] = sun_gone
             s.leg_clock[CLOCK_STAR_GONE] = star_gone
-            s.leg_clock[CLOCK_FRAMES] = frame_in_leg + 1
-            return EXIT_PAUSE, t_leg
-    return EXIT_TIMEOUT, t_leg
+            s.leg_clock[CLOCK_FRAMES] = n_leg
+            return EXIT_PAUSE, n_leg
+    return EXIT_TIMEOUT, max(n_max, done)
 
 
 @njit_stage
@@ -823,8 +823,7 @@ def count_jet_time(valve, dt_s, jet_on_s):
 
 
 @njit_stage
-def advance(plant_p, dt_s, torque, x, dtheta_rad, time_s, frame, excursion_ref_q,
-            max_excursion_rad):
+def advance(plant_p, dt_s, torque, x, dtheta_rad, frame, excursion_ref_q, max_excursion_rad):
     """The rigid body over a frame under ``torque``; the clock; the largest excursion.
 
     Parameters
@@ -837,20 +836,20 @@ def advance(plant_p, dt_s, torque, x, dtheta_rad, time_s, frame, excursion_ref_q
         (7,) plant state: quaternion inertial to body, body rate [rad/s]; advanced.
     dtheta_rad : numpy.ndarray
         (3,) [rad] written: the frame's body-angle increment (what the gyros see).
-    time_s, frame : numpy.ndarray
-        (1,) mission time [s] and frame counter, advanced by one frame.
+    frame : numpy.ndarray
+        (1,) int64 the mission clock, advanced by one frame.
     excursion_ref_q : numpy.ndarray
         (4,) the attitude the mission wants held (all zero: not tracked).
     max_excursion_rad : numpy.ndarray
         (1,) [rad] largest rotation away from it so far, updated.
     """
     rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
-    _tick(dt_s, x, time_s, frame, excursion_ref_q, max_excursion_rad)
+    _tick(x, frame, excursion_ref_q, max_excursion_rad)
 
 
 @njit_stage
 def advance_either(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hdot, wheel_u,
-                   wheel_h, wheel_peak_fraction, x, dtheta_rad, time_s, frame, excursion_ref_q,
+                   wheel_h, wheel_peak_fraction, x, dtheta_rad, frame, excursion_ref_q,
                    max_excursion_rad):
     """:func:`advance`, or on the wheel vehicle the gyrostat.
 
@@ -877,8 +876,8 @@ def advance_either(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hd
         (7,) plant state: quaternion inertial to body, body rate [rad/s]; advanced.
     dtheta_rad : numpy.ndarray
         (3,) [rad] written: the frame's body-angle increment (what the gyros see).
-    time_s, frame : numpy.ndarray
-        (1,) mission time [s] and frame counter, advanced by one frame.
+    frame : numpy.ndarray
+        (1,) int64 the mission clock, advanced by one frame.
     excursion_ref_q : numpy.ndarray
         (4,) the attitude the mission wants held (all zero: not tracked).
     max_excursion_rad : numpy.ndarray
@@ -889,13 +888,12 @@ def advance_either(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hd
         advance_momentum(wheels_p, wheel_u, dt_s, wheel_h, wheel_peak_fraction)
     else:
         rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
-    _tick(dt_s, x, time_s, frame, excursion_ref_q, max_excursion_rad)
+    _tick(x, frame, excursion_ref_q, max_excursion_rad)
 
 
 @njit_stage
-def _tick(dt_s, x, time_s, frame, excursion_ref_q, max_excursion_rad):
-    """The mission clock, and the largest excursion from the reference attitude."""
-    time_s[0] += dt_s
+def _tick(x, frame, excursion_ref_q, max_excursion_rad):
+    """The mission clock (one frame more), and the largest excursion from the reference."""
     frame[0] += 1
     if excursion_ref_q[0] != 0.0 or excursion_ref_q[1] != 0.0 \
             or excursion_ref_q[2] != 0.0 or excursion_ref_q[3] != 0.0:

@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from allsky import clock
 from allsky.hardware import star_tracker as trk
 from allsky.hardware.star_tracker import FALSE_TARGET
 from allsky.jit import njit_stage
@@ -35,9 +36,9 @@ from allsky.vocabulary import AXES, EVENT_KIND, SATURATIONS
 #: Rows of the frame loop's buffer. The mission drains it every slice of at most
 #: 1e5 frames; an ordinary flight writes a few entries per slice.
 ROWS = 512
-#: Numbers per row: time, kind, what, index, and three values (:data:`T` ...).
+#: Numbers per row: frame, kind, what, index, and three values (:data:`FRAME` ...).
 WIDTH = 7
-T, KIND, WHAT, INDEX, A, B, C = range(WIDTH)
+FRAME, KIND, WHAT, INDEX, A, B, C = range(WIDTH)
 
 STAR_LOCK = EVENT_KIND["star_lock"].code
 LOCK_REJECTED = EVENT_KIND["lock_rejected"].code
@@ -85,14 +86,14 @@ def new_buffer(wheels_max: int, faults_max: int):
 
 
 @njit_stage
-def _write(journal, journal_n, t_s, kind, what, index, a, b, c):
+def _write(journal, journal_n, frame, kind, what, index, a, b, c):
     """Append one row; count it as lost when the buffer is full (``journal_n[1]``)."""
     k = journal_n[0]
     if k >= journal.shape[0]:
         journal_n[1] += 1
         return
     row = journal[k]
-    row[T] = t_s
+    row[FRAME] = frame
     row[KIND] = kind
     row[WHAT] = what
     row[INDEX] = index
@@ -103,7 +104,7 @@ def _write(journal, journal_n, t_s, kind, what, index, a, b, c):
 
 
 @njit_stage
-def note_frame(journal, journal_n, seen, t_s, star, star_in_use, cone_arcsec, overflow, lock):
+def note_frame(journal, journal_n, seen, frame, star, star_in_use, cone_arcsec, overflow, lock):
     """What changed this frame: the star in the slit, a refusal, a drop, an overflow.
 
     ``star`` is the index of the target in star tracker 105's slit (-1
@@ -122,20 +123,20 @@ def note_frame(journal, journal_n, seen, t_s, star, star_in_use, cone_arcsec, ov
         (2,) int64: rows written, and rows lost to a full buffer.
     seen : numpy.ndarray
         What the loop last saw (``State.journal_seen``), updated.
-    t_s : float
-        [s] mission time of the frame.
+    frame : int
+        The frame the entry happened in (the mission's clock).
     star_in_use : bool
         The tracker's outputs are switched into the control amplifiers
         (S12/S13); the entries carry it.
     """
     if lock[trk.NEW_REFUSAL] != trk.NONE:
-        _write(journal, journal_n, t_s, LOCK_REJECTED, 0, lock[trk.NEW_REFUSAL],
+        _write(journal, journal_n, frame, LOCK_REJECTED, 0, lock[trk.NEW_REFUSAL],
                lock[trk.REFUSED_CONE_ARCSEC], 0.0, star_in_use)
     if lock[trk.NEW_DROP] != trk.NONE:
-        _write(journal, journal_n, t_s, LOCK_DROPPED, 0, lock[trk.NEW_DROP],
+        _write(journal, journal_n, frame, LOCK_DROPPED, 0, lock[trk.NEW_DROP],
                lock[trk.SEEN_MAG], 0.0, star_in_use)
     if star != seen[SEEN_STAR]:
-        _write(journal, journal_n, t_s, STAR_LOCK, 0, star, seen[SEEN_STAR],
+        _write(journal, journal_n, frame, STAR_LOCK, 0, star, seen[SEEN_STAR],
                cone_arcsec if star != -1 else 0.0, star_in_use)
         seen[SEEN_STAR] = star
     mask = (overflow[0] | (overflow[1] << 1) | (overflow[2] << 2) | (overflow[3] << 3)
@@ -144,12 +145,12 @@ def note_frame(journal, journal_n, seen, t_s, star, star_in_use, cone_arcsec, ov
         was = int(seen[SEEN_OVERFLOW])
         for i in range(6):
             if (mask >> i) & 1 and not (was >> i) & 1:
-                _write(journal, journal_n, t_s, SATURATION, COUNTER_OVERFLOW, i, 1.0, 0.0, 0.0)
+                _write(journal, journal_n, frame, SATURATION, COUNTER_OVERFLOW, i, 1.0, 0.0, 0.0)
         seen[SEEN_OVERFLOW] = mask
 
 
 @njit_stage
-def note_clip(journal, journal_n, seen, t_s, drift_counters, drift_gate, dac_hi, dac_lo):
+def note_clip(journal, journal_n, seen, frame, drift_counters, drift_gate, dac_hi, dac_lo):
     """A drift DAC 7/9/11 starting or ceasing to apply its full scale, not the count.
 
     ``drift_gate`` (3,) is 1.0 where S1-S3 feed the DACs, whose codes span
@@ -165,8 +166,8 @@ def note_clip(journal, journal_n, seen, t_s, drift_counters, drift_gate, dac_hi,
         (2,) int64: rows written, and rows lost to a full buffer.
     seen : numpy.ndarray
         What the loop last saw (``State.journal_seen``), updated.
-    t_s : float
-        [s] mission time of the frame.
+    frame : int
+        The frame the entry happened in (the mission's clock).
     drift_counters : numpy.ndarray
         [pulses] drift counters 13, 15, 17: the codes the DACs are fed.
     dac_hi, dac_lo : int
@@ -177,12 +178,12 @@ def note_clip(journal, journal_n, seen, t_s, drift_counters, drift_gate, dac_hi,
         clip = 1.0 if drift_gate[a] != 0.0 and (code > dac_hi or code < dac_lo) else 0.0
         if clip != seen[SEEN_CLIP + a]:
             applied = dac_hi if code > dac_hi else (max(code, dac_lo))
-            _write(journal, journal_n, t_s, SATURATION, DAC_CLIP, a, clip, code, applied)
+            _write(journal, journal_n, frame, SATURATION, DAC_CLIP, a, clip, code, applied)
             seen[SEEN_CLIP + a] = clip
 
 
 @njit_stage
-def note_wheels(journal, journal_n, seen, t_s, unloading, wheel_h, max_momentum):
+def note_wheels(journal, journal_n, seen, frame, unloading, wheel_h, max_momentum):
     """The unloader starting or stopping, a wheel reaching or leaving its limit.
 
     Parameters
@@ -193,8 +194,8 @@ def note_wheels(journal, journal_n, seen, t_s, unloading, wheel_h, max_momentum)
         (2,) int64: rows written, and rows lost to a full buffer.
     seen : numpy.ndarray
         What the loop last saw (``State.journal_seen``), updated.
-    t_s : float
-        [s] mission time of the frame.
+    frame : int
+        The frame the entry happened in (the mission's clock).
     unloading : int
         1 while the jets unload the wheels.
     wheel_h : numpy.ndarray
@@ -203,7 +204,7 @@ def note_wheels(journal, journal_n, seen, t_s, unloading, wheel_h, max_momentum)
         [N m s] each wheel's momentum limit.
     """
     if unloading != seen[SEEN_UNLOADING]:
-        _write(journal, journal_n, t_s, SATURATION, WHEEL_UNLOADING, -1, unloading, 0.0, 0.0)
+        _write(journal, journal_n, frame, SATURATION, WHEEL_UNLOADING, -1, unloading, 0.0, 0.0)
         seen[SEEN_UNLOADING] = unloading
     for i in range(max_momentum.shape[0]):
         frac = abs(wheel_h[i]) / max_momentum[i]
@@ -211,14 +212,15 @@ def note_wheels(journal, journal_n, seen, t_s, unloading, wheel_h, max_momentum)
         now = 1.0 if frac >= WHEEL_LIMIT_FRACTION or (was != 0.0 and frac >= WHEEL_LIMIT_RELEASE) \
             else 0.0
         if now != was:
-            _write(journal, journal_n, t_s, SATURATION, WHEEL_LIMIT, i, now, wheel_h[i],
+            _write(journal, journal_n, frame, SATURATION, WHEEL_LIMIT, i, now, wheel_h[i],
                    max_momentum[i])
             seen[SEEN_WHEEL + i] = now
 
 
 @njit_stage
-def note_faults(journal, journal_n, seen, first, t_s, n, fault_state, onset_row, duration_s):
-    """A fault's onset or end: it acts while ``onset <= t < onset + duration``.
+def note_faults(journal, journal_n, seen, first, frame, n, fault_state, onset_row,
+                duration_frames):
+    """A fault's onset or end: it acts in the frames ``onset <= n < onset + duration``.
 
     ``first`` is the index in ``seen`` of fault slot 0; the onsets are row
     ``onset_row`` of ``fault_state`` (:data:`allsky.sim.faults.ONSET`).
@@ -229,18 +231,18 @@ def note_faults(journal, journal_n, seen, first, t_s, n, fault_state, onset_row,
         The loop's buffer (``State.journal``, :data:`ROWS` x :data:`WIDTH`), appended to.
     journal_n : numpy.ndarray
         (2,) int64: rows written, and rows lost to a full buffer.
-    t_s : float
-        [s] mission time of the frame.
+    frame : int
+        The frame the entry happened in (the mission's clock).
     n : int
         Fault slots in use (the scenario's faults).
-    duration_s : numpy.ndarray
-        [s] how long each fault acts from its onset (inf: to the end).
+    duration_frames : numpy.ndarray
+        [frames] how long each fault acts from its onset (``clock.NEVER``: to the end).
     """
     for i in range(n):
         o = fault_state[onset_row, i]
-        act = 1.0 if 0.0 <= o <= t_s < o + duration_s[i] else 0.0
+        act = 1.0 if 0.0 <= o <= frame < o + duration_frames[i] else 0.0
         if act != seen[first + i]:
-            _write(journal, journal_n, t_s, FAULT, 0, i, act, 0.0, 0.0)
+            _write(journal, journal_n, frame, FAULT, 0, i, act, 0.0, 0.0)
             seen[first + i] = act
 
 
@@ -257,6 +259,8 @@ class Decoder:
         A fault in words (:func:`allsky.config.faults.describe`).
     drift_lsb_deg_h : float
         [deg/h] per drift-counter pulse as the drift DACs apply it.
+    ck : allsky.clock.ClockParams
+        The mission's clock: a row's frame becomes the entry's ``t_s``.
     reference_cone_deg : float
         [deg] cone angle of the planned reference star (refusals carry it).
     cone_check_deg : float
@@ -265,8 +269,9 @@ class Decoder:
         [mag] the tracker's bright gate (drops carry it); None without a gate.
     """
 
-    def __init__(self, star_names, faults, describe, drift_lsb_deg_h, reference_cone_deg=0.0,
-                 cone_check_deg=0.0, gate_magnitude=None):
+    def __init__(self, star_names, faults, describe, drift_lsb_deg_h, ck,
+                 reference_cone_deg=0.0, cone_check_deg=0.0, gate_magnitude=None):
+        self.clock = ck
         self.star_names = list(star_names)
         self.faults = list(faults)
         self.describe = describe
@@ -362,7 +367,7 @@ class Journal:
         for row in journal[:n]:
             e = decoder.entry(row)
             kind = e.pop("kind")
-            self.note(float(row[T]), mode, kind, **e)
+            self.note(clock.time_s(decoder.clock, int(row[FRAME])), mode, kind, **e)
         journal[:n] = 0.0  # drained: the buffer holds nothing between slices
         journal_n[0] = 0
         self.lost += int(journal_n[1])

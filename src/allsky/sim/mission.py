@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import units, xmath
+from allsky import clock, units, xmath
 from allsky.computer import targeting
 from allsky.computer import word_registers as wr
 from allsky.config import faults as fault_config
@@ -50,7 +50,9 @@ EXIT_TEXT = {
     legs.EXIT_SUN_LOST: "Sun lost",
     legs.EXIT_STAR_LOST: "star lost",
 }
-STATE_FORMAT = 3
+#: The layout of a snapshot; 4 since the clock became the frame index (a format-3
+#: state's times were summed floats, and its leg clock seconds).
+STATE_FORMAT = 4
 # The plans and the mode names, codes and titles live in the mode table
 # (allsky.sequencer.modes); here under the names scripts know.
 LEGACY_PLAN = modes.LEGACY_PLAN
@@ -113,7 +115,8 @@ class ModeRecord(NamedTuple):
 
 def build_params(cfg) -> sim_state.Params:
     """Frame-loop parameters from a validated scenario ``cfg``."""
-    dt = float(cfg.mission.frame_s)
+    ck = clock.clock(cfg.mission.frame_s)
+    dt = ck.num / ck.den
     s0, sdot = sky.sun_motion(cfg.mission.date_utc)
     lo, hi = cfg.star_tracker.magnitude_window
     stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
@@ -128,6 +131,7 @@ def build_params(cfg) -> sim_state.Params:
     el = cfg.electronics
     return sim_state.Params(
         frame_s=dt,
+        clock=ck,
         telemetry_every=int(cfg.mission.telemetry_every_frames),
         sun0_inertial=s0, sun_rate_inertial=sdot,
         plant=plant_params(cfg),
@@ -169,9 +173,9 @@ def build_params(cfg) -> sim_state.Params:
             cfg.sequencer.mode1_slew_rate_deg_s * units.DEG2ARCSEC),
         sequencer=sim_state.SequencerParams(
             float(cfg.sequencer.settle_threshold_arcsec), float(cfg.sequencer.handover_arcsec),
-            float(cfg.sequencer.sensor_loss_s)),
+            clock.frames_within(ck, cfg.sequencer.sensor_loss_s)),
         dither=dither_params(cfg),
-        dither_sample_frames=max(1, round(cfg.dither.sample_s / dt)),
+        dither_sample_frames=max(1, clock.frames_for(ck, cfg.dither.sample_s)),
         routing=wiring.ROUTING,
         actuator=wheels.ACTUATOR_CODE[cfg.actuators.kind],
         wheels=wheel_params(cfg),
@@ -210,7 +214,8 @@ def wheel_params(cfg) -> wheels.WheelParams:
     return wheels.make_params(
         w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.inertia_kg_m2,
         couple_n_m / float(cfg.pwpf.full_on_v), w.unload_fraction, w.unload_end_fraction,
-        couple_n_m, max(1, math.ceil(cfg.jets.min_on_time_s / float(cfg.mission.frame_s) - 1e-9)),
+        couple_n_m, max(1, clock.frames_for(clock.clock(cfg.mission.frame_s),
+                                            cfg.jets.min_on_time_s)),
         allocation=w.allocation)
 
 
@@ -238,7 +243,7 @@ def ejection_state(cfg) -> sim_state.State:
     q0 = quaternion.random_unit(rng) if isinstance(att, str) else np.asarray(att, dtype=float)
     w0 = rng.uniform(-1.0, 1.0, 3) * cfg.ejection.tipoff_rate_max_deg_s * units.DEG2RAD
     state = sim_state.new_state(q0, w0, cfg.jets.propellant_kg)
-    sim_faults.arm(state.fault_state, cfg.faults)
+    sim_faults.arm(state.fault_state, cfg.faults, clock.clock(cfg.mission.frame_s))
     return state
 
 
@@ -420,9 +425,11 @@ class Mission:
         self._amended = False
         #: the star tracker 105 last held, by name, when a new magnitude window left it out
         self._locked_before = h.get("locked_star_name")
+        #: [frame] the frame by which the mode being flown must end (its timeout)
         self._mode_deadline = None
         self._allowed_s = None
-        self.mode_start_s = None  #: [s] when the mode being flown started
+        #: the frame the mode being flown started in
+        self._mode_start = None
         self._mode = None
         self._hooks = NO_HOOKS
         #: What happened, in order (:class:`allsky.sim.journal.Journal`).
@@ -437,14 +444,25 @@ class Mission:
         cfg, trk = self.cfg, self.params.tracker
         return journal.Decoder(
             tracker_star_names(cfg), cfg.as_dict().get("faults", []), fault_config.describe,
-            self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S,
+            self.params.electronics.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S, self.params.clock,
             trk.reference_cone_rad * units.RAD2DEG, float(cfg.star_tracker.cone_angle_check_deg),
             trk.bright_gate_mag if math.isfinite(trk.bright_gate_mag) else None)
 
     # -- the seam: what master sequencer 20's steps use (sequencer.host.Host) -----
     def now_s(self) -> float:
-        """Mission time [s]."""
-        return float(self.state.time_s[0])
+        """Mission time [s]: the start of the frame the flight stands at (allsky.clock)."""
+        return clock.time_s(self.params.clock, self.state.frame[0])
+
+    @property
+    def frame(self) -> int:
+        """The mission clock: the frame the flight stands at (frames flown since ejection)."""
+        return int(self.state.frame[0])
+
+    @property
+    def mode_start_s(self):
+        """[s] when the mode being flown started (None before the first)."""
+        return None if self._mode_start is None else clock.time_s(self.params.clock,
+                                                                  self._mode_start)
 
     def note(self, kind, **fields) -> dict:
         """Write an entry of ``kind`` into the journal, at the mission time, in this mode.
@@ -527,15 +545,15 @@ class Mission:
             The abort reason if the mode's deadline passes first (default:
             ``what`` not achieved).
         """
-        remaining = self._mode_deadline - self.state.time_s[0]
+        ck = self.params.clock
         if hold_s is None:
             hold_s = self.settle_s
         seed = int(np.random.SeedSequence([int(self.cfg.mission.seed), 1,
                                            self.leg_count]).generate_state(1)[0])
         self.leg_count += 1
         leg = legs.Leg(seed, MODE_CODE[self._mode], program, watch, mask, signal,
-                         float(blank_s), float(hold_s), float(max(remaining, 0.0)),
-                         carry_settle=int(carry_settle))
+                       clock.frames_within(ck, blank_s), clock.frames_for(ck, hold_s),
+                       max(self._mode_deadline - self.frame, 0), carry_settle=int(carry_settle))
         params = self.params
         hooks = self._hooks
         if hooks.before_leg is not None:
@@ -545,8 +563,7 @@ class Mission:
                                                           else 0))
         every = params.telemetry_every
         # A slice's rows at most: the leg's rows are moved out after each slice (_run_leg).
-        rows = min(math.ceil(leg.timeout_s / params.frame_s / every) + 1,
-                   SLICE_FRAMES // every + 2) if every else 0
+        rows = min(leg.timeout_frames // every + 2, SLICE_FRAMES // every + 2) if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
         rec = np.empty((record_rows, frame_loop.N_REC))
@@ -573,7 +590,7 @@ class Mission:
         """
         saved = self._mode, self._mode_deadline, self._allowed_s
         self._mode = mode
-        self._mode_deadline = float(self.state.time_s[0]) + float(allowed_s)
+        self._mode_deadline = self.frame + clock.frames_for(self.params.clock, allowed_s)
         self._allowed_s = float(allowed_s)
         try:
             return self.leg(what, program, watch, **kwargs)
@@ -585,9 +602,9 @@ class Mission:
 
         A recovery of the master sequencer does so (``sequencer.recovery``).
         """
-        now = float(self.state.time_s[0])
-        self._mode_deadline = max(self._mode_deadline, now) + float(seconds)
-        self._allowed_s = self._mode_deadline - self.mode_start_s
+        ck = self.params.clock
+        self._mode_deadline = max(self._mode_deadline, self.frame) + clock.frames_for(ck, seconds)
+        self._allowed_s = clock.time_s(ck, self._mode_deadline - self._mode_start)
 
     def _run_leg(self, params, leg, what, buf, filled, rec, rec_filled):
         """The frame loop over one leg, in slices, pausing for ``on_pause`` if asked.
@@ -607,18 +624,14 @@ class Mission:
         hooks = self._hooks
         every = hooks.pause_every_s if hooks.on_pause is not None else None
         asked = hooks.pause_at if hooks.on_pause is not None else None
-        dt = float(params.frame_s)
+        ck = params.clock
         try:
             while True:
-                t = float(self.state.time_s[0])
-                step_at = math.inf
-                if every:
-                    # Next multiple of `every` in mission time, rounded to whole frames.
-                    step_at = (math.floor(t / every + 1e-9) + 1) * every
-                if asked is not None:
-                    step_at = min(step_at, float(asked(self)))
-                slice_at = t + SLICE_FRAMES * dt
-                leg = leg._replace(pause_at_s=min(step_at, slice_at))
+                step_at = self._next_pause(ck, every, asked)
+                while step_at <= self.frame:  # due before this leg flies a frame
+                    params = self._pause(hooks, what, params)
+                    step_at = self._next_pause(ck, every, asked)
+                leg = leg._replace(pause_at_frame=min(step_at, self.frame + SLICE_FRAMES))
                 code, _ = frame_loop.run_leg(params, self.state, leg, buf, filled, rec,
                                              rec_filled)
                 self._drain_journal()
@@ -628,16 +641,40 @@ class Mission:
                 leg = leg._replace(resume=1)
                 if hooks.on_slice is not None:
                     hooks.on_slice(self, what)
-                if step_at < math.inf and float(self.state.time_s[0]) >= step_at - 0.5 * dt:
-                    hooks.on_pause(self, what)
-                    if self._interrupt is not None:
-                        raise ms.ModeInterrupted(self._interrupt)
-                    if self._amended:  # a ground command changed the scenario
-                        params = self.params._replace(telemetry_every=params.telemetry_every)
-                        self._amended = False
+                if self.frame >= step_at:
+                    params = self._pause(hooks, what, params)
         except BaseException:
             self._slice_telemetry(buf, filled)
             raise
+
+    def _next_pause(self, ck, every, asked) -> int:
+        """The frame of the next call of ``on_pause`` (clock ``ck``; NEVER: none).
+
+        ``every`` [s]: at each multiple of it in mission time; ``asked``: the
+        mission time ``asked(self)`` gives. Either lands on a frame by the
+        clock's rule (:func:`allsky.clock.frame_at`).
+        """
+        step_at = clock.NEVER
+        if every:
+            k = math.floor(clock.decimal(self.now_s()) / clock.decimal(every)) + 1
+            step_at = clock.frame_at(ck, k * clock.decimal(every))
+        if asked is not None:
+            step_at = min(step_at, clock.frame_at(ck, asked(self)))
+        return step_at
+
+    def _pause(self, hooks, what, params):
+        """Call ``on_pause`` at this frame; returns the parameters the leg flies on with.
+
+        A ground command may end the mode here (ModeInterrupted) or amend the
+        scenario (the leg flies on with the new parameters).
+        """
+        hooks.on_pause(self, what)
+        if self._interrupt is not None:
+            raise ms.ModeInterrupted(self._interrupt)
+        if self._amended:  # a ground command changed the scenario
+            self._amended = False
+            return self.params._replace(telemetry_every=params.telemetry_every)
+        return params
 
     def _slice_telemetry(self, buf, filled):
         """Move the rows a slice recorded into the leg's telemetry."""
@@ -681,11 +718,12 @@ class Mission:
             raise RuntimeError(f"mission already {self.status}")
         name = self.plan[self.next_mode]
         self._mode = name
-        start = float(self.state.time_s[0])
-        self._mode_deadline = start + self.mode_timeout_s(name)
+        start = self.frame
+        self._mode_deadline = start + clock.frames_for(self.params.clock,
+                                                       self.mode_timeout_s(name))
         #: [s] the time the mode is allowed (a recovery extends it), for abort reasons
         self._allowed_s = self.mode_timeout_s(name)
-        self.mode_start_s = start
+        self._mode_start = start
         self._hooks = hooks or NO_HOOKS
         self._in_mode = True
         self.note("mode_start", title=modes.MODE_TITLE[name],
@@ -696,8 +734,9 @@ class Mission:
         try:
             exit_text = ms.run_mode(self, name)
         except ms.ModeAbort as e:
+            # The faults of the last frame flown (the flight stands after it).
             reason = str(e) + sim_faults.blame(self.state.fault_state, self.cfg.faults,
-                                               float(self.state.time_s[0]))
+                                               self.params.clock, self.frame - 1)
             exit_text = f"aborted: {reason}"
             self.status = "aborted"
             self.abort_reason = reason
@@ -715,7 +754,7 @@ class Mission:
                   else "done")
         if self.status == "aborted":
             self.note("abort", reason=self.abort_reason)
-        rec = ModeRecord(name, start, float(self.state.time_s[0]), exit_text)
+        rec = ModeRecord(name, clock.time_s(self.params.clock, start), self.now_s(), exit_text)
         self.timeline.append(rec)
         if self.status == "running" and name == modes.TARGET_MODES[-1] and not ended:
             self.target_log[-1].update(self.on_target())
@@ -765,7 +804,7 @@ class Mission:
             self.programmed_roll_deg, self.programmed_yaw_deg = \
                 targeting.programmed_angles_deg(sun, star, target)
             return
-        t0 = float(self.state.time_s[0])
+        t0 = self.now_s()
         rate_deg_s = float(self.cfg.electronics.rate_command_deg_s)
         roll = 0.0
         for _ in range(2):
@@ -792,7 +831,7 @@ class Mission:
         Its programmed angles and hold go into its record and are cleared,
         so that Mode 6-1 computes the next target's angles.
         """
-        now = float(self.state.time_s[0])
+        now = self.now_s()
         self.target_log[-1] = {**self.targets()[-1], "end_s": now}
         self.target_log.append(new_target_record(self.cfg, len(self.target_log), now))
         self.programmed_roll_deg = self.programmed_yaw_deg = None
@@ -817,7 +856,7 @@ class Mission:
         if self.turn_roll_deg is not None:  # flown from the target before, on the gyros
             cur.update(turn_roll_deg=self.turn_roll_deg, turn_yaw_deg=self.turn_yaw_deg)
         if self.finished:
-            cur["end_s"] = float(self.state.time_s[0])
+            cur["end_s"] = self.now_s()
         return out
 
     # -- ground commands (allsky.sim.commands) ----------------------------------
@@ -846,7 +885,7 @@ class Mission:
         params = build_params(cfg)
         self.params = params if self._telemetry else params._replace(telemetry_every=0)
         self._amended = True
-        sim_faults.arm(self.state.fault_state, cfg.faults)
+        sim_faults.arm(self.state.fault_state, cfg.faults, params.clock)
         new_names = tracker_star_names(cfg)
         if new_names != old_names:
             self._carry_tracker(old_names, new_names)
@@ -1025,7 +1064,7 @@ class Mission:
             "calibration_applied": self.apply_calibration,
             "target": target,
             "propellant_kg": float(self.cfg.jets.propellant_kg - self.state.propellant_kg[0]),
-            "mission_time_s": float(self.state.time_s[0]),
+            "mission_time_s": self.now_s(),
             "seed": int(self.cfg.mission.seed),
             "reference_star": self.cfg.star_tracker.reference_star,
             "locked_star": self.locked_star(),
@@ -1039,7 +1078,8 @@ class Mission:
         if first["hold"] is not None:
             out["hold"] = first["hold"]
         if self.cfg.faults:
-            out["faults"] = [{**f, "onset_s": float(onset) if onset >= 0.0 else None}
+            out["faults"] = [{**f, "onset_s": (clock.time_s(self.params.clock, int(onset))
+                                               if onset >= 0.0 else None)}
                              for f, onset in zip(self.cfg.as_dict()["faults"],
                                                  self.state.fault_state[sim_faults.ONSET])]
         out["targets"] = records
@@ -1115,7 +1155,9 @@ class Mission:
         from allsky.config import scenario_from_dict
 
         if history.get("format") != STATE_FORMAT:
-            raise ValueError(f"not an allsky mission state (format {STATE_FORMAT})")
+            raise ValueError(f"a mission state of format {history.get('format')!r}, not "
+                             f"{STATE_FORMAT} (format 3 held summed times, before the exact "
+                             "clock)")
         # Copies, so that one snapshot can be resumed any number of times; the arrays
         # added since the format's first files stand for what an older file meant.
         arrays = {**newer_state_arrays(), **arrays}

@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky import xmath
+from allsky.clock import frame_time
 from allsky.hardware.wiring import N_SWITCHES, SELECTORS
 from allsky.jit import njit_stage
 from allsky.units import RAD2ARCSEC
@@ -206,7 +207,7 @@ _SELECTOR = SELECTORS[0]
 
 
 @njit_stage
-def record_telemetry(tlm, tlm_rows, every_frames, s, mode_code, fine, trk, volts, wheel_hb,
+def record_telemetry(tlm, tlm_rows, every_frames, ck, s, mode_code, fine, trk, volts, wheel_hb,
                      wheel_u_body, unloading):
     """Write a row of :data:`COLUMNS` into ``tlm`` every ``every_frames`` frames.
 
@@ -217,18 +218,20 @@ def record_telemetry(tlm, tlm_rows, every_frames, s, mode_code, fine, trk, volts
     ``wheel_hb`` and ``wheel_u_body`` the wheels' momentum [N m s] and motor
     torque [N m] in body axes, ``unloading`` 1 while the jets unload them.
     ``s`` is the mission state (:class:`allsky.sim.state.State`) after the
-    frame, ``mode_code`` the leg's mode code (:data:`allsky.vocabulary.MODE_CODE`).
+    frame, ``mode_code`` the leg's mode code (:data:`allsky.vocabulary.MODE_CODE`);
+    ``ck`` the mission's clock (:class:`allsky.clock.ClockParams`): a row's
+    time is its frame's, computed.
     """
     if every_frames > 0 and s.frame[0] % every_frames == 0 and tlm_rows[0] < tlm.shape[0]:
-        _write_row(tlm[tlm_rows[0]], s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body,
+        _write_row(tlm[tlm_rows[0]], ck, s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body,
                    unloading)
         tlm_rows[0] += 1
 
 
 @njit_stage
-def _write_row(row, s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body, unloading):
+def _write_row(row, ck, s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body, unloading):
     """One row, through the columns' names."""
-    row[_TIME] = s.time_s[0]
+    row[_TIME] = frame_time(ck, s.frame[0])
     row[_MODE] = mode_code
     for i in range(7):  # q_w .. q_z, rate_x .. rate_z
         row[_Q_W + i] = s.x[i]

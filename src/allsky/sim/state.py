@@ -10,6 +10,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky.clock import ClockParams
 from allsky.computer.cpu import N_WORK
 from allsky.computer.word_registers import N_PROGRAMMED, neutral_computed
 from allsky.config.faults import MAX_FAULTS
@@ -51,7 +52,9 @@ class SequencerParams(NamedTuple):
 
     settle_threshold_arcsec: float  #: [arcsec] "settled" error bound (50")
     handover_arcsec: float  #: [arcsec] hand-over threshold (7200")
-    sensor_loss_s: float  #: [s] Sun/star absence tolerated while in use
+    #: [frames] Sun/star absence tolerated while in use: lost after more frames than this
+    #: (``sequencer.sensor_loss_s``, :func:`allsky.clock.frames_within`)
+    sensor_loss_frames: int
 
 
 class Params(NamedTuple):
@@ -60,7 +63,8 @@ class Params(NamedTuple):
     Built by :func:`allsky.sim.mission.build_params` from the scenario.
     """
 
-    frame_s: float  #: [s]
+    frame_s: float  #: [s] the frame step, ``clock.num / clock.den``
+    clock: ClockParams  #: the frame length as a fraction: times are computed from frames
     telemetry_every: int  #: [frames] per telemetry row (0 = none)
     sun0_inertial: np.ndarray  #: [-] Sun direction at t = 0
     sun_rate_inertial: np.ndarray  #: [1/s] its time derivative (the Sun's ~1 deg/day motion)
@@ -88,8 +92,9 @@ class Params(NamedTuple):
 class State(NamedTuple):
     """The whole mission state, as arrays (mutated in place by the loop)."""
 
-    time_s: np.ndarray  #: (1,) [s] mission time
-    frame: np.ndarray  #: (1,) int64 frame counter
+    #: (1,) int64 the mission clock: frames since ejection (the time is
+    #: :func:`allsky.clock.time_s` of it, computed, never summed)
+    frame: np.ndarray
     x: np.ndarray  #: (7,) plant state [q_w, q_x, q_y, q_z, w (rad/s)]
     dtheta_rad: np.ndarray  #: (3,) body-angle increment of the last frame
     gyro_rw_arcsec_s: np.ndarray  #: (3,) gyro rate-random-walk state
@@ -110,7 +115,7 @@ class State(NamedTuple):
     word24: np.ndarray  #: (2,) programmed word register 24 [arcsec]
     excursion_ref_q: np.ndarray  #: (4,) attitude the mission wants; [0,0,0,0] = not tracked
     max_excursion_rad: np.ndarray  #: (1,) largest rotation away from it so far
-    leg_clock: np.ndarray  #: (N_CLOCK,) progress of the current leg (see CLOCK_*)
+    leg_clock: np.ndarray  #: (N_CLOCK,) int64 [frames] progress of the current leg (CLOCK_*)
     rng: np.ndarray  #: (1,) uint64 state of the noise generator (allsky.gauss)
     #: (1,) int64 star tracker 105 last held while in use: index in
     #: ``Params.tracker.stars_inertial``; -1 = none yet
@@ -155,7 +160,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
     x[0:4] = q0
     x[4:7] = rate0_rad_s
     return State(
-        time_s=np.zeros(1), frame=np.zeros(1, dtype=np.int64), x=x, dtheta_rad=np.zeros(3),
+        frame=np.zeros(1, dtype=np.int64), x=x, dtheta_rad=np.zeros(3),
         gyro_rw_arcsec_s=np.zeros(3), vfc_residue_pulses=np.zeros(3),
         counters=np.zeros(3, dtype=np.int64), drift_counters=np.zeros(3, dtype=np.int64),
         overflow=np.zeros(6, dtype=np.int64), registers=np.zeros(3, dtype=np.int64),
@@ -164,7 +169,7 @@ def new_state(q0, rate0_rad_s, propellant_kg) -> State:
         pwpf_on_frames=np.zeros(3, dtype=np.int64),
         propellant_kg=np.array([float(propellant_kg)]), cpu=np.zeros(N_WORK),
         word23=neutral_computed(), word24=np.zeros(N_PROGRAMMED),
-        excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK),
+        excursion_ref_q=np.zeros(4), max_excursion_rad=np.zeros(1), leg_clock=np.zeros(N_CLOCK, dtype=np.int64),
         rng=np.ones(1, dtype=np.uint64), locked_star=np.full(1, -1, dtype=np.int64),
         tracker_lock=new_lock(),
         fault_state=new_fault_state(),

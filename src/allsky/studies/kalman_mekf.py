@@ -148,7 +148,7 @@ class LegData(NamedTuple):
 
 def _leg_end(m) -> LegEnd:
     s = m.state
-    return LegEnd(float(s.time_s[0]), s.counters.copy(), s.drift_counters.copy(),
+    return LegEnd(m.now_s(), s.counters.copy(), s.drift_counters.copy(),
                   np.array([float(s.switches[k]) for k in (1, 2, 3)]), s.x.copy(),
                   s.dtheta_rad.copy(), s.gyro_rw_arcsec_s.copy())
 

@@ -156,49 +156,120 @@ ACTIONS = {
 }
 
 
+class Field(NamedTuple):
+    """One field of a journal entry: its name, unit and meaning."""
+
+    name: str  #: as the entry writes it
+    unit: str  #: its unit ("" for a name, a text, a flag or a list)
+    meaning: str  #: in words
+    required: bool = True  #: every entry of the kind carries it
+
+
 class EventKind(NamedTuple):
-    """A kind of journal entry, and the fields it carries beside time, mode and kind."""
+    """A kind of journal entry, and the fields it carries beside time, mode and kind.
+
+    The fields are data: :meth:`allsky.sim.journal.Journal.note` refuses an
+    entry with a field its kind does not declare, or without one it requires.
+    """
 
     name: str  #: the entry's ``kind``
     code: int  #: the frame loop's code for it (entries it writes itself)
-    fields: str  #: the fields, in words (docs/journal.md)
+    fields: tuple  #: its :class:`Field` s
+    #: what else an entry may carry, in words ("" for nothing): a ground command carries
+    #: its own fields (:data:`GROUND_COMMANDS`, and a fault's :data:`FAULT_KINDS` fields)
+    more: str = ""
+
+    @property
+    def names(self) -> frozenset:
+        """The names of its fields."""
+        return frozenset(f.name for f in self.fields)
+
+    @property
+    def required(self) -> frozenset:
+        """The names of the fields every entry of the kind carries."""
+        return frozenset(f.name for f in self.fields if f.required)
+
+    @property
+    def words(self) -> str:
+        """Its fields in words (docs/journal.md)."""
+        parts = []
+        for f in self.fields:
+            unit = f" [{f.unit}]" if f.unit else ""
+            opt = "; optional" if not f.required else ""
+            parts.append(f"`{f.name}`{unit} ({f.meaning}{opt})")
+        return "; ".join(parts) + (f"; {self.more}" if self.more else "")
 
 
+F = Field
 #: What the journal records (:mod:`allsky.sim.journal`).
 EVENT_KINDS = (
-    EventKind("mode_start", 1, "`title`; `target` (the target being flown); `waits_for` "
-                               "(what the mode waits for first)"),
-    EventKind("mode_end", 2, "`exit` (the exit text, or `aborted: <reason>`), `status` "
-                             "(`done` or `aborted`)"),
-    EventKind("switch", 3, "`close`, `open` (the switches that moved, coupled ones "
-                           "included), `step` (what the sequencer had waited for, or the "
-                           "recovery that did it), `waits_for` (what it waits for next)"),
-    EventKind("action", 4, "`action` (its name), `text` (in words)"),
-    EventKind("register", 5, "`register` (the numeral: 7/9/11, 13-18, 23, 24), `word`, "
-                             "`value` (engineering units), `unit`; for counters and DACs "
-                             "`pulses`, and for a drift DAC `counted_pulses`"),
-    EventKind("star_lock", 6, "`star` (the star in the tracker's slit, null when the slit "
-                              "is empty), `previous`, `cone_angle_deg` (its position along "
-                              "the slit), `in_use` (S12 or S13 closed)"),
-    EventKind("saturation", 7, "`what` (one of the saturations), `block` (the numeral), "
-                               "`axis` or `wheel`, `active`, and the values: a drift DAC's "
-                               "`counted_pulses` and `applied_pulses`, a counter's `pulses`, "
-                               "a wheel's `momentum_n_m_s` and `limit_n_m_s`"),
-    EventKind("fault", 8, "`fault` (its index in `[[faults]]`), `fault_kind`, `text`, "
-                          "`active` (true at the onset, false at the end)"),
-    EventKind("abort", 9, "`reason`"),
-    EventKind("lock_rejected", 10, "`star` (the star, or `stray light`, the tracker found "
-                                   "in its slit and refused), `cone_angle_deg` (its position "
-                                   "along the slit), `reference_cone_angle_deg` (the planned "
-                                   "reference star's), `check_deg` "
-                                   "(`star_tracker.cone_angle_check_deg`), `in_use`"),
-    EventKind("lock_dropped", 11, "`star` (the star, or `stray light`, the tracker held), "
-                                  "`magnitude` (the light in its slit), `gate_magnitude` (the "
-                                  "bright gate: the magnitude window's bright end), `in_use`"),
-    EventKind("ground_command", 12, "`command` (its kind: one of the ground commands), the "
-                                    "command's fields, `text` (in words); a `fault` command "
-                                    "also `fault` (its index in `[[faults]]`)"),
+    EventKind("mode_start", 1, (
+        F("title", "", "the mode's title"),
+        F("target", "", "the target being flown"),
+        F("waits_for", "", "what the mode waits for first"))),
+    EventKind("mode_end", 2, (
+        F("exit", "", "the exit text, or `aborted: <reason>`"),
+        F("status", "", "`done` or `aborted`"))),
+    EventKind("switch", 3, (
+        F("close", "", "the switches closed, coupled ones included"),
+        F("open", "", "the switches opened"),
+        F("step", "", "what the sequencer had waited for, or the recovery that did it"),
+        F("waits_for", "", "what it waits for next"))),
+    EventKind("action", 4, (
+        F("action", "", "its name"),
+        F("text", "", "in words"),
+        F("recovery", "", "the recovery flown, by name", False))),
+    EventKind("register", 5, (
+        F("register", "", "the numeral: 7/9/11, 13-18, 22 (CPU 22 cleared), 23, 24, 120/128 "
+                          "(a rate-command direction, `value` +1 or -1)"),
+        F("word", "", "the word written: an axis, a register 23 word, `all`"),
+        F("value", "unit", "the value written, in `unit`"),
+        F("unit", "", "its unit in words (`deg`, `arcsec`, `deg/h`, `-`)"),
+        F("by", "", "who wrote it: `master sequencer 20`, the ground, or the study that "
+                    "loaded its estimate"),
+        F("pulses", "pulse", "the raw content of a counter or DAC", False),
+        F("counted_pulses", "pulse", "a drift DAC's count, before its full scale", False))),
+    EventKind("star_lock", 6, (
+        F("star", "", "the star in the tracker's slit, null when the slit is empty"),
+        F("previous", "", "the star it held before"),
+        F("cone_angle_deg", "deg", "its position along the slit"),
+        F("in_use", "", "S12 or S13 closed"))),
+    EventKind("saturation", 7, (
+        F("what", "", "one of the saturations"),
+        F("block", "", "the block's numeral"),
+        F("active", "", "true as it begins, false as it ends"),
+        F("axis", "", "the axis", False),
+        F("wheel", "", "the wheel, from 0", False),
+        F("counted_pulses", "pulse", "a drift DAC's count", False),
+        F("applied_pulses", "pulse", "what the DAC applies", False),
+        F("counted_deg_h", "deg/h", "the count as a rate", False),
+        F("applied_deg_h", "deg/h", "what the DAC applies, as a rate", False),
+        F("momentum_n_m_s", "N m s", "a wheel's momentum", False),
+        F("limit_n_m_s", "N m s", "its limit", False))),
+    EventKind("fault", 8, (
+        F("fault", "", "its index in `[[faults]]`"),
+        F("fault_kind", "", "its kind"),
+        F("text", "", "in words"),
+        F("active", "", "true at the onset, false at the end"))),
+    EventKind("abort", 9, (F("reason", "", "why the mission ended"),)),
+    EventKind("lock_rejected", 10, (
+        F("star", "", "the star, or `stray light`, the tracker found in its slit and refused"),
+        F("cone_angle_deg", "deg", "its position along the slit"),
+        F("reference_cone_angle_deg", "deg", "the planned reference star's"),
+        F("check_deg", "deg", "`star_tracker.cone_angle_check_deg`"),
+        F("in_use", "", "S12 or S13 closed"))),
+    EventKind("lock_dropped", 11, (
+        F("star", "", "the star, or `stray light`, the tracker held"),
+        F("magnitude", "mag", "the light in its slit"),
+        F("gate_magnitude", "mag", "the bright gate: the magnitude window's bright end"),
+        F("in_use", "", "S12 or S13 closed"))),
+    EventKind("ground_command", 12, (
+        F("command", "", "its kind: one of the ground commands"),
+        F("text", "", "in words"),
+        F("fault", "", "a `fault` command's index in `[[faults]]`", False)),
+        more="and the command's own fields"),
 )
+del F
 #: Journal kind name -> :class:`EventKind`.
 EVENT_KIND = {k.name: k for k in EVENT_KINDS}
 

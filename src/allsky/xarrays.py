@@ -63,7 +63,7 @@ def atan2_many(y, x):
 
 
 def norm_rows(v):
-    """The Euclidean norm of each row of ``v`` (n, k): the squares summed in column order."""
+    """The length of each row of ``v`` (n, k): the squares summed in column order."""
     v = np.asarray(v, dtype=float)
     s = v[..., 0] * v[..., 0]
     for k in range(1, v.shape[-1]):

@@ -354,7 +354,7 @@ def log10(x):
 # -- small vectors and matrices ----------------------------------------------------------
 @jitable
 def hypot(x, y):
-    """``sqrt(x*x + y*y)``, the same bits everywhere (unscaled, for physics)."""
+    """``sqrt(x*x + y*y)`` of ``x`` and ``y``, the same bits everywhere (unscaled)."""
     return math.sqrt(x * x + y * y)
 
 

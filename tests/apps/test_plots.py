@@ -65,6 +65,31 @@ def test_mode_spans_follow_the_timeline(flown):
         assert t1 == pytest.approx(r["end_s"], abs=1.01 * dt), name
 
 
+def test_with_a_summary_the_spans_and_switch_edges_are_the_journal_s(flown):
+    """The record's exact frames; the telemetry's rows agree with them where they sample."""
+    from allsky.apps.events import switch_edges
+    from allsky.hardware import switch_bank
+
+    table, summary = flown
+    spans = plots.mode_spans(table, summary)
+    assert spans == [(r["mode"], r["start_s"], r["end_s"]) for r in summary["modes"]]
+    t = table[:, 0]
+    for k in range(1, switch_bank.N_SWITCHES + 1):
+        if k in switch_bank.SELECTORS:
+            continue
+        edges = switch_edges(summary["events"], k)
+        if not edges:
+            assert not telemetry.switch_closed(table, k).any(), f"S{k}"
+            continue
+        # a row is written at the end of its frame, before the switch step of that frame:
+        # the state in force is the last edge strictly before the row's time
+        when = np.array([te for te, _ in edges])
+        state = np.array([c for _, c in edges], dtype=bool)
+        idx = np.searchsorted(when, t, side="left") - 1
+        from_journal = np.where(idx >= 0, state[np.maximum(idx, 0)], False)
+        assert np.array_equal(from_journal, telemetry.switch_closed(table, k)), f"S{k}"
+
+
 POINTING_TITLE = "Pointing error: CPU 22's estimate beside the truth"
 
 

@@ -188,7 +188,7 @@ def test_the_interpreter_runs_the_legs_of_the_table_in_order():
 def test_mode_6_1_loads_register_24_and_withholds_calibration_on_request():
     cfg = load_scenario(overrides=["calibration.apply=false"])
     m = Mission(cfg, telemetry=False)
-    m.switch(close=(1, 2, 3, 12, 14, 15))
+    m.board.switch(close=(1, 2, 3, 12, 14, 15))
     m.state.word23[wr.SF_ROLL] = 1.01
     fake = m.leg = FakeLegs(m)
     ms.run_mode(m, "6-1")

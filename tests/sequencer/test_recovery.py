@@ -161,7 +161,7 @@ def test_whole_turns_counted_from_the_counter():
     from types import SimpleNamespace
 
     counters = np.zeros(3, dtype=np.int64)
-    m = SimpleNamespace(pulse_weight_arcsec=0.1, state=SimpleNamespace(counters=counters))
+    m = SimpleNamespace(pulse_weight_arcsec=0.1, view=SimpleNamespace(counters=counters))
     for turns, frac in ((1, 1.0005), (2, 1.999), (1, 0.2), (3, -3.01)):
         counters[0] = counters[2] = round(frac * FULL_TURN_ARCSEC / 0.1)
         assert ms.turns_counted(m, "roll") == ms.turns_counted(m, "yaw") == turns
@@ -183,7 +183,7 @@ def _counted(deg, recovery=False, ppm=10000.0):
     cfg = SimpleNamespace(sequencer=SimpleNamespace(turn_check_ppm=ppm, recovery=recovery),
                           star_tracker=SimpleNamespace(fov_narrow_half_deg=8.0),
                           sun_sensor=SimpleNamespace(presence_half_angle_deg=30.0))
-    return SimpleNamespace(pulse_weight_arcsec=0.1, state=SimpleNamespace(counters=counters),
+    return SimpleNamespace(pulse_weight_arcsec=0.1, view=SimpleNamespace(counters=counters),
                            cfg=cfg, current_mode="4")
 
 

@@ -14,6 +14,7 @@ from allsky.config.faults import describe
 from allsky.hardware import star_tracker as trk
 from allsky.hardware.star_tracker import FALSE_TARGET, new_lock
 from allsky.sim import journal as J
+from allsky.vocabulary import EVENT_KINDS
 
 WHEELS, FAULTS = 4, 2
 
@@ -150,3 +151,23 @@ def test_a_full_buffer_counts_what_it_lost():
 def test_an_unknown_kind_is_refused():
     with pytest.raises(ValueError, match="unknown journal kind"):
         J.Journal().note(0.0, "1", "weather")
+
+
+def test_a_misspelt_or_missing_field_is_an_error():
+    """The journal's fields are declared (vocabulary.EVENT_KINDS) and checked where written."""
+    j = J.Journal()
+    with pytest.raises(ValueError, match="undeclared field"):
+        j.note(0.0, None, "abort", reson="typo")
+    with pytest.raises(ValueError, match="missing field"):
+        j.note(0.0, None, "abort")
+    with pytest.raises(ValueError, match="unknown journal kind"):
+        j.note(0.0, None, "aborted", reason="x")
+    j.note(0.0, None, "ground_command", command="fault", fault_kind="gyro_dead", axis="roll",
+           text="a fault", fault=0)
+    assert len(j) == 1
+
+
+def test_every_declared_field_has_a_unit_and_a_meaning():
+    for kind in EVENT_KINDS:
+        assert kind.fields and all(f.meaning for f in kind.fields), kind.name
+        assert len(kind.names) == len(kind.fields), kind.name

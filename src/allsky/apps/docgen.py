@@ -340,7 +340,7 @@ def _switch_rows() -> list:
 def journal_reference() -> str:
     """The journal's kinds and fields (:data:`allsky.vocabulary.EVENT_KINDS`), a table."""
     lines = ["| kind | fields beside `t_s`, `mode`, `kind` |", "|---|---|"]
-    lines += [f"| `{k.name}` | {k.fields} |" for k in EVENT_KINDS]
+    lines += [f"| `{k.name}` | {k.words} |" for k in EVENT_KINDS]
     return "\n".join(lines) + "\n"
 
 

@@ -11,9 +11,12 @@ Nothing here reconstructs the flight: every line is an entry of the journal.
 says where on the replay page a mode shows best.
 """
 
+import numpy as np
+
 from allsky.computer import word_registers as wr
 from allsky.hardware.wiring import BY_NUMBER
 from allsky.sequencer import modes
+from allsky.sim import board
 
 #: Where to look on the page while a mode flies (presentation text, by mode name).
 LOOK_FOR = {
@@ -44,10 +47,7 @@ LOOK_FOR = {
 
 
 #: What each numeral the journal's register entries name is.
-REGISTER_NAMES = {"23": "register 23", "24": "register 24",
-                  **{n: f"drift DAC {n}" for n in ("7", "9", "11")},
-                  **{n: f"drift counter {n}" for n in ("13", "15", "17")},
-                  **{n: f"counter {n}" for n in ("14", "16", "18")}}
+REGISTER_NAMES = board.BLOCKS
 
 
 def mode_sentence(name, exit_text=None) -> str:
@@ -81,6 +81,36 @@ def _value(e) -> str:
     return f"{e['value']:+.4f} {e['unit']}{pulses}"
 
 
+def runs(values) -> list:
+    """Runs of equal value in ``values``: ``[(first index, value), ...]``, in order.
+
+    The one implementation of "runs of equal mode" (and of any telemetry
+    column the replay sends as runs).
+    """
+    values = np.asarray(values)
+    if len(values) == 0:
+        return []
+    starts = np.r_[0, np.flatnonzero(values[1:] != values[:-1]) + 1]
+    return [(int(i), values[i]) for i in starts]
+
+
+def switch_edges(events, k) -> list:
+    """Switch ``k``'s moves ``[(t_s, closed), ...]``, from the journal's entries.
+
+    ``events`` are the journal's entries in order (the summary's ``events``).
+    The bank starts open; each entry that closes or opens switch ``k`` is one
+    edge, at its exact frame's time.
+    """
+    out = []
+    for e in events:
+        if e["kind"] == "switch":
+            if k in e["close"]:
+                out.append((float(e["t_s"]), True))
+            elif k in e["open"]:
+                out.append((float(e["t_s"]), False))
+    return out
+
+
 def event_text(e) -> str:
     """Journal entry ``e`` (a dict, docs/journal.md) in one line of words."""
     kind = e["kind"]
@@ -94,9 +124,16 @@ def event_text(e) -> str:
         return f"action: {e['text']}"
     if kind == "register":
         name = REGISTER_NAMES[e["register"]]
-        text = f"{name} {e['word']} = {_value(e)}"
+        if e["register"] == board.CPU:
+            text = f"{name} cleared"
+        elif e["register"] in board.RATE_COMMANDS.values():
+            text = f"{name} turns {e['word']} {'positive' if e['value'] > 0 else 'negative'}"
+        else:
+            text = f"{name} {e['word']} = {_value(e)}"
         if "counted_pulses" in e and e["counted_pulses"] != e["pulses"]:
             text += f", not the {e['counted_pulses']:+d} pulses counted (full scale)"
+        if e.get("by", board.SEQUENCER) != board.SEQUENCER:
+            text += f" (by {e['by']})"
         return text
     if kind == "star_lock":
         if e["star"] is None:

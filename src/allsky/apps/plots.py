@@ -33,6 +33,7 @@ from typing import NamedTuple
 import numpy as np
 from matplotlib.figure import Figure
 
+from allsky.apps.events import runs, switch_edges
 from allsky.apps.telemetry_files import TelemetryError, read
 from allsky.hardware import switch_bank, wiring
 from allsky.sequencer.modes import MODE_CODE, cpu_modes
@@ -75,18 +76,22 @@ def mode_name(code: float) -> str:
     return "?"
 
 
-def mode_spans(table: np.ndarray) -> list:
-    """Runs of equal mode code in time order: ``[(name, t_start_s, t_end_s), ...]``.
+def mode_spans(table: np.ndarray, summary=None) -> list:
+    """Each mode's time span in order: ``[(name, t_start_s, t_end_s), ...]``.
 
+    From the summary's timeline (``modes``, exact frame times) when a
+    ``summary`` is given; else the telemetry's runs of equal mode code
+    (:func:`allsky.apps.events.runs`), whose edges are those of its rows.
     ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
+    if summary and summary.get("modes"):
+        return [(r["mode"], float(r["start_s"]), float(r["end_s"])) for r in summary["modes"]]
     if len(table) == 0:
         return []
     t = table[:, INDEX["time"]]
-    code = table[:, INDEX["mode"]]
-    cuts = np.flatnonzero(np.diff(code) != 0) + 1
-    starts, ends = np.r_[0, cuts], np.r_[cuts, len(t)]
-    return [(mode_name(code[a]), float(t[a]), float(t[b] if b < len(t) else t[-1]))
+    starts = [i for i, _ in runs(table[:, INDEX["mode"]])]
+    ends = [*starts[1:], len(t) - 1]
+    return [(mode_name(table[a, INDEX["mode"]]), float(t[a]), float(t[b]))
             for a, b in zip(starts, ends)]
 
 
@@ -206,7 +211,7 @@ def attitude_errors(table: np.ndarray, summary=None) -> Figure:
     fig = Figure(figsize=(FIGSIZE_IN[0], FIGSIZE_IN[1] + 1.9 * (rows - 3)), layout="constrained")
     grid = fig.add_gridspec(rows, 1, height_ratios=ratios)
     fig.suptitle("Attitude errors by axis (modes shaded)", fontsize=12)
-    spans = mode_spans(table)
+    spans = mode_spans(table, summary)
     timeline = []  # the rows that share the mission-time axis
     for i, axis in enumerate(AXES):
         ax = fig.add_subplot(grid[i, 0], sharex=timeline[0] if timeline else None)
@@ -308,7 +313,7 @@ def selector_shares(table: np.ndarray, windows=SELECTOR_WINDOWS):
     return edges, shares
 
 
-def switch_timing(table: np.ndarray) -> Figure:
+def switch_timing(table: np.ndarray, summary=None) -> Figure:
     """Switch timing diagram: S1-S19 as logic-analyser traces, high when closed.
 
     S7/S8 are the coupled selectors of computer sequencer 21. In Mode 6 they
@@ -316,14 +321,19 @@ def switch_timing(table: np.ndarray) -> Figure:
     their row shows per window of samples the share on each contact,
     stacked roll (bottom), pitch, yaw (top) (:func:`selector_shares`).
 
+    With a ``summary``, the modes and the on/off switches' edges are the
+    journal's, at their exact frames (:func:`allsky.apps.events.switch_edges`);
+    without, the telemetry's rows.
+
     ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
     t = _col(table, "time")
+    events = (summary or {}).get("events")
     labels = _switch_labels()
     fig = Figure(figsize=(FIGSIZE_IN[0], 8.0), layout="constrained")
     ax = fig.subplots()
     fig.suptitle("Switch timing diagram S1–S19 (high = closed)", fontsize=12)
-    _shade_modes(ax, mode_spans(table))
+    _shade_modes(ax, mode_spans(table, summary))
     ticks, ticklabels = [], []
     height = 0.7
     rows = [k for k in range(1, switch_bank.N_SWITCHES + 1) if k != 8]  # S8 moves with S7
@@ -340,10 +350,16 @@ def switch_timing(table: np.ndarray) -> Figure:
                 bottom = bottom + shares[:, i]
             ticklabels.append(f"S7/S8 selected axis,\nshare per {window_s:.2g} s")
         else:
-            closed = switch_closed(table, k).astype(float)
-            ax.fill_between(t, base, base + closed * height, step="post", color=SWITCH_COLOUR,
+            if events is not None:
+                edges = switch_edges(events, k)
+                tk = np.array([t[0], *(te for te, _ in edges), t[-1]])
+                closed = np.array([0.0, *(float(c) for _, c in edges), edges[-1][1] if edges
+                                   else 0.0])
+            else:
+                tk, closed = t, switch_closed(table, k).astype(float)
+            ax.fill_between(tk, base, base + closed * height, step="post", color=SWITCH_COLOUR,
                             alpha=0.45, lw=0)
-            ax.step(t, base + closed * height, where="post", lw=0.8, color=SWITCH_COLOUR)
+            ax.step(tk, base + closed * height, where="post", lw=0.8, color=SWITCH_COLOUR)
             ticklabels.append(f"S{k}  {labels.get(k, '')}")
         ticks.append(base + 0.5 * height)
     ax.set_yticks(ticks, ticklabels, fontsize=8)
@@ -356,13 +372,14 @@ def switch_timing(table: np.ndarray) -> Figure:
     return fig
 
 
-def counters(table: np.ndarray) -> Figure:
+def counters(table: np.ndarray, summary=None) -> Figure:
     """Up/down counters 14/16/18 and drift counters 13/15/17 [pulses] against time.
 
-    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order;
+    with a ``summary`` the modes are shaded from its timeline (:func:`mode_spans`).
     """
     t = _col(table, "time")
-    spans = mode_spans(table)
+    spans = mode_spans(table, summary)
     fig, axes = _new_figure(2, "Gyro pulse counters (modes shaded)")
     for ax, (title, names) in zip(axes, (
             ("Up/down counters 14, 16, 18", ("counter14", "counter16", "counter18")),
@@ -381,17 +398,18 @@ def counters(table: np.ndarray) -> Figure:
     return fig
 
 
-def jets(table: np.ndarray) -> Figure:
+def jets(table: np.ndarray, summary=None) -> Figure:
     """Valve commands of modulators 34-36 (jets 39-41) per axis, and propellant [kg].
 
     Valve commands are telemetry samples (one every telemetry interval), so
     pulses shorter than the interval may not show; the propellant curve
     counts every pulse.
 
-    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
+    ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order;
+    with a ``summary`` the modes are shaded from its timeline (:func:`mode_spans`).
     """
     t = _col(table, "time")
-    spans = mode_spans(table)
+    spans = mode_spans(table, summary)
     dt = float(np.median(np.diff(t))) if len(t) > 1 else math.nan
     fig, axes = _new_figure(4, f"Jet valve commands (sampled every {dt:.2g} s) "
                                "and propellant", height_ratios=(1, 1, 1, 1.4))
@@ -679,7 +697,7 @@ TELEMETRY_FIGURES = {
     "jets": ("jets.png", jets),
 }
 #: Telemetry figures that also draw from the mission summary when it is given.
-USES_SUMMARY = (attitude_errors,)
+USES_SUMMARY = (attitude_errors, switch_timing, counters, jets)
 CALIBRATION_FILE = "calibration.png"
 HOLD_FILE = "hold.png"
 

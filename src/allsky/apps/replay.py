@@ -95,11 +95,7 @@ def undelta(encoded) -> np.ndarray:
 
 
 def _runs(values) -> list:
-    values = np.asarray(values)
-    if len(values) == 0:
-        return []
-    starts = np.r_[0, np.flatnonzero(values[1:] != values[:-1]) + 1]
-    return [[int(i), float(values[i]) if values[i] % 1 else int(values[i])] for i in starts]
+    return [[i, float(v) if v % 1 else int(v)] for i, v in event_words.runs(values)]
 
 
 def _encode_columns(table) -> dict:
@@ -474,10 +470,9 @@ def mode_runs(table):
 
     ``table`` is the telemetry, in :data:`allsky.sim.telemetry.COLUMNS` order.
     """
-    code = table[:, INDEX["mode"]]
     names = {round(c, 6): n for n, c in modes.MODE_CODE.items()}
-    cuts = np.r_[0, np.flatnonzero(np.diff(code) != 0) + 1] if len(code) else []
-    return [(int(i), names.get(round(float(code[i]), 6), "?")) for i in cuts]
+    return [(i, names.get(round(float(c), 6), "?"))
+            for i, c in event_words.runs(table[:, INDEX["mode"]])]
 
 
 def _config(cfg, table) -> dict:

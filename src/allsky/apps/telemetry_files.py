@@ -415,7 +415,9 @@ def markdown() -> str:
          "do not edit. -->"),
         "",
         ("`allsky run --telemetry PATH` writes one row every "
-         "`mission.telemetry_every_frames` frames (default 10 frames = 0.1 s), as CSV "
+         "`mission.telemetry_every_frames` frames (default 10 frames = 0.1 s), and one more "
+         "at the flight's last frame when that falls between two (so the record ends where "
+         "the mission ended: its last row is the summary's `end`), as CSV "
          "(`.csv`) or Apache Parquet (`.parquet`) by the file's suffix. Every column name "
          "carries its unit, `name [unit]`; all values are float64 (integers are exact). "
          "`allsky.apps.telemetry_files.read(path)` reads either format back and refuses a "

@@ -23,6 +23,9 @@ from allsky.vocabulary import SCALE_FACTOR_AXES
 FULL_TURN_ARCSEC = 360.0 * units.DEG2ARCSEC
 #: The axes a calibration turn can be about.
 AXES = SCALE_FACTOR_AXES
+#: Register 23's words each calibration turn writes.
+WORDS_OF_TURN = {"roll": ("sf_roll", "roll_into_pitch", "roll_into_yaw"),
+                 "yaw": ("sf_yaw", "yaw_into_pitch", "yaw_into_roll")}
 
 
 def calibrate(axis, switches, counters, pulse_weight_arcsec, turn_sign, word23) -> np.ndarray:

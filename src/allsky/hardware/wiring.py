@@ -36,6 +36,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from allsky.vocabulary import AXES
+
 ROLL, PITCH, YAW = 0, 1, 2
 NONE = -1  #: no axis / no switch in the index arrays
 
@@ -141,6 +143,11 @@ def _position_order(axis):
 
 #: The rate-command modules in table order; ``State.rate_sign`` holds their directions.
 RATE_COMMAND_MODULES = tuple(s.source for s in SWITCHES if s.port == "rate_command")
+#: Rate-command module by the axis it turns ("roll": 120, "yaw": 128), and its slot in
+#: ``State.rate_sign``.
+RATE_COMMAND_OF_AXIS = {AXES[s.axis]: s.source for s in SWITCHES
+                        if s.port == "rate_command"}
+RATE_SIGN_SLOT = {axis: RATE_COMMAND_MODULES.index(n) for axis, n in RATE_COMMAND_OF_AXIS.items()}
 
 
 def _rate_command_module() -> np.ndarray:

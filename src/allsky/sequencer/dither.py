@@ -87,7 +87,7 @@ def phasor(angle_rad) -> complex:
 
 
 def magnitude(c) -> float:
-    """The modulus of the complex number ``c`` (``abs`` of one calls the C library's hypot)."""
+    """The modulus of ``c`` (``abs`` of one calls the C library's hypot)."""
     return xmath.hypot(float(c.real), float(c.imag))
 
 

@@ -35,7 +35,6 @@ import numpy as np
 
 from allsky.computer import word_registers as wr
 from allsky.sequencer import dither, legs
-from allsky.sequencer.host import note_register23
 from allsky.vocabulary import AXES
 
 
@@ -182,25 +181,26 @@ def dither_analysis(m, records):
     d = m.cfg.dither
     p = m.params
     record = records["dither record"]
-    w = m.state.word23
+    w = m.view.word23
     est = analyse(record, d.sample_s, d.lead_in_s, d.record_s, p.dither.amplitude_arcsec,
                   p.dither.omega_rad_s, d.detector, optics_frames=p.dither_sample_frames,
                   cross_coupling=cross_coupling_words(w))
     m.dither_estimates = est
     m.dither_record = record
     key = "scale_factor_optical" if d.estimator == "optical" else "scale_factor_command"
+    words = {name: float(w[k]) for name, k in wr.WORD23.items()}  # all six are journaled
     if "roll" in est:
-        w[wr.SF_ROLL] = est["roll"][key]
+        words["sf_roll"] = est["roll"][key]
     if "yaw" in est:
-        w[wr.SF_YAW] = est["yaw"][key]
+        words["sf_yaw"] = est["yaw"][key]
     if d.store_cross_coupling:
         if "roll" in est:
-            w[wr.ROLL_INTO_PITCH] = est["roll"]["cross"]["pitch"]
-            w[wr.ROLL_INTO_YAW] = est["roll"]["cross"]["yaw"]
+            words["roll_into_pitch"] = est["roll"]["cross"]["pitch"]
+            words["roll_into_yaw"] = est["roll"]["cross"]["yaw"]
         if "yaw" in est:
-            w[wr.YAW_INTO_PITCH] = est["yaw"]["cross"]["pitch"]
-            w[wr.YAW_INTO_ROLL] = est["yaw"]["cross"]["roll"]
-    note_register23(m, tuple(wr.WORD23))
+            words["yaw_into_pitch"] = est["yaw"]["cross"]["pitch"]
+            words["yaw_into_roll"] = est["yaw"]["cross"]["roll"]
+    m.board.load_word23(words)
 
 
 def target_hold_dither(m):

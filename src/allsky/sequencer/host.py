@@ -5,6 +5,8 @@
 dither analysis (:mod:`allsky.sequencer.dither_mode`) -- may read or change
 on the mission: the state arrays of the hardware, the scenario and the
 frame loop's parameters, a few named results, and a handful of methods.
+The hardware is read through ``view`` and written through ``board``, which
+journals every write it makes.
 Nothing else of the mission is touched, and the sequencer writes no private
 field of it; :class:`allsky.sim.mission.Mission` is the host
 (``tests/sequencer/test_host.py`` holds both sides to this list).
@@ -18,15 +20,17 @@ reaching into it.
 
 from typing import Any, Protocol
 
-from allsky.computer import word_registers as wr
-
 
 class Host(Protocol):
     """What master sequencer 20 may use of the mission it runs."""
 
-    #: the mission state (:class:`allsky.sim.state.State`): the hardware's arrays, which
-    #: actions may change (counters, registers, rate-command directions)
-    state: Any
+    #: the mission state as read-only views (:class:`allsky.sim.state.State`): the hardware's
+    #: outputs, read; every change goes through ``board``
+    view: Any
+    #: the one writer of the hardware between legs (:class:`allsky.sim.board.Board`):
+    #: switches, counters, rate-command directions, registers 23 and 24, drift counters,
+    #: CPU 22; each write journaled in the same call
+    board: Any
     cfg: Any  #: the scenario (read only)
     params: Any  #: the frame loop's parameters (read only)
     pulse_weight_arcsec: float  #: [arcsec] per converter pulse
@@ -57,36 +61,6 @@ class Host(Protocol):
 
         ``**fields`` are the entry's fields for that kind (docs/journal.md);
         the time and the mode are added. Returns the entry.
-        """
-
-    def write_register(self, register: str, word: str, value: float, unit: str,
-                       pulses: int | None = None) -> None:
-        """Journal a write of a register's (or counter's) word.
-
-        Parameters
-        ----------
-        register : str
-            The block's numeral: ``"23"``, ``"24"``, a counter (13-18) or a
-            drift DAC (7/9/11).
-        word : str
-            The word written: an axis (``"roll"``), or a register 23 word
-            (:data:`allsky.computer.word_registers.WORD23`).
-        value : float
-            The value written, in ``unit``.
-        unit : str
-            Its unit in words (``"deg"``, ``"arcsec"``, ``"deg/h"``; ``"-"``
-            for none).
-        pulses : int, optional
-            The raw content [pulses] of a counter or DAC.
-        """
-
-    def switch(self, close=(), open_=(), step: str = "", waits_for: str = "") -> None:
-        """Operate the switch bank; ``step``: what the sequencer had waited for, and next.
-
-        ``close`` and ``open_`` are switch numbers
-        (:func:`allsky.hardware.switch_bank.operate`: coupled pairs together);
-        ``waits_for`` says what the sequencer waits for next. What moved is
-        journaled.
         """
 
     def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
@@ -150,11 +124,3 @@ class Host(Protocol):
     def next_target(self) -> None:
         """Close the target flown and begin the next of ``target.sequence``."""
 
-
-def note_register23(m: Host, words) -> None:
-    """Journal register 23's ``words`` (:data:`allsky.computer.word_registers.WORD23`).
-
-    ``m`` is the mission (the host) whose register 23 is read.
-    """
-    for w in words:
-        m.write_register("23", w, float(m.state.word23[wr.WORD23[w]]), "-")

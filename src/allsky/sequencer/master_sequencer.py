@@ -32,9 +32,9 @@ from allsky import clock, units, vocabulary
 from allsky.computer import calibration_sequencer as cal19
 from allsky.computer import cpu, targeting
 from allsky.computer import word_registers as wr
+from allsky.hardware import wiring
 from allsky.sequencer import modes
 from allsky.sequencer.dither_mode import dither_analysis
-from allsky.sequencer.host import note_register23
 from allsky.sequencer.legs import WATCH_HANDOVER
 from allsky.vehicle import quaternion
 
@@ -44,10 +44,9 @@ MODES = modes.LEGACY_PLAN
 COUNTERS = ("14", "16", "18")
 DRIFT_COUNTERS = ("13", "15", "17")
 #: Register 23's words each calibration turn writes.
-WORDS_OF_TURN = {"roll": ("sf_roll", "roll_into_pitch", "roll_into_yaw"),
-                 "yaw": ("sf_yaw", "yaw_into_pitch", "yaw_into_roll")}
+WORDS_OF_TURN = cal19.WORDS_OF_TURN
 #: Index of each rate-command module's direction in ``State.rate_sign``: 120 roll, 128 yaw.
-RATE_SIGN = {"roll": 0, "yaw": 1}
+RATE_SIGN = wiring.RATE_SIGN_SLOT
 
 
 class ModeAbort(Exception):
@@ -153,8 +152,8 @@ def _fly_step(m, name, step, records, context):
     (``context["after"]``), an action with its words; a wait becomes that.
     """
     if isinstance(step, modes.Operate):
-        m.switch(close=step.close, open_=step.open_, step=context["after"],
-                 waits_for=context["then"])
+        m.board.switch(close=step.close, open_=step.open_, step=context["after"],
+                       waits_for=context["then"])
     elif isinstance(step, modes.Wait):
         out = fly_leg(m, name, step)
         context["after"] = f"after \u00ab{step.what}\u00bb"
@@ -218,9 +217,7 @@ def clear_drift_counters(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    m.state.drift_counters[:] = 0
-    for numeral, axis in zip(DRIFT_COUNTERS, vocabulary.AXES):
-        m.write_register(numeral, axis, 0.0, "deg/h", pulses=0)
+    m.board.clear_drift()
 
 
 def clear_counters(m, records):
@@ -229,9 +226,7 @@ def clear_counters(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    m.state.counters[:] = 0
-    for numeral, axis in zip(COUNTERS, vocabulary.AXES):
-        m.write_register(numeral, axis, 0.0, "arcsec", pulses=0)
+    m.board.clear_counters()
 
 
 def roll_rate_positive(m, records):
@@ -240,7 +235,7 @@ def roll_rate_positive(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    m.state.rate_sign[RATE_SIGN["roll"]] = 1
+    m.board.set_rate_sign("roll", 1)
 
 
 def yaw_rate_positive(m, records):
@@ -249,7 +244,7 @@ def yaw_rate_positive(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    m.state.rate_sign[RATE_SIGN["yaw"]] = 1
+    m.board.set_rate_sign("yaw", 1)
 
 
 def calibration_sequencer(m, records, axis):
@@ -265,15 +260,12 @@ def calibration_sequencer(m, records, axis):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
     turns = 1
     if m.cfg.sequencer.recovery:
         turns = (turn_verdict(m, axis)[0] if m.cfg.sequencer.turn_check_ppm > 0
                  else turns_counted(m, axis))
-    counts = cal19.calibrate(axis, s.switches, s.counters, m.pulse_weight_arcsec,
-                             s.rate_sign[RATE_SIGN[axis]] * turns, s.word23)
+    counts = m.board.calibrate(axis, int(m.view.rate_sign[RATE_SIGN[axis]]) * turns)
     m.counted_arcsec[axis] = counts.tolist()
-    note_register23(m, WORDS_OF_TURN[axis])
 
 
 def turns_counted(m, axis) -> int:
@@ -285,7 +277,7 @@ def turns_counted(m, axis) -> int:
     ``m`` is the mission (:class:`~allsky.sequencer.host.Host`).
     """
     k = 0 if axis == "roll" else 2
-    angle_arcsec = abs(float(m.state.counters[k])) * m.pulse_weight_arcsec
+    angle_arcsec = abs(float(m.view.counters[k])) * m.pulse_weight_arcsec
     return max(1, round(angle_arcsec / cal19.FULL_TURN_ARCSEC))
 
 
@@ -300,7 +292,7 @@ def turn_verdict(m, axis):
     ``m`` is the mission (:class:`~allsky.sequencer.host.Host`).
     """
     k = 0 if axis == "roll" else 2
-    angle_arcsec = abs(float(m.state.counters[k])) * m.pulse_weight_arcsec
+    angle_arcsec = abs(float(m.view.counters[k])) * m.pulse_weight_arcsec
     turns = turns_counted(m, axis) if m.cfg.sequencer.recovery else 1
     full = turns * cal19.FULL_TURN_ARCSEC
     return turns, angle_arcsec * units.ARCSEC2DEG, (angle_arcsec - full) / full * units.FRACTION2PPM
@@ -393,9 +385,9 @@ def withhold_calibration(m, records):
     ``records`` the samples the mode's legs kept, by name (not read).
     """
     if not m.apply_calibration:
-        m.state.word23[:] = wr.neutral_computed()
-        note_register23(m, tuple(wr.WORD23))
-        m.switch(open_=(1, 2, 3), step="the calibration withheld (calibration.apply = false)")
+        m.board.neutral_word23()
+        m.board.switch(open_=(1, 2, 3),
+                       step="the calibration withheld (calibration.apply = false)")
 
 
 def load_register_24(m, records):
@@ -409,10 +401,7 @@ def load_register_24(m, records):
     """
     if m.programmed_roll_deg is None:
         m.program_target()
-    m.state.word24[wr.PROGRAMMED_ROLL] = m.programmed_roll_deg * units.DEG2ARCSEC
-    m.state.word24[wr.PROGRAMMED_YAW] = m.programmed_yaw_deg * units.DEG2ARCSEC
-    m.write_register("24", "roll", m.programmed_roll_deg, "deg")
-    m.write_register("24", "yaw", m.programmed_yaw_deg, "deg")
+    m.board.load_word24(m.programmed_roll_deg, m.programmed_yaw_deg)
 
 
 def start_roll_computation(m, records):
@@ -421,9 +410,8 @@ def start_roll_computation(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
-    s.cpu[:] = 0.0
-    cpu.target_step(0, 0.0, s.word23, s.word24, s.cpu)
+    m.board.clear_cpu()
+    m.board.cpu_step("roll", 0.0)
 
 
 def roll_rate_toward_target(m, records):
@@ -432,8 +420,7 @@ def roll_rate_toward_target(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
-    s.rate_sign[RATE_SIGN["roll"]] = 1 if s.word24[wr.PROGRAMMED_ROLL] >= 0 else -1
+    m.board.set_rate_sign("roll", 1 if m.view.word24[wr.PROGRAMMED_ROLL] >= 0 else -1)
 
 
 def preset_counters(m, records):
@@ -442,13 +429,8 @@ def preset_counters(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
-    pitch_arcsec, yaw_arcsec = cpu.mode6_preset_arcsec(s.word23, s.cpu)
-    s.counters[1] = round(pitch_arcsec / m.pulse_weight_arcsec)
-    s.counters[2] = round(yaw_arcsec / m.pulse_weight_arcsec)
-    for a in (1, 2):
-        m.write_register(COUNTERS[a], vocabulary.AXES[a], s.counters[a] * m.pulse_weight_arcsec,
-                         "arcsec", pulses=s.counters[a])
+    pitch_arcsec, yaw_arcsec = cpu.mode6_preset_arcsec(m.view.word23, m.view.cpu)
+    m.board.preset_counters({"pitch": pitch_arcsec, "yaw": yaw_arcsec})
 
 
 def start_yaw_computation(m, records):
@@ -457,9 +439,9 @@ def start_yaw_computation(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
-    cpu.target_step(2, s.counters[2] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)
-    cpu.target_step(1, s.counters[1] * m.pulse_weight_arcsec, s.word23, s.word24, s.cpu)
+    s = m.view
+    m.board.cpu_step("yaw", s.counters[2] * m.pulse_weight_arcsec)
+    m.board.cpu_step("pitch", s.counters[1] * m.pulse_weight_arcsec)
 
 
 def yaw_rate_toward_target(m, records):
@@ -468,8 +450,7 @@ def yaw_rate_toward_target(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
-    s.rate_sign[RATE_SIGN["yaw"]] = 1 if s.cpu[cpu.ERROR_YAW] >= 0 else -1
+    m.board.set_rate_sign("yaw", 1 if m.view.cpu[cpu.ERROR_YAW] >= 0 else -1)
 
 
 def record_hold_start(m, records):
@@ -480,7 +461,7 @@ def record_hold_start(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
+    s = m.view
     m.hold = {"start_time_s": m.now_s(),
               "start_quaternion": [float(v) for v in s.x[0:4]],
               "start_pointing_error_arcsec": float(m.pointing_error_arcsec())}
@@ -498,7 +479,7 @@ def measure_hold(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    s = m.state
+    s = m.view
     h = m.hold
     q_start = np.asarray(h["start_quaternion"])
     q_end = np.array(s.x[0:4], dtype=float)
@@ -541,10 +522,7 @@ def turn_to_next_target(m, records):
     roll, yaw, after = targeting.turn_to_deg(held, m.programmed_roll_deg, m.programmed_yaw_deg)
     m.turn_roll_deg, m.turn_yaw_deg = roll, yaw
     m.held_axes = after.tolist()
-    m.state.word24[wr.PROGRAMMED_ROLL] = roll * units.DEG2ARCSEC
-    m.state.word24[wr.PROGRAMMED_YAW] = 0.0
-    m.write_register("24", "roll", roll, "deg")
-    m.write_register("24", "yaw", 0.0, "deg")
+    m.board.load_word24(roll, 0.0)
 
 
 def load_turn_yaw(m, records):
@@ -553,8 +531,7 @@ def load_turn_yaw(m, records):
     An action: ``m`` is the mission (:class:`~allsky.sequencer.host.Host`),
     ``records`` the samples the mode's legs kept, by name (not read).
     """
-    m.state.word24[wr.PROGRAMMED_YAW] = m.turn_yaw_deg * units.DEG2ARCSEC
-    m.write_register("24", "yaw", m.turn_yaw_deg, "deg")
+    m.board.load_word24(yaw_deg=m.turn_yaw_deg)
 
 
 def next_target(m, records):

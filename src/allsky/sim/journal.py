@@ -31,7 +31,7 @@ from allsky.hardware import star_tracker as trk
 from allsky.hardware.star_tracker import FALSE_TARGET
 from allsky.jit import njit_stage
 from allsky.units import ARCSEC2DEG, RAD2DEG
-from allsky.vocabulary import AXES, EVENT_KIND, SATURATIONS
+from allsky.vocabulary import AXES, EVENT_KIND, FAULT_KINDS, GROUND_COMMANDS, SATURATIONS
 
 #: Rows of the frame loop's buffer. The mission drains it every slice of at most
 #: 1e5 frames; an ordinary flight writes a few entries per slice.
@@ -328,6 +328,32 @@ class Decoder:
         return out
 
 
+#: What a ground command's entry may carry beyond its declared fields: any command's own
+#: fields, and a fault command's fields of its kind.
+COMMAND_FIELDS = frozenset(
+    [f for c in GROUND_COMMANDS for f in c.fields + c.optional]
+    + [f for k in FAULT_KINDS for f in k.fields + k.optional])
+
+
+def check_fields(kind, fields) -> None:
+    """Refuse an entry of ``kind`` whose ``fields`` its declaration does not allow.
+
+    Raises ValueError naming an unknown kind, a field the kind does not
+    declare (:data:`allsky.vocabulary.EVENT_KINDS`) or one it requires and
+    the entry lacks.
+    """
+    spec = EVENT_KIND.get(kind)
+    if spec is None:
+        raise ValueError(f"unknown journal kind {kind!r}")
+    allowed = spec.names | (COMMAND_FIELDS if spec.more else frozenset())
+    unknown = sorted(set(fields) - allowed)
+    missing = sorted(spec.required - set(fields))
+    if unknown or missing:
+        raise ValueError(f"journal entry {kind!r}: "
+                         + "; ".join(([f"undeclared field(s) {unknown}"] if unknown else [])
+                                     + ([f"missing field(s) {missing}"] if missing else [])))
+
+
 class Journal:
     """The mission's journal: a list of entries in the order they happened.
 
@@ -349,8 +375,7 @@ class Journal:
         ``t_s`` [s] is the mission time, ``mode`` the name of the mode flown
         (None before the first), ``**fields`` the kind's fields.
         """
-        if kind not in EVENT_KIND:
-            raise ValueError(f"unknown journal kind {kind!r}")
+        check_fields(kind, fields)
         e = {"t_s": float(t_s), "mode": mode, "kind": kind, **fields}
         self.events.append(e)
         return e

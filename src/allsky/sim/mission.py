@@ -29,7 +29,6 @@ from allsky.hardware import (
     star_tracker,
     sun_acquisition,
     sun_sensor,
-    switch_bank,
     updown_counter,
     vfc,
     wiring,
@@ -38,12 +37,15 @@ from allsky.hardware.dac import dac
 from allsky.sequencer import dither, legs, modes
 from allsky.sequencer import master_sequencer as ms
 from allsky.sequencer.watch import sensors_in_use
+from allsky.sim import board, frame_loop, journal, results
 from allsky.sim import faults as sim_faults
-from allsky.sim import frame_loop, journal, results
 from allsky.sim import state as sim_state
-from allsky.sim.telemetry import COLUMNS
+from allsky.sim.telemetry import COLUMNS, INDEX
 from allsky.vehicle import plant, quaternion, sky, wheels
 from allsky.vocabulary import AXES
+
+#: The telemetry's time column.
+TIME = INDEX["time"]
 
 EXIT_TEXT = {
     legs.EXIT_PROPELLANT: "propellant exhausted",
@@ -391,6 +393,11 @@ class Mission:
         if not telemetry:
             self.params = self.params._replace(telemetry_every=0)
         self.state = ejection_state(cfg) if state is None else state
+        #: the one writer of the hardware between legs (:class:`allsky.sim.board.Board`)
+        self.board = board.Board(self.state, lambda: self.params.electronics, self.note,
+                                 cfg.electronics.vfc_pulse_weight_arcsec)
+        #: the state as read-only views (what the sequencer reads)
+        self.view = self.board.view
         self.next_mode = next_mode
         h = history or {}
         self.timeline = [ModeRecord(*r) for r in h.get("timeline", [])]
@@ -417,6 +424,9 @@ class Mission:
         self.pulse_weight_arcsec = float(cfg.electronics.vfc_pulse_weight_arcsec)
         self.apply_calibration = bool(cfg.calibration.apply)
         self._tlm = []
+        #: the telemetry row of the last frame flown (the end of the record, when the flight
+        #: ends between two decimated rows); None before the first leg
+        self._last_row = None
         #: the telemetry of the leg in flight, slice by slice (:meth:`telemetry`)
         self._leg_tlm = []
         #: a ground command's words once it has ended the mode being flown (:meth:`replan`)
@@ -471,52 +481,6 @@ class Mission:
         """
         return self.journal.note(self.now_s(), self._mode, kind, **fields)
 
-    def switch(self, close=(), open_=(), step="", waits_for=""):
-        """Operate the switch bank (coupled pairs move together) and journal what moved.
-
-        ``step`` says what the sequencer had waited for (or the recovery that
-        did it), ``waits_for`` what it waits for next; ``close`` and ``open_``
-        are the numbers of the switches to close and to open (1-19). Opening
-        S4-S6 ends a drift count: the drift counters' content is journaled;
-        closing S1-S3 puts it on the drift DACs: each DAC's output, and the
-        count it could not apply if beyond its full scale.
-        """
-        bank = self.state.switches
-        before = bank.copy()
-        switch_bank.operate(bank, close=close, open_=open_)
-        moved_close = [k for k in range(1, len(bank)) if bank[k] and not before[k]
-                       and k not in switch_bank.SELECTORS]
-        moved_open = [k for k in range(1, len(bank)) if before[k] and not bank[k]
-                      and k not in switch_bank.SELECTORS]
-        if not (moved_close or moved_open):
-            return
-        self.note("switch", close=moved_close, open=moved_open, step=step,
-                  waits_for=waits_for)
-        el = self.params.electronics
-        lsb_deg_h = el.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S
-        for a, axis in enumerate(AXES):
-            counted = int(self.state.drift_counters[a])
-            if wiring.ROUTING.drift_count_switch[a] in moved_open:
-                self.note("register", register=journal.DRIFT_COUNTER[a], word=axis,
-                          pulses=counted, value=counted * lsb_deg_h, unit="deg/h")
-            if wiring.ROUTING.drift_switch[a] in moved_close:
-                # The DAC's code: the count, clipped to its word (dac.py, as Python).
-                applied = int(_python(dac)(counted, el.drift_dac_bits, 1))
-                self.note("register", register=journal.DRIFT_DAC[a], word=axis,
-                          pulses=applied, counted_pulses=counted, value=applied * lsb_deg_h,
-                          unit="deg/h")
-
-    def write_register(self, register, word, value, unit, pulses=None):
-        """Journal a write of word ``word`` of register (or counter) ``register``.
-
-        ``value`` is the word's value in ``unit`` (e.g. "arcsec", "deg/h", "-");
-        ``pulses`` the raw count behind it, when there is one.
-        """
-        fields = {"register": register, "word": word, "value": float(value), "unit": unit}
-        if pulses is not None:
-            fields["pulses"] = int(pulses)
-        self.note("register", **fields)
-
     def leg(self, what, program, watch, mask=0, signal=0, blank_s=0.0, hold_s=None,
             on_timeout=None, record_rows=0, carry_settle=False):
         """Run the frame loop until ``what`` happens; raise ModeAbort if it does not.
@@ -563,7 +527,8 @@ class Mission:
                                                           else 0))
         every = params.telemetry_every
         # A slice's rows at most: the leg's rows are moved out after each slice (_run_leg).
-        rows = min(leg.timeout_frames // every + 2, SLICE_FRAMES // every + 2) if every else 0
+        # and one more: the row of the frame each slice ends on (:meth:`_keep_last_row`)
+        rows = min(leg.timeout_frames // every + 3, SLICE_FRAMES // every + 3) if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
         rec = np.empty((record_rows, frame_loop.N_REC))
@@ -596,6 +561,15 @@ class Mission:
             return self.leg(what, program, watch, **kwargs)
         finally:
             self._mode, self._mode_deadline, self._allowed_s = saved
+
+    def track_excursion(self, on=True):
+        """Measure the largest rotation from the attitude held now (``on``), or stop.
+
+        The frame loop keeps the largest angle [rad] in
+        ``State.max_excursion_rad``; a measurement of the simulation, not
+        the vehicle's hardware.
+        """
+        self.state.excursion_ref_q[:] = self.state.x[0:4] if on else 0.0
 
     def extend_mode(self, seconds):
         """Move the mode's deadline on by ``seconds`` [s] (from now, if it has passed).
@@ -632,10 +606,14 @@ class Mission:
                     params = self._pause(hooks, what, params)
                     step_at = self._next_pause(ck, every, asked)
                 leg = leg._replace(pause_at_frame=min(step_at, self.frame + SLICE_FRAMES))
+                if len(buf):
+                    buf[-1, TIME] = np.nan  # not written until the slice ends
                 code, _ = frame_loop.run_leg(params, self.state, leg, buf, filled, rec,
                                              rec_filled)
                 self._drain_journal()
                 self._slice_telemetry(buf, filled)
+                if len(buf) and not np.isnan(buf[-1, TIME]):
+                    self._last_row = buf[-1].copy()
                 if code != legs.EXIT_PAUSE:
                     return code
                 leg = leg._replace(resume=1)
@@ -966,7 +944,13 @@ class Mission:
         ``start_row``: the rows from that one on (a live view's next rows).
         """
         pieces, skip = [], int(start_row)
-        for piece in (*self._tlm, *self._leg_tlm):
+        every = [*self._tlm, *self._leg_tlm]
+        last = self._last_row
+        if self.finished and last is not None and self._telemetry:
+            tail = next((p[-1, TIME] for p in reversed(every) if len(p)), -np.inf)
+            if last[TIME] > tail:  # the flight ended off the grid: its last frame ends it
+                every.append(last[None, :])
+        for piece in every:
             if skip >= len(piece):
                 skip -= len(piece)
                 continue

@@ -212,7 +212,8 @@ def record_telemetry(tlm, tlm_rows, every_frames, ck, s, mode_code, fine, trk, v
     """Write a row of :data:`COLUMNS` into ``tlm`` every ``every_frames`` frames.
 
     ``tlm_rows`` (1,) is the fill count of the preallocated ``tlm``
-    (rows, N_TLM); a full buffer or ``every_frames`` 0 records nothing.
+    (rows, N_TLM), whose last row is kept for :func:`record_last_row`; a full
+    buffer or ``every_frames`` 0 records nothing.
     ``fine`` and ``trk`` are the sun sensor 104 and star tracker 105 outputs
     [arcsec, arcsec, present], ``volts`` the control amplifiers 31-33 [V];
     ``wheel_hb`` and ``wheel_u_body`` the wheels' momentum [N m s] and motor
@@ -222,10 +223,27 @@ def record_telemetry(tlm, tlm_rows, every_frames, ck, s, mode_code, fine, trk, v
     ``ck`` the mission's clock (:class:`allsky.clock.ClockParams`): a row's
     time is its frame's, computed.
     """
-    if every_frames > 0 and s.frame[0] % every_frames == 0 and tlm_rows[0] < tlm.shape[0]:
+    if every_frames > 0 and s.frame[0] % every_frames == 0 and tlm_rows[0] < tlm.shape[0] - 1:
         _write_row(tlm[tlm_rows[0]], ck, s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body,
                    unloading)
         tlm_rows[0] += 1
+
+
+@njit_stage
+def record_last_row(tlm, every_frames, ck, s, mode_code, fine, trk, volts, wheel_hb,
+                    wheel_u_body, unloading):
+    """The row of the frame a slice of the loop ends on, into ``tlm``'s last row.
+
+    That row is kept apart from the decimated ones (:func:`record_telemetry`
+    leaves it free): the mission appends it to the telemetry when the flight
+    ends off the telemetry's grid, so the record ends at its exact last frame.
+    ``every_frames``, ``ck``, ``s``, ``mode_code``, ``fine``, ``trk``,
+    ``volts``, ``wheel_hb``, ``wheel_u_body`` and ``unloading`` are those of
+    :func:`record_telemetry`.
+    """
+    if every_frames > 0 and tlm.shape[0] > 0:
+        _write_row(tlm[tlm.shape[0] - 1], ck, s, mode_code, fine, trk, volts, wheel_hb,
+                   wheel_u_body, unloading)
 
 
 @njit_stage

@@ -64,7 +64,7 @@ def fly_calibrating(m, cal_modes, on_start=None, on_end=None, hooks=None):
     while not m.finished:
         name = m.plan[m.next_mode]
         if name == cal_modes[0]:
-            m.state.excursion_ref_q[:] = m.state.x[0:4]
+            m.track_excursion()
             if on_start is not None:
                 on_start(m)
         p0 = m.state.propellant_kg[0]
@@ -74,7 +74,7 @@ def fly_calibrating(m, cal_modes, on_start=None, on_end=None, hooks=None):
             durations[name] = rec.end_s - rec.start_s
             prop += p0 - m.state.propellant_kg[0]
         if name == cal_modes[-1]:
-            m.state.excursion_ref_q[:] = 0.0
+            m.track_excursion(False)
             if on_end is not None and on_end(m) is False:
                 break
     return t_cal, prop, durations

@@ -54,7 +54,7 @@ def _calibrate(cfg, plan):
     while not m.finished:
         name = m.plan[m.next_mode]
         if name == cal[0]:
-            m.state.excursion_ref_q[:] = m.state.x[0:4]
+            m.track_excursion()
         p0 = m.state.propellant_kg[0]
         rec = m.run_mode()
         if name in cal:

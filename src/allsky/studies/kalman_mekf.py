@@ -44,7 +44,6 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky import units, xarrays, xmath
-from allsky.computer import word_registers as wr
 from allsky.hardware.dac import dac
 from allsky.jit import njit, njit_alloc
 from allsky.sequencer.modes import MODE_CODE
@@ -778,28 +777,28 @@ def calibration(params) -> dict:
             "cross_coupling": {k: float(x) for k, x in zip(CROSS_COUPLING_ELEMENTS, v[5:9])}}
 
 
-def load(m: Mission, params) -> None:
+def load(m: Mission, params, by="the Kalman filter") -> None:
     """Put the estimate where Modes 3-5 put theirs: register 23, drift counters 13-17.
 
     Scale factors and cross-coupling factors go into register 23; the drift
     goes into the drift counters as the count the drift DACs 7/9/11 turn
     into that rate (rounded to one count, clipped to the DAC's range).
-    ``m`` is the mission, changed in place; ``params`` the estimate's
+    ``m`` is the mission, changed in place through its board (each load
+    journaled as made ``by`` the estimator); ``params`` the estimate's
     parameter vector (12).
     """
     cal = calibration(params)
-    w = m.state.word23
-    w[wr.SF_ROLL] = cal["scale_factor"]["roll"]
-    w[wr.SF_YAW] = cal["scale_factor"]["yaw"]
-    w[wr.ROLL_INTO_PITCH] = cal["cross_coupling"]["roll_into_pitch"]
-    w[wr.ROLL_INTO_YAW] = cal["cross_coupling"]["roll_into_yaw"]
-    w[wr.YAW_INTO_PITCH] = cal["cross_coupling"]["yaw_into_pitch"]
-    w[wr.YAW_INTO_ROLL] = cal["cross_coupling"]["yaw_into_roll"]
+    m.board.load_word23({"sf_roll": cal["scale_factor"]["roll"],
+                         "sf_yaw": cal["scale_factor"]["yaw"],
+                         **{k: cal["cross_coupling"][k] for k in CROSS_COUPLING_ELEMENTS}},
+                        by=by)
     el = m.params.electronics
     hi = (1 << (el.drift_dac_bits - 1)) - 1
-    for a in range(3):
+    codes = {}
+    for a, axis in enumerate(AXES):
         code = round(params[a] * units.RAD2ARCSEC / el.drift_lsb_arcsec_s)
-        m.state.drift_counters[a] = min(max(code, -hi - 1), hi)
+        codes[axis] = min(max(code, -hi - 1), hi)
+    m.board.load_drift(codes, by=by)
 
 
 def sigmas(params, cov) -> dict:

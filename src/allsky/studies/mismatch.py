@@ -144,7 +144,7 @@ def _pointing(history, arrays, params=None):
 
     m = Mission.from_snapshot(history, arrays, telemetry=False)
     if params is not None:
-        load_calibration(m, params)
+        load_calibration(m, params, by="the mismatch study")
     m.run()
     return m.summary()["target"]["pointing_error_arcsec"] if m.status == "complete" else None
 

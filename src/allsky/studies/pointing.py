@@ -66,11 +66,14 @@ def line_of_sight_error_arcsec(m) -> np.ndarray:
 
 
 def _fly_mode6(history, arrays, word23, drift_counters):
+    from allsky.computer import word_registers as wr
     from allsky.sim.mission import Mission
+    from allsky.vocabulary import AXES
 
     m = Mission.from_snapshot(history, arrays, telemetry=False)
-    m.state.word23[:] = word23
-    m.state.drift_counters[:] = drift_counters
+    by = "the pointing decomposition"
+    m.board.load_word23({name: float(word23[k]) for name, k in wr.WORD23.items()}, by=by)
+    m.board.load_drift({axis: int(d) for axis, d in zip(AXES, drift_counters)}, by=by)
     m.run()
     return line_of_sight_error_arcsec(m) if m.status == "complete" else None
 

@@ -398,7 +398,7 @@ def fly(cfg, prior: km.Prior = km.DEFAULT_PRIOR, through_mode6=True, bounds=None
             t0 = time.perf_counter()
             samples = km.samples_from_legs(mm, rec.legs_flown, modes)
             found["sm"] = smooth(km.filter_model(mm), samples, prior)
-            load_calibration(mm, found["sm"].params[-1])
+            load_calibration(mm, found["sm"].params[-1], by="the smoother")
             found["wall"] = time.perf_counter() - t0
             if bounds:
                 found["bounds"] = crlb.mission_bounds(mm, rec.legs_flown, bounds)

@@ -750,29 +750,44 @@ def crash_report(exc) -> str:
     return path
 
 
-#: Per command, the options that name files it writes: (dest, option, kind), kind "file"
-#: or the names a directory option writes into its directory (checked before the work).
-OUTPUTS = {
-    "run": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
-            ("plots", "--plots", "plots"), ("html", "--html", "file")),
-    "step": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
-             ("save_dir", "--save-dir", "states")),
-    "compare": (("json", "--json", "file"), ("plot", "--plot", "file")),
-    "replay": (("html", "--html", "file"),),
-    "plot": (("out", "--out", "plots"),),
-    "analyze": (("json", "--json", "file"), ("plot", "--plot", "file")),
-    "montecarlo": (("json", "--json", "file"), ("out", "--out", "campaign")),
-    "stars": (("json", "--json", "file"),),
-    "faults": (("json", "--json", "file"),),
-    "scenarios": (("json", "--json", "file"),),
+#: Every command's files, in one table: per command, (dest, option, role, kind) for each
+#: option that names a file. ``role`` is "in" (read) or "out" (written); ``kind`` is "file"
+#: or, for a directory output, the names it writes into its directory. The clash check
+#: (:func:`check_paths`) is derived from it for every command: no output may name an input
+#: or another output.
+FILES = {
+    "run": (("scenario", "SCENARIO", "in", "file"), ("disperse", "--disperse", "in", "file"),
+            ("commands", "--commands", "in", "file"), ("json", "--json", "out", "file"),
+            ("telemetry", "--telemetry", "out", "file"), ("plots", "--plots", "out", "plots"),
+            ("html", "--html", "out", "file")),
+    "serve": (("scenario", "SCENARIO", "in", "file"),
+              ("save_commands", "--save-commands", "out", "file"),
+              ("json", "--json", "out", "file"), ("telemetry", "--telemetry", "out", "file"),
+              ("html", "--html", "out", "file")),
+    "step": (("scenario", "SCENARIO", "in", "file"), ("from_state", "--from", "in", "file"),
+             ("json", "--json", "out", "file"), ("telemetry", "--telemetry", "out", "file"),
+             ("save_dir", "--save-dir", "out", "states")),
+    "compare": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file"),
+                ("plot", "--plot", "out", "file")),
+    "replay": (("telemetry", "TELEMETRY", "in", "file"), ("summary", "--summary", "in", "file"),
+               ("scenario", "--scenario", "in", "file"), ("html", "--html", "out", "file")),
+    "plot": (("telemetry", "TELEMETRY", "in", "file"), ("summary", "--summary", "in", "file"),
+             ("out", "--out", "out", "plots")),
+    "analyze": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file"),
+                ("plot", "--plot", "out", "file")),
+    "montecarlo": (("scenario", "SCENARIO", "in", "file"),
+                   ("disperse", "--disperse", "in", "file"), ("json", "--json", "out", "file"),
+                   ("out", "--out", "out", "campaign")),
+    "stars": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file")),
+    "faults": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file")),
+    "scenarios": (("json", "--json", "out", "file"),),
+    "config": (("scenario", "SCENARIO", "in", "file"),),
+    "warm-up": (),
 }
-#: Per command, the options that name files it reads: (dest, option).
-INPUTS = {
-    "replay": (("telemetry", "TELEMETRY"), ("summary", "--summary"), ("scenario",
-                                                                      "--scenario")),
-    "plot": (("telemetry", "TELEMETRY"), ("summary", "--summary")),
-    "step": (("scenario", "SCENARIO"), ("from_state", "--from")),
-}
+#: Per command, the options that name files it writes: (dest, option, kind) (from FILES).
+OUTPUTS = {c: tuple((d, o, k) for d, o, r, k in rows if r == "out") for c, rows in FILES.items()}
+#: Per command, the options that name files it reads: (dest, option) (from FILES).
+INPUTS = {c: tuple((d, o) for d, o, r, _ in rows if r == "in") for c, rows in FILES.items()}
 
 
 def _directory_names(kind) -> tuple:
@@ -799,20 +814,18 @@ def check_paths(args):
     Every output option of the command is checked (:func:`allsky.apps.output.check_output`),
     then no two outputs, and no output and input, may be the same file
     (:func:`allsky.apps.output.check_distinct`). ``args`` is the parsed command
-    line (its ``command`` and the options of :data:`OUTPUTS` and ``INPUTS``).
+    line (its ``command`` and the options :data:`FILES` lists for it).
     """
     from allsky.apps.output import check_distinct, check_output
 
     outputs = []
-    for dest, option, kind in OUTPUTS.get(args.command, ()):
+    for dest, option, kind in OUTPUTS[args.command]:
         path = getattr(args, dest, None)
         if path is None:
             continue
         check_output(option, path, directory=kind != "file")
         outputs.append((option, path, _directory_names(kind)))
-    inputs = [(option, getattr(args, dest, None)) for dest, option in
-              INPUTS.get(args.command, (("scenario", "SCENARIO"),))]
-    inputs.append(("--disperse", getattr(args, "disperse", None)))
+    inputs = [(option, getattr(args, dest, None)) for dest, option in INPUTS[args.command]]
     check_distinct(outputs, [(o, p) for o, p in inputs if p is not None])
 
 

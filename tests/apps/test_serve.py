@@ -255,16 +255,21 @@ def test_a_session_ended_from_the_page_is_flown_again_exactly(tmp_path):
     assert a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
 
 
-def test_ctrl_c_ends_the_session_writing_what_run_writes(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGHUP])
+def test_ctrl_c_ends_the_session_writing_what_run_writes(tmp_path, sig):
+    """Ctrl-C, and a hang-up (the terminal closed): summary, telemetry and command log."""
     log = tmp_path / "s.toml"
     with serving("--speed", "50", "--save-commands", str(log), "--json",
-                 str(tmp_path / "s.json")) as s:
+                 str(tmp_path / "s.json"), "--telemetry", str(tmp_path / "t.csv")) as s:
         time.sleep(2.0)
-        s.proc.send_signal(signal.SIGINT)
+        s.proc.send_signal(sig)
         code, _, err = s.finish()
-    assert code == 130
+    assert code == 130, err
     assert err.splitlines()[-1].startswith("allsky: interrupted; session ended at t = ")
     assert "written: the report, JSON summary" in err and "command log" in err
+    assert "telemetry" in err and (tmp_path / "t.csv").stat().st_size > 0
+    assert json.loads((tmp_path / "s.json").read_text())["status"]
+    assert not [p for p in tmp_path.iterdir() if ".tmp" in p.name]
     text = log.read_text()
     assert text.rstrip().endswith('kind = "end"') and "[scenario.mission]" in text
 

@@ -24,7 +24,7 @@ Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
 2 a usage, input or output error, or a lost Dask cluster, reported as one
 line ``allsky: error: ...`` on stderr; 3 an internal error, reported as one
 line with a crash report file holding the traceback; 130 interrupted
-(Ctrl-C or SIGTERM), after writing what the finished work promised, in one
+(Ctrl-C, SIGTERM or SIGHUP), after writing what the finished work promised, in one
 line ``allsky: interrupted; ...``; 141 stdout's reader went away (``| head``) after
 every file asked for was written. Never a bare traceback.
 """
@@ -49,11 +49,16 @@ EXIT_CODES = {
     1: "a mission ended aborted",
     2: "usage, input or output error (one line 'allsky: error: ...'), or the Dask cluster lost",
     3: "internal error (one line, the traceback in a crash report file)",
-    130: "interrupted by Ctrl-C or SIGTERM (what finished is written; one line says what)",
+    130: "interrupted by Ctrl-C, SIGTERM or SIGHUP (a closed terminal): what finished is "
+         "written, partial files removed; one line says what",
     141: "stdout's reader went away (allsky ... | head): every file asked for was still "
          "written (a closed or full stdout: exit 2 and one line)",
 }
 EXIT_ABORTED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 130
+#: The signals that end a command as Ctrl-C does (:data:`EXIT_INTERRUPTED`): SIGHUP comes
+#: from a closed terminal or a dropped ssh session.
+ENDING_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
+                       if hasattr(signal, n))
 #: 128 + SIGPIPE, what a shell reports for a writer whose pipe closed.
 EXIT_STDOUT_GONE = 141
 #: The options that mean the same on every command that has them.
@@ -869,13 +874,13 @@ def build_note_once():
 
 
 def _take_signals() -> bool:
-    """Ctrl-C and SIGTERM raise KeyboardInterrupt from here on; False where they cannot.
+    """Ctrl-C, SIGTERM and SIGHUP raise KeyboardInterrupt from here on; False where not.
 
     Outside the main thread signals cannot be set, and nothing changes.
     """
     try:
-        signal.signal(signal.SIGINT, _interrupt)
-        signal.signal(signal.SIGTERM, _interrupt)
+        for sig in ENDING_SIGNALS:
+            signal.signal(sig, _interrupt)
     except ValueError:
         return False
     return True
@@ -891,7 +896,7 @@ def main(argv=None) -> int:
     import allsky
     from allsky.apps.console import guarded
 
-    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    old = {sig: signal.getsignal(sig) for sig in ENDING_SIGNALS}
     code, took = None, False
     _signalled.clear()
     _running.append(True)
@@ -937,9 +942,9 @@ def _exit_now(code):
 
 
 def _hold_signals():
-    """Ignore further Ctrl-C and SIGTERM: the command is ending, its line being said."""
+    """Ignore further ending signals: the command is ending, its line being said."""
     try:
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in ENDING_SIGNALS:
             signal.signal(sig, signal.SIG_IGN)
     except ValueError:  # not the main thread
         pass

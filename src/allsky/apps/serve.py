@@ -724,7 +724,7 @@ def run_from_cli(cfg, args) -> int:
     Prints one line on stdout, ``allsky: serving http://HOST:PORT/?token=TOKEN``,
     while the session lasts; at its end the report (as ``allsky run``) and
     what was written. The page's end button ends it with the mission's exit
-    code (0, or 1 if it ended aborted); Ctrl-C or SIGTERM with 130.
+    code (0, or 1 if it ended aborted); Ctrl-C, SIGTERM or SIGHUP with 130.
 
     ``cfg`` is the scenario the command line loaded and ``args`` the parsed
     command line (:mod:`allsky.apps.cli`); returns the exit status.
@@ -794,7 +794,11 @@ def run_from_cli(cfg, args) -> int:
         signalled.append(signum)
         flight.commands.put(({"kind": "end"}, (None, None)))
 
-    before = {sig: signal.signal(sig, end_by_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    from allsky.apps.cli import ENDING_SIGNALS
+
+    # A hang-up (the terminal closed, ssh dropped) ends the session as Ctrl-C does: the
+    # summary, telemetry and command log are written.
+    before = {sig: signal.signal(sig, end_by_signal) for sig in ENDING_SIGNALS}
     try:
         while not flight.done.wait(0.2):
             pass

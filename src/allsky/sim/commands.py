@@ -111,7 +111,7 @@ def validate(command, cfg, where="command") -> dict:
     if not isinstance(command, Mapping):
         raise ConfigError(where, command, f"must be a table, not {type_name(command)}")
     kind = command.get("kind")
-    if kind not in GROUND_COMMAND:
+    if not isinstance(kind, str) or kind not in GROUND_COMMAND:
         raise ConfigError(f"{where}.kind", kind, "must be one of "
                           + ", ".join(f'"{k}"' for k in GROUND_COMMAND))
     spec = GROUND_COMMAND[kind]

@@ -137,15 +137,39 @@ def read_toml(path, what="scenario file") -> dict:
     return parse_toml(text, str(p))
 
 
+#: Deepest nesting of tables and arrays read (a scenario nests 4 deep); deeper is refused
+#: before anything walks it, whether it came from brackets or from a table header
+#: ``[a.b.c...]``, which tomllib reads without recursion.
+TOML_MAX_DEPTH = 64
+
+
+def _depth_over(doc, limit) -> bool:
+    """Whether ``doc`` nests tables and arrays deeper than ``limit`` (without recursion)."""
+    stack = [(doc, 1)]
+    while stack:
+        v, d = stack.pop()
+        if d > limit:
+            return True
+        children = v.values() if isinstance(v, dict) else v
+        stack.extend((c, d + 1) for c in children if isinstance(c, dict | list))
+    return False
+
+
 def parse_toml(text: str, source: str) -> dict:
-    """The parsed TOML ``text``; a syntax error names ``source`` and the line."""
+    """The parsed TOML ``text``; a syntax error names ``source`` and the line.
+
+    Tables and arrays nested deeper than :data:`TOML_MAX_DEPTH` are refused.
+    """
     try:
-        return _loads(text)
+        doc = _loads(text)
+        if _depth_over(doc, TOML_MAX_DEPTH):
+            raise RecursionError
+        return doc
     except tomllib.TOMLDecodeError as e:  # its message gives the line and column
         raise ConfigError(None, source, f"{source}: TOML syntax error: {e}") from None
     except RecursionError:
-        raise ConfigError(None, source, f"{source}: TOML syntax error: nested too deeply"
-                          ) from None
+        raise ConfigError(None, source, f"{source}: TOML syntax error: nested too deeply "
+                          f"(over {TOML_MAX_DEPTH} tables or arrays)") from None
     except ValueError as e:  # a long integer where _loads could not mark it
         raise ConfigError(None, source, f"{source}: TOML value not readable: {e}") from None
 

@@ -864,6 +864,7 @@ def run_from_cli(cfg, args) -> int:
         write_atomic,
     )
     from allsky.apps.report import format_report, tracker_star, where_stopped, write_outputs
+    from allsky.apps.summaries import summary_text
     from allsky.apps.telemetry_files import file_format
     from allsky.apps.telemetry_files import write as write_telemetry
     from allsky.config import ConfigError
@@ -939,7 +940,7 @@ def run_from_cli(cfg, args) -> int:
     outputs = []
     if args.json:
         outputs.append((f"JSON summary {args.json}", lambda: write_atomic(
-            args.json, json.dumps(summary, indent=2) + "\n", option="--json")))
+            args.json, summary_text(summary), option="--json")))
     if args.telemetry:
         outputs.append((f"telemetry {args.telemetry}", lambda: write_telemetry(
             args.telemetry, m.telemetry(), option="--telemetry")))

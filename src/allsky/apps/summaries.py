@@ -18,6 +18,17 @@ from allsky.config import ConfigError
 from allsky.config.toml_io import os_reason, read_bounded
 from allsky.vocabulary import AXES, CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES
 
+#: Format of the summary JSON files allsky writes (their ``format`` key). A file without
+#: the key was written before summaries carried one and is read as this format; a file of
+#: another format is refused.
+SUMMARY_FORMAT = 1
+
+
+def summary_text(summary) -> str:
+    """The JSON text of a mission summary as ``--json`` writes it: ``format`` first."""
+    return json.dumps({"format": SUMMARY_FORMAT, **summary}, indent=2) + "\n"
+
+
 #: [bytes] Largest summary file read (a mission's summary is a few kB; one of many
 #: targets some tens of kB).
 SUMMARY_MAX_BYTES = 16 * 2**20
@@ -173,6 +184,10 @@ def read_summary(path) -> dict:
     except (ValueError, RecursionError) as e:
         raise ConfigError(None, rule=f"summary {shown} is not JSON "
                                      f"({' '.join(str(e).split())[:120]})") from None
+    if isinstance(summary, dict) and "format" in summary and (
+            type(summary["format"]) is not int or summary["format"] != SUMMARY_FORMAT):
+        raise ConfigError(None, rule=f"summary {shown} is of format {summary['format']!r}; "
+                                     f"this allsky reads summaries of format {SUMMARY_FORMAT}")
     why = check(summary)
     if why:
         raise ConfigError(None, rule=f"summary {shown} is not an allsky mission summary "

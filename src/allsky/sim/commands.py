@@ -548,7 +548,10 @@ def read_log(path) -> tuple:
         if k not in ("format", "scenario", "commands"):
             raise ConfigError(k, rule="unknown key of a command log; valid: format, scenario, "
                               "commands")
-    if data.get("format", LOG_FORMAT) != LOG_FORMAT:
+    if "format" not in data:
+        raise ConfigError("format", rule=f"missing: a command log says its format (format = "
+                          f"{LOG_FORMAT}, as allsky serve --save-commands writes it)")
+    if type(data["format"]) is not int or data["format"] != LOG_FORMAT:
         raise ConfigError("format", data["format"], f"this allsky reads command logs of "
                           f"format {LOG_FORMAT}")
     scenario = data.get("scenario")

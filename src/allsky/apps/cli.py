@@ -48,7 +48,8 @@ EXIT_CODES = {
     0: "success",
     1: "a mission ended aborted",
     2: "usage, input or output error (one line 'allsky: error: ...'), or the Dask cluster lost",
-    3: "internal error (one line, the traceback in a crash report file)",
+    3: "internal error (one line, the traceback in a crash report file), or a case of "
+       "allsky faults that raised (the matrix still written)",
     130: "interrupted by Ctrl-C, SIGTERM or SIGHUP (a closed terminal): what finished is "
          "written, partial files removed; one line says what",
     141: "stdout's reader went away (allsky ... | head): every file asked for was still "

@@ -70,3 +70,27 @@ def test_a_damaged_cache_file_heals_on_the_next_run(tmp_path, suffix, damage):
     assert "damaged" in notes[0] and "Traceback" not in healed.stderr
     again = _run(tmp_path)  # the rebuilt cache loads, silently
     assert again.returncode == 0 and again.stdout == first.stdout and again.stderr == ""
+
+
+def test_warm_up_check_names_what_is_damaged_and_changes_nothing(tmp_path):
+    from allsky.apps.warm import cache_problems
+
+    (tmp_path / "prog.py").write_text(PROGRAM)
+    assert _run(tmp_path).returncode == 0
+    (directory,) = {p.parent for p in _files(tmp_path, ".nbi")}
+    assert cache_problems(directory) == (2, [])
+    (nbc,) = _files(tmp_path, ".nbc")
+    _truncate(nbc)
+    files, damaged = cache_problems(directory)
+    assert files == 2 and len(damaged) == 1 and str(nbc) in damaged[0]
+    assert nbc.exists()  # the check sets nothing aside
+
+
+def test_warm_up_check_reports_in_lines(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    r = subprocess.run([sys.executable, "-m", "allsky", "warm-up", "--check"],
+                       capture_output=True, text=True, env=env, timeout=300, check=False)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("allsky ") and lines[1].startswith("ahead of time: ")
+    assert lines[2].startswith("frame loop: ") and "Traceback" not in r.stderr

@@ -431,7 +431,7 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky run mariner4-star-hopping")
     scen.add_argument("--json", metavar="PATH",
                       help="write the list as JSON ('-': to stdout, instead of the table)")
-    sub.add_parser(
+    warm = sub.add_parser(
         "warm-up", help="compile the frame loop once, so that no later command waits for it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Compile the frame loop, both its forms (the patent's vehicle without "
@@ -442,8 +442,14 @@ def _parser() -> argparse.ArgumentParser:
                     "machine. A Dask worker does the same with --preload allsky.apps.warm.",
         epilog="examples:\n"
                "  allsky warm-up                 # after pip install -e, or on a node\n"
+               "  allsky warm-up --check         # what is compiled and cached; does it load\n"
                "  dask worker tcp://10.0.0.5:8786 --preload allsky.apps.warm   # the same, "
                "per worker")
+    warm.add_argument("--check", action="store_true",
+                      help="compile nothing: say what is installed, built ahead of time, "
+                           "compiled and cached, and whether each loads (exit 1 if anything "
+                           "is damaged; a plain warm-up sets damaged cache files aside and "
+                           "rebuilds them)")
 
     # The same flags on every command (EXIT_CODES and COMMON_FLAGS in the epilog).
     leaves = [sp for name, sp in sub.choices.items() if name != "config"]

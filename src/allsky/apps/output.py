@@ -146,7 +146,11 @@ def _write_direct(path: Path, data: bytes):
     if fd is not None:
         _write_fd(fd, data)
         return
-    with open(path, "wb") as f:  # a FIFO or a device: opened as it is, never replaced
+    from allsky.config.toml_io import open_fifo_waiting
+
+    # A FIFO or a device: opened as it is, never replaced; a FIFO with no reader is
+    # reported after a second, then waited for.
+    with open_fifo_waiting(path, "wb", "output") as f:
         f.write(data)
 
 

@@ -85,6 +85,48 @@ def _size_text(n: int) -> str:
     return f"{n} bytes"
 
 
+#: [s] How long opening a FIFO may wait for its other end before a line says so.
+FIFO_PARTNER_S = 1.0
+
+
+def open_fifo_waiting(path, mode: str, what: str):
+    """Open ``path`` with ``mode``; a FIFO with no other end is reported, then waited for.
+
+    Opening a FIFO blocks until a process opens its other end (a reader for
+    an output, a writer for an input). After :data:`FIFO_PARTNER_S` one line
+    on stderr says what is awaited; the wait goes on (Ctrl-C ends it). Any
+    other path is opened at once. ``what`` names the file in the line.
+    """
+    try:
+        is_fifo = stat.S_ISFIFO(os.stat(path).st_mode)
+    except (OSError, ValueError):
+        is_fifo = False
+    if not is_fifo:
+        return open(path, mode)
+    import threading
+
+    box = {}
+
+    def opener():
+        try:
+            box["file"] = open(path, mode)  # noqa: SIM115 - the caller closes it
+        except BaseException as e:  # noqa: BLE001 - handed to the waiting thread
+            box["error"] = e
+
+    t = threading.Thread(target=opener, name="allsky-fifo-open", daemon=True)
+    t.start()
+    t.join(FIFO_PARTNER_S)
+    if t.is_alive():
+        partner = "reader" if "w" in mode or "a" in mode else "writer"
+        print(f"allsky: {what} {path} is a FIFO with no {partner} yet; waiting for one "
+              "(Ctrl-C to stop)", file=sys.stderr, flush=True)
+        while t.is_alive():
+            t.join(0.1)
+    if "error" in box:
+        raise box["error"]
+    return box["file"]
+
+
 def read_bounded(path, limit: int, what: str) -> bytes:
     """The bytes of the file at ``path``; ConfigError past ``limit`` bytes.
 
@@ -93,9 +135,10 @@ def read_bounded(path, limit: int, what: str) -> bytes:
     it ends or passes the limit, so that no input can fill the memory. The
     refusal is one line naming ``what`` (``"telemetry file"``), the path and
     the limit. OSError (no such file, a directory, no permission) and
-    ValueError (a NUL in the path) are the caller's to word.
+    ValueError (a NUL in the path) are the caller's to word. A FIFO with no
+    writer is reported after a second and waited for (:func:`open_fifo_waiting`).
     """
-    with open(path, "rb") as f:
+    with open_fifo_waiting(path, "rb", what) as f:
         st = os.fstat(f.fileno())
         if stat.S_ISREG(st.st_mode) and st.st_size > limit:
             data = None

@@ -90,3 +90,13 @@ def test_step_from_state_and_disperse_are_inputs(tmp_path, capsys):
     _refused(["montecarlo", "--runs", "1", "--disperse", str(spec), "--json", str(spec)],
              capsys, "--disperse")
     _refused(["run", "--disperse", str(spec), "--telemetry", str(spec)], capsys, "--disperse")
+
+
+def test_control_characters_in_a_path_are_escaped_in_the_message(tmp_path, capsys):
+    path = tmp_path / "missing\x1b[2J\x07.toml"
+    err = _refused(["config", "check", str(path)], capsys, "not found")
+    assert "\x1b" not in err and "\x07" not in err and "\\x1b[2J\\x07" in err
+
+
+def test_a_nul_in_an_output_path_is_a_usage_error(tmp_path, capsys):
+    _refused(["run", "--json", str(tmp_path / "a\x00b.json")], capsys, "a NUL character")

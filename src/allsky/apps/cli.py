@@ -1020,11 +1020,17 @@ def _main(argv) -> int:
         return _report(e)
 
 
+def printable(text) -> str:
+    """``text`` with its control characters escaped (``\\x1b``): a path or a value in a
+    message cannot move the cursor, clear the screen or split the line."""
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in str(text))
+
+
 def _report(e) -> int:
     """One line for an exception that ended the command; its exit code."""
     try:
         if isinstance(e, _usage_errors()):
-            print(f"allsky: error: {e}", file=sys.stderr)
+            print(f"allsky: error: {printable(e)}", file=sys.stderr)
             return EXIT_USAGE
         if isinstance(e, _interrupted()):
             _hold_signals()
@@ -1036,9 +1042,10 @@ def _report(e) -> int:
             return EXIT_INTERRUPTED
         if isinstance(e, OSError):  # a file that the command's own checks did not name
             name = f"{e.filename}: " if e.filename else ""
-            print(f"allsky: error: {name}{(e.strerror or str(e)).lower()}", file=sys.stderr)
+            print(f"allsky: error: {printable(name)}{(e.strerror or str(e)).lower()}",
+                  file=sys.stderr)
             return EXIT_USAGE
-        print(f"allsky: internal error: {type(e).__name__}: {e} (details in "
+        print(f"allsky: internal error: {type(e).__name__}: {printable(e)} (details in "
               f"{crash_report(e)})", file=sys.stderr)
         return EXIT_INTERNAL
     except KeyboardInterrupt:  # a second Ctrl-C while the line was being made

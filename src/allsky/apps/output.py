@@ -257,6 +257,8 @@ def check_output(option, path, directory=False, suffixes=None):
     """
     if path is None or str(path) == "-":
         return
+    if "\0" in str(path):  # no file system takes one
+        raise OutputError(option, path, "a NUL character in the path")
     path = Path(path)
     if directory:
         probe = path

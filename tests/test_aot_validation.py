@@ -51,9 +51,12 @@ def test_a_truncated_extension_is_bypassed_unloaded(package, capsys):
     _one_note(capsys, "the ahead-of-time extension is damaged")
 
 
-@pytest.mark.parametrize("text", ['{"stamp": 1}', "[1, 2]", '{"stamp": "s", "cache_tag": "x", '
-                                  '"exports": [1]}', "{not json", '{"stamp": "s", "cache_tag":'
-                                  ' "x", "exports": {}, "extension": {"file": "../x"}}'])
+BAD_MANIFESTS = ['{"stamp": 1}', "[1, 2]", '{"stamp": "s", "cache_tag": "x", "exports": [1]}',
+                 "{not json",
+                 '{"stamp": "s", "cache_tag": "x", "exports": {}, "extension": {"file": "../x"}}']
+
+
+@pytest.mark.parametrize("text", BAD_MANIFESTS)
 def test_a_manifest_of_the_wrong_shape_is_bypassed(package, capsys, text):
     (package / "_aot.json").write_text(text)
     assert aot._manifest() is None and aot._module_if_valid() is None

@@ -417,3 +417,88 @@ def test_the_browser_gets_no_token_on_its_command_line(tmp_path):
     assert s.token not in argv_text and argv_text.startswith("file://"), argv_text
     assert "http-equiv=\"refresh\"" in page and s.token in page
     assert not opened.exists()  # removed at the session's end
+
+
+def _attacks(rng, token: bytes, port: int, n: int):
+    """``n`` malformed HTTP requests and WebSocket messages, drawn from ``rng``."""
+    import random as _random
+
+    assert isinstance(rng, _random.Random)
+    host = b"Host: 127.0.0.1:%d\r\n" % port
+    get = b"GET /?token=" + token
+    http, ws = [], []
+    for k in range(n):
+        kind = rng.randrange(8)
+        if kind == 0:
+            http.append(get + b"&x=" + b"a" * rng.randint(8200, 30000) + b" HTTP/1.1\r\n" + host
+                        + b"\r\n")
+        elif kind == 1:
+            http.append(get + b" HTTP/1.1\r\n" + host + b"".join(
+                b"X%d: %s\r\n" % (i, b"v" * rng.randint(1, 50)) for i in
+                range(rng.randint(120, 3000))) + b"\r\n")
+        elif kind == 2:
+            http.append(get + b" HTTP/1.1\r\n" + rng.choice([b"", b"Host: \r\n",
+                                                             b'Host: a"b\r\n', b"Host: x y\r\n",
+                                                             b"Host: <i>\r\n"]) + b"\r\n")
+        elif kind == 3:
+            http.append(bytes(rng.randrange(256) for _ in range(rng.randint(1, 400)))
+                        + b"\r\n\r\n")
+        elif kind == 4:
+            http.append(b"POST /?token=" + token + b" HTTP/1.1\r\n" + host
+                        + b"Content-Length: 5\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n")
+        else:
+            depth = rng.choice([1, 50, 3000, 30000])
+            junk = [None, 1, "x", [1], {"a": 1}, [[]], True, 1e308]
+            ws.append(rng.choice([
+                "[" * depth + "]" * depth,
+                json.dumps({"type": "command", "id": k, "command": {"kind": rng.choice(junk)}}),
+                json.dumps({"type": rng.choice(junk), "id": k}),
+                json.dumps({"type": "command", "id": rng.choice(junk),
+                            "command": rng.choice(junk)}),
+                json.dumps({"type": "command", "id": k, "command": {
+                    "kind": "fault", "fault_kind": rng.choice(junk), "axis": rng.choice(junk)}}),
+                "".join(chr(rng.randrange(1, 0x3000)) for _ in range(rng.randint(1, 200))),
+            ]))
+    return http, ws
+
+
+def _attack_campaign(n, seed):
+    import random as _random
+
+    rng = _random.Random(seed)
+
+    async def talk(s, ws_messages):
+        c = await Client.connect(s.ws_url)
+        await c.until(lambda c: c.hello is not None)
+        for text in ws_messages:
+            await c.ws.send_str(text)
+        c.next_id = 10**6
+        answer = await c.command({"kind": "speed", "speed": 50})
+        assert answer["type"] == "done", answer
+        await c.close()
+        return answer
+
+    with serving("--speed", "1") as s:
+        port = urlsplit(s.url).port
+        http, ws = _attacks(rng, s.token.encode(), port, n)
+        for data in http:
+            answer = _raw(s, data)
+            assert answer.startswith(b"HTTP/1.") and answer[9:10] == b"4", (data[:80], answer)
+        asyncio.run(talk(s, ws))
+        assert asyncio.run(http_get(s.url))[0] == 200  # up
+        s.proc.send_signal(signal.SIGINT)
+        code, _, err = s.finish()
+    assert code == 130 and "Traceback" not in err and s.token not in err, err
+    assert all(line.startswith("allsky: ") for line in err.splitlines()), err
+    return len(http), len(ws)
+
+
+def test_a_short_attack_campaign_leaves_the_server_up():
+    assert sum(_attack_campaign(24, "allsky serve attacks")) == 24
+
+
+@pytest.mark.slow
+def test_the_long_attack_campaign():
+    """200 malformed HTTP requests and WebSocket messages (counts in docs/validation.md)."""
+    n_http, n_ws = _attack_campaign(200, "allsky serve long attacks")
+    print(f"\nserve attacks: {n_http} HTTP, {n_ws} WebSocket")

@@ -100,3 +100,15 @@ def test_control_characters_in_a_path_are_escaped_in_the_message(tmp_path, capsy
 
 def test_a_nul_in_an_output_path_is_a_usage_error(tmp_path, capsys):
     _refused(["run", "--json", str(tmp_path / "a\x00b.json")], capsys, "a NUL character")
+
+
+def test_the_interrupted_line_names_what_was_written(tmp_path):
+    from allsky.apps import output
+
+    output.forget_written()
+    assert cli._interrupted_line().endswith("; nothing written")
+    output.write_atomic(tmp_path / "a.json", "{}")
+    line = cli._interrupted_line()
+    assert line.startswith("allsky: interrupted; nothing half-written")
+    assert line.endswith(f"written whole: {tmp_path / 'a.json'}")
+    output.forget_written()

@@ -906,6 +906,8 @@ def main(argv=None) -> int:
     old = {sig: signal.getsignal(sig) for sig in ENDING_SIGNALS}
     code, took = None, False
     _signalled.clear()
+    if "allsky.apps.output" in sys.modules:  # a command before this one in this process
+        sys.modules["allsky.apps.output"].forget_written()
     _running.append(True)
     try:
         took = _take_signals()
@@ -974,14 +976,15 @@ def _stdout_verdict(code, out) -> int:
 
 
 def _interrupted_line() -> str:
-    from allsky.apps.output import torn_writes
+    from allsky.apps.output import torn_writes, written_files
 
-    torn = torn_writes()
+    torn, done = torn_writes(), written_files()
+    whole = f"; written whole: {printable(', '.join(done))}" if done else ""
     if torn:
-        return (f"allsky: interrupted; {', '.join(torn)} cut short (written in place, not a "
-                "regular file); every regular file is whole or untouched")
+        return (f"allsky: interrupted; {printable(', '.join(torn))} cut short (written in "
+                f"place, not a regular file); every regular file is whole or untouched{whole}")
     return ("allsky: interrupted; nothing half-written (files are written whole or not at "
-            "all)")
+            f"all){whole or '; nothing written'}")
 
 
 def _main(argv) -> int:

@@ -57,3 +57,15 @@ def test_a_command_log_without_its_format_or_of_another_is_refused(tmp_path, cap
     assert main(["run", "--quiet", "--commands", str(log)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("allsky: error:") and words in err and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("table", ["truth", "calibration"])
+@pytest.mark.parametrize("word", ["drift_deg_h", "scale_factor", "cross_coupling"])
+def test_a_summary_whose_words_lack_one_is_refused(summary, tmp_path, table, word):
+    """Found by the bad-input campaign: replay and plot read all three words of each."""
+    data = json.loads(summary.read_text())
+    del data[table][word]
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ConfigError, match=f"{table}.{word} is missing"):
+        read_summary(path)

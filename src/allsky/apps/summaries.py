@@ -41,6 +41,8 @@ _CROSS = CROSS_COUPLING_KEYS
 _WORDS = {"drift_deg_h": ("map", _AXES3, NUMBER), "scale_factor": ("map", SCALE_FACTOR_AXES,
                                                                     NUMBER),
           "cross_coupling": ("map", _CROSS, NUMBER)}
+#: The words, each present: the figures and the page read all three of a table given.
+_WORDS_ALL = {f"{k}!": v for k, v in _WORDS.items()}
 _HOLD = ({"drift_arcsec_per_min": ("map", _AXES3, NUMBER)}, NONE)
 _TARGET = ({"name": (TEXT, NONE), "star": (TEXT, NONE), "ra_deg": NUMBER,
             "dec_deg": NUMBER, "start_s": (NUMBER, NONE), "end_s": (NUMBER, NONE),
@@ -52,8 +54,8 @@ SHAPE = {
     "status!": TEXT, "abort_reason": (TEXT, NONE),
     "modes!": ("list", {"mode!": TEXT, "start_s!": NUMBER, "end_s!": NUMBER, "exit!": TEXT}),
     "target!": _TARGET, "targets": (("list", _TARGET), NONE),
-    "calibration": (_WORDS, NONE), "calibration_applied": FLAG,
-    "truth": ({**_WORDS}, NONE), "hold": _HOLD,
+    "calibration": (_WORDS_ALL, NONE), "calibration_applied": FLAG,
+    "truth": (_WORDS_ALL, NONE), "hold": _HOLD,
     "propellant_kg": (NUMBER, NONE), "mission_time_s": (NUMBER, NONE),
     "reference_star": (TEXT, NONE), "locked_star": (TEXT, NONE),
 }

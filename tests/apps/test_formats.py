@@ -1,6 +1,7 @@
 """Versioned files: the summary JSON and the command log say their format, and refuse another."""
 
 import json
+import re
 
 import pytest
 
@@ -68,4 +69,19 @@ def test_a_summary_whose_words_lack_one_is_refused(summary, tmp_path, table, wor
     path = tmp_path / "s.json"
     path.write_text(json.dumps(data))
     with pytest.raises(ConfigError, match=f"{table}.{word} is missing"):
+        read_summary(path)
+
+
+@pytest.mark.parametrize("field, value, words", [
+    ("seed", {"a": 1}, "seed is not"), ("end", [1], "end is not"),
+    ("events", [{"kind": "nope", "t_s": 0.0}], "events[0].kind 'nope' is not a journal kind"),
+    ("events", [{"t_s": 0.0}], "events[0].kind is missing"), ("warnings", [1], "warnings"),
+])
+def test_a_summary_field_the_page_reads_is_checked(summary, tmp_path, field, value, words):
+    """Found by the bad-input campaign: a seed that is a table ended replay with exit 3."""
+    data = json.loads(summary.read_text())
+    data[field] = value
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ConfigError, match=re.escape(words)):
         read_summary(path)

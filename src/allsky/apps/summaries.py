@@ -58,6 +58,13 @@ SHAPE = {
     "truth": (_WORDS_ALL, NONE), "hold": _HOLD,
     "propellant_kg": (NUMBER, NONE), "mission_time_s": (NUMBER, NONE),
     "reference_star": (TEXT, NONE), "locked_star": (TEXT, NONE),
+    "seed": (NUMBER, NONE),
+    "end": ({"t_s": NUMBER, "mode": (TEXT, NONE),
+             "true_pointing_error_arcsec": (NUMBER, NONE), "propellant_kg": (NUMBER, NONE),
+             "propellant_remaining_kg": (NUMBER, NONE)}, NONE),
+    "events": ("list", {"kind!": TEXT, "t_s!": NUMBER, "mode": (TEXT, NONE)}),
+    "faults": (("list", {}), NONE),
+    "warnings": (("list", TEXT), NONE),
 }
 #: The statuses a summary can have.
 STATUSES = ("running", "complete", "aborted")
@@ -144,6 +151,11 @@ def check(summary) -> str | None:
         return f"status {summary['status']!r} is not one of {', '.join(STATUSES)}"
     from allsky.sequencer.modes import MODE_TABLE
 
+    from allsky.vocabulary import EVENT_KIND
+
+    for k, e in enumerate(summary.get("events") or []):
+        if e["kind"] not in EVENT_KIND:
+            return f"events[{k}].kind {e['kind']!r} is not a journal kind"
     names = {m.name for m in MODE_TABLE}
     for k, r in enumerate(summary["modes"]):
         if r["mode"] not in names:

@@ -150,7 +150,6 @@ def check(summary) -> str | None:
     if summary["status"] not in STATUSES:
         return f"status {summary['status']!r} is not one of {', '.join(STATUSES)}"
     from allsky.sequencer.modes import MODE_TABLE
-
     from allsky.vocabulary import EVENT_KIND
 
     for k, e in enumerate(summary.get("events") or []):

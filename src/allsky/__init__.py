@@ -40,7 +40,7 @@ def _started_as_the_command() -> bool:
 
 
 def _interrupted_while_starting(signum, frame):
-    """Ctrl-C or SIGTERM before the command line is parsed: one line, exit 130."""
+    """Ctrl-C, SIGTERM or SIGHUP before the command line is parsed: one line, exit 130."""
     try:
         _os.write(2, b"allsky: interrupted while starting; nothing written\n")
     except OSError:
@@ -54,12 +54,14 @@ def _interrupted_while_starting(signum, frame):
 #: signals are left alone.
 RUNNING_AS_COMMAND = _started_as_the_command()
 if RUNNING_AS_COMMAND:
-    for _sig in (_signal.SIGINT, _signal.SIGTERM):
+    _ENDING = tuple(getattr(_signal, _n) for _n in ("SIGINT", "SIGTERM", "SIGHUP")
+                    if hasattr(_signal, _n))
+    for _sig in _ENDING:
         if _signal.getsignal(_sig) in (_signal.default_int_handler, _signal.SIG_DFL):
             _signal.signal(_sig, _interrupted_while_starting)
     # A launcher that blocked them while Python started gets them now, handled.
     if hasattr(_signal, "pthread_sigmask"):
-        _signal.pthread_sigmask(_signal.SIG_UNBLOCK, {_signal.SIGINT, _signal.SIGTERM})
+        _signal.pthread_sigmask(_signal.SIG_UNBLOCK, set(_ENDING))
 
 #: Public name -> module that defines it (imported on first access).
 _EXPORTS = {

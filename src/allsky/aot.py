@@ -108,23 +108,107 @@ def structure(x):
     return ["other", type(x).__qualname__]
 
 
+def file_digest(path) -> dict:
+    """``{"size": bytes, "sha256": hex}`` of the file at ``path``."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return {"size": os.path.getsize(path), "sha256": h.hexdigest()}
+
+
+def manifest_problem(m) -> str | None:
+    """What makes ``m`` not a manifest of the shape :mod:`allsky.apps.aot_build` writes."""
+    if not isinstance(m, dict):
+        return "not a JSON object"
+    for key in ("stamp", "cache_tag"):
+        if not isinstance(m.get(key), str):
+            return f"{key} is not text"
+    if m.get("cpu") is not None and not isinstance(m["cpu"], str):
+        return "cpu is not text"
+    exports = m.get("exports")
+    if not isinstance(exports, dict) or not all(
+            isinstance(k, str) and isinstance(v, list) for k, v in exports.items()):
+        return "exports is not an object of argument lists"
+    ext = m.get("extension")
+    if ext is not None and not (isinstance(ext, dict) and isinstance(ext.get("file"), str)
+                                and os.sep not in ext["file"]
+                                and type(ext.get("size")) is int
+                                and isinstance(ext.get("sha256"), str)):
+        return "extension is not {file, size, sha256}"
+    return None
+
+
+def _note(text):
+    print(f"allsky: note: {text}; {WITHOUT_AOT}", file=sys.stderr)
+
+
 @functools.lru_cache(maxsize=1)
 def _manifest():
     try:
         with open(MANIFEST, encoding="utf-8") as f:
-            return json.load(f)
-    except (OSError, ValueError):
+            m = json.load(f)
+    except FileNotFoundError:
         return None
+    except (OSError, ValueError, RecursionError) as e:
+        _note(f"the manifest {MANIFEST} cannot be read ({type(e).__name__}): bypassed")
+        return None
+    why = manifest_problem(m)
+    if why is not None:
+        _note(f"the manifest {MANIFEST} is damaged ({why}): bypassed")
+        return None
+    return m
+
+
+def extension_problem(m) -> str | None:
+    """Why the extension module the manifest ``m`` names cannot be loaded, or None.
+
+    A manifest that records the file's size and sha256 has them checked (a
+    truncated extension whose header is intact would kill the process with
+    SIGBUS when loaded); one written before that, by a load in a child
+    process, so that a bad file ends the child rather than the command.
+    """
+    ext = m.get("extension")
+    if ext is not None:
+        path = os.path.join(PACKAGE_DIR, ext["file"])
+        try:
+            found = file_digest(path)
+        except OSError as e:
+            return f"{path}: {e.strerror or e}"
+        if found != {"size": ext["size"], "sha256": ext["sha256"]}:
+            return (f"{path} is not the file built ({found['size']} bytes, "
+                    f"{ext['size']} when built)")
+        return None
+    import subprocess
+
+    try:
+        r = subprocess.run([sys.executable, "-c", f"import {MODULE}"], capture_output=True,
+                           timeout=60, check=False,
+                           env={**os.environ, "PYTHONPATH": os.path.dirname(PACKAGE_DIR)})
+    except (OSError, subprocess.SubprocessError) as e:
+        return f"it could not be loaded in a child process ({type(e).__name__})"
+    if r.returncode != 0:
+        how = (f"killed by signal {-r.returncode}" if r.returncode < 0
+               else f"exit {r.returncode}")
+        return f"loading it in a child process failed ({how})"
+    return None
 
 
 @functools.cache
 def _module_if_valid():
-    """The extension module when its manifest matches this tree and CPU; else None."""
+    """The extension module when its manifest matches this tree and CPU and its file is
+    whole (:func:`extension_problem`); else None."""
     m = _manifest()
     if (m is None or os.environ.get("ALLSKY_AOT", "1") == "0"
             or os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
             or m.get("cache_tag") != sys.implementation.cache_tag
             or m.get("stamp") != stamp() or m.get("cpu") != cpu_fingerprint()):
+        return None
+    why = extension_problem(m)
+    if why is not None:
+        _note(f"the ahead-of-time extension is damaged: {why}; bypassed (allsky warm-up "
+              "--check says more; pip install --force-reinstall --no-deps allsky rebuilds "
+              "it)")
         return None
     try:
         return importlib.import_module(MODULE)

@@ -14,8 +14,11 @@ in another file then needs ``__pycache__`` cleared). Compiled calls never
 depend on it.
 """
 
+import hashlib
 import inspect
 import os
+import pickle
+import sys
 import warnings
 
 import numba
@@ -110,6 +113,95 @@ def unavailable_reason():
     return None
 
 
+#: Suffix of a damaged cache file set aside (kept for a look, never read again).
+SET_ASIDE = ".damaged"
+#: Suffix of the file beside each cache data file holding its size and sha256.
+DIGEST = ".sha256"
+
+
+def _digest(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return f"{os.path.getsize(path)} {h.hexdigest()}"
+
+
+def set_aside(path, why) -> None:
+    """Move a damaged cache file out of numba's way, saying so in one line on stderr."""
+    try:
+        os.replace(path, path + SET_ASIDE)
+        where = f"set aside as {os.path.basename(path)}{SET_ASIDE}"
+    except OSError:
+        try:
+            os.unlink(path)
+            where = "removed"
+        except OSError:
+            where = "left in place (not writable), bypassed"
+    for extra in (path + DIGEST,):
+        try:
+            os.unlink(extra)
+        except OSError:
+            pass
+    print(f"allsky: note: numba's cache file {path} is damaged ({why}); {where}, compiling "
+          "it again (the same code)", file=sys.stderr)
+
+
+def _healing(cache_file_class):
+    """Make numba's index/data cache files validated before use, and healed when bad.
+
+    The index (``.nbi``) and data (``.nbc``) files are pickles; random bytes or a
+    truncation made numba raise (``UnpicklingError``) on every later run. A
+    data file's size and sha256 are written beside it when it is saved and
+    checked when it is loaded; a file that fails either way, or does not
+    unpickle, is set aside (:func:`set_aside`) and compiled again.
+    """
+    if getattr(cache_file_class, "_allsky_heals", False):
+        return
+    load_index, load_data = cache_file_class._load_index, cache_file_class._load_data
+    save_data = cache_file_class._save_data
+
+    def _load_index(self):
+        try:
+            return load_index(self)
+        except (pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError,
+                ImportError, IndexError, KeyError, MemoryError) as e:
+            set_aside(self._index_path, type(e).__name__)
+            return {}
+
+    def _load_data(self, name):
+        path = self._data_path(name)
+        try:
+            with open(path + DIGEST, encoding="ascii") as f:
+                want = f.read().strip()
+        except OSError:
+            want = None
+        if want is not None and os.path.exists(path) and _digest(path) != want:
+            set_aside(path, "its size or sha256 is not what was saved")
+            raise OSError(f"{path}: damaged")
+        try:
+            return load_data(self, name)
+        except OSError:
+            raise
+        except Exception as e:  # noqa: BLE001 - a damaged pickle fails in many ways
+            set_aside(path, type(e).__name__)
+            raise OSError(f"{path}: damaged") from None
+
+    def _save_data(self, name, data):
+        save_data(self, name, data)
+        path = self._data_path(name)
+        try:
+            with open(path + DIGEST, "w", encoding="ascii") as f:
+                f.write(_digest(path) + "\n")
+        except OSError:  # not writable: the data file is still checked by unpickling
+            pass
+
+    cache_file_class._load_index = _load_index
+    cache_file_class._load_data = _load_data
+    cache_file_class._save_data = _save_data
+    cache_file_class._allsky_heals = True
+
+
 _warned = []
 
 
@@ -130,4 +222,8 @@ def install() -> bool:
         return False
     if PackageCacheLocator not in _IMPL._locator_classes:
         _IMPL._locator_classes.insert(0, PackageCacheLocator)
+    cache_file = getattr(caching, "IndexDataCacheFile", None)
+    if cache_file is not None and all(hasattr(cache_file, m) for m in (
+            "_load_index", "_load_data", "_save_data", "_data_path")):
+        _healing(cache_file)
     return True

@@ -220,7 +220,8 @@ def test_replay_is_an_inline_frame_holding_the_whole_page(flight):
 
 def test_save_writes_what_allsky_run_writes(flight, tmp_path):
     written = flight.save(tmp_path / "run", telemetry="csv")
-    assert json.loads(written["summary"].read_text()) == json.loads(json.dumps(flight.summary))
+    assert json.loads(written["summary"].read_text()) == {
+        "format": 1, **json.loads(json.dumps(flight.summary))}
     table, _ = telemetry_files.read(written["telemetry"])
     np.testing.assert_array_equal(table, flight.table)
     assert {p.name for p in written["figures"]} == {"attitude_errors.png", "switches.png",

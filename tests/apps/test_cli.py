@@ -40,7 +40,7 @@ def test_run_writes_json_and_telemetry(tmp_path, capsys):
     assert [e["mode"] for e in s["events"] if e["kind"] == "mode_start"] == [
         m["mode"] for m in s["modes"]]
     first, header = tl.read_text().splitlines()[:2]
-    assert first == "# allsky telemetry format 2"
+    assert first.startswith("# allsky telemetry format 2; rows ")
     assert header.startswith("time [s],mode [-],q_w")
 
 

@@ -57,7 +57,7 @@ def _no_temporary_files(directory):
 
 # -- run: the report, --json and --telemetry of the part flown --------------------------------
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
 def test_run_interrupted_mid_leg_writes_the_part_flown(monkeypatch, tmp_path, capsys, sig):
     monkeypatch.setattr(mission, "SLICE_FRAMES", 5000)  # slices of 50 s: legs are cut
     _signal_after(monkeypatch, frame_loop, "run_leg", 3, sig)

@@ -432,3 +432,9 @@ def test_an_exception_python_can_only_ignore_is_one_line_and_an_interrupt_comes_
     assert err.count("\n") == 1 and err.startswith("allsky: warning: ignored in ")
     assert "ValueError: in the callback" in err and "Traceback" not in err
     assert lost == [1]
+
+
+def test_the_null_device_takes_an_output_of_any_suffix():
+    check_output("--html", os.devnull, suffixes=(".html", ".htm"))
+    with pytest.raises(OutputError, match="unknown suffix"):
+        check_output("--html", "page.txt", suffixes=(".html", ".htm"))

@@ -41,7 +41,8 @@ def test_run_json_dash_prints_the_summary_alone_on_stdout(capsys, saved_states):
 
     assert cli.main(["run", "--json", "-"]) == 0
     captured = capsys.readouterr()
-    assert json.loads(captured.out) == json.loads(json.dumps(saved_states["mission"].summary()))
+    assert json.loads(captured.out) == {
+        "format": 1, **json.loads(json.dumps(saved_states["mission"].summary()))}
     assert captured.err == ""  # no progress line either
 
 

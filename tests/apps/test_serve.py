@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 from urllib.parse import urlsplit
 
 import numpy as np
@@ -30,8 +31,9 @@ TIMEOUT_S = 120.0
 class Session:
     """A running ``allsky serve`` and its URL."""
 
-    def __init__(self, *args, env=None):
-        self.proc = subprocess.Popen([*ALLSKY, "serve", "--no-browser", *args],
+    def __init__(self, *args, env=None, browser=False):
+        self.proc = subprocess.Popen([*ALLSKY, "serve", *([] if browser else ["--no-browser"]),
+                                      *args],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                      env={**os.environ, **(env or {})})
         line = self.proc.stdout.readline()
@@ -136,8 +138,8 @@ def test_every_request_needs_the_session_s_token():
         assert f"connect-src ws://{host};" in page  # the page reaches its session only
         assert headers["Referrer-Policy"] == "no-referrer"
         # A name that is not this machine's (DNS rebinding) is refused, token or not.
-        assert asyncio.run(http_get(s.url, {"Host": f"attacker.example:{s.url.split(':')[2]}"})
-                           )[0] == 403
+        port = urlsplit(s.url).port
+        assert asyncio.run(http_get(s.url, {"Host": f"attacker.example:{port}"}))[0] == 403
 
 
 def test_the_websocket_refuses_a_page_of_another_origin():
@@ -255,16 +257,21 @@ def test_a_session_ended_from_the_page_is_flown_again_exactly(tmp_path):
     assert a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
 
 
-def test_ctrl_c_ends_the_session_writing_what_run_writes(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGHUP])
+def test_ctrl_c_ends_the_session_writing_what_run_writes(tmp_path, sig):
+    """Ctrl-C, and a hang-up (the terminal closed): summary, telemetry and command log."""
     log = tmp_path / "s.toml"
     with serving("--speed", "50", "--save-commands", str(log), "--json",
-                 str(tmp_path / "s.json")) as s:
+                 str(tmp_path / "s.json"), "--telemetry", str(tmp_path / "t.csv")) as s:
         time.sleep(2.0)
-        s.proc.send_signal(signal.SIGINT)
+        s.proc.send_signal(sig)
         code, _, err = s.finish()
-    assert code == 130
+    assert code == 130, err
     assert err.splitlines()[-1].startswith("allsky: interrupted; session ended at t = ")
     assert "written: the report, JSON summary" in err and "command log" in err
+    assert "telemetry" in err and (tmp_path / "t.csv").stat().st_size > 0
+    assert json.loads((tmp_path / "s.json").read_text())["status"]
+    assert not [p for p in tmp_path.iterdir() if ".tmp" in p.name]
     text = log.read_text()
     assert text.rstrip().endswith('kind = "end"') and "[scenario.mission]" in text
 
@@ -308,3 +315,190 @@ def test_run_commands_refuses_a_bad_log(tmp_path):
                        capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
     assert r.returncode == 2
     assert r.stderr.startswith("allsky: error: commands[0] = 'hold': a hold lasts until")
+
+
+# -- the server's edges: malformed requests and messages, the Host, the token ------------------
+
+def _raw(s, data: bytes) -> bytes:
+    import socket
+
+    parts = urlsplit(s.url)
+    with socket.create_connection((parts.hostname, parts.port), timeout=TIMEOUT_S) as sock:
+        sock.sendall(data)
+        return sock.recv(4096)
+
+
+def _malformed_requests(token: bytes, port: int) -> dict:
+    get = b"GET /?token=" + token
+    host = b"Host: 127.0.0.1:%d\r\n" % port
+    return {
+        "no Host": get + b" HTTP/1.1\r\n\r\n",
+        "overlong line": get + b"&x=" + b"a" * 20000 + b" HTTP/1.1\r\n" + host + b"\r\n",
+        "overlong header": get + b" HTTP/1.1\r\n" + host + b"X: " + b"a" * 20000 + b"\r\n\r\n",
+        "2000 headers": get + b" HTTP/1.1\r\n" + host
+        + b"".join(b"X%d: a\r\n" % i for i in range(2000)) + b"\r\n",
+        "CL+TE": b"POST /?token=" + token + b" HTTP/1.1\r\n" + host
+        + b"Content-Length: 4\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n",
+        "bytes": b"\x00\x01\xff\r\n\r\n",
+        "Host with markup": get + b' HTTP/1.1\r\nHost: a"><script>x</script>\r\n\r\n',
+    }
+
+
+def test_malformed_http_is_answered_400_in_one_line_without_token_or_traceback():
+    with serving("--speed", "1") as s:
+        port = urlsplit(s.url).port
+        for name, data in _malformed_requests(s.token.encode(), port).items():
+            answer = _raw(s, data)
+            assert answer.startswith(b"HTTP/1.") and b" 400 " in answer[:20], (name, answer)
+        assert asyncio.run(http_get(s.url))[0] == 200  # the server is up
+        s.proc.send_signal(signal.SIGINT)
+        code, _, err = s.finish()
+    assert code == 130
+    assert "Traceback" not in err and s.token not in err, err
+    assert all(line.startswith("allsky: ") for line in err.splitlines()), err
+
+
+def test_host_is_compared_case_insensitively_and_escaped_under_allow_remote():
+    with serving("--allow-remote", "--speed", "1") as s:
+        port = urlsplit(s.url).port
+        assert asyncio.run(http_get(s.url, {"Host": f"LOCALHOST:{port}"}))[0] == 200
+        answer = _raw(s, b"GET /?token=" + s.token.encode()
+                      + b' HTTP/1.1\r\nHost: x"><b>y</b>:1\r\n\r\n')
+        assert b" 400 " in answer[:20] and b"<b>" not in answer, answer
+        status, page, _ = asyncio.run(http_get(s.url, {"Host": f"Example.ORG:{port}"}))
+        assert status == 200 and f"ws://example.org:{port}" in page
+
+
+def test_malformed_websocket_messages_are_answered_and_the_journal_kept():
+    async def check(s):
+        c = await Client.connect(s.ws_url)
+        await c.until(lambda c: c.hello is not None)
+        bad = [{"type": "command", "id": 1, "command": {"kind": [1]}},
+               {"type": "command", "id": 2, "command": {"kind": {"a": 1}}},
+               {"type": "command", "id": 3, "command": [1, 2]}]
+        for msg in bad:
+            await c.ws.send_str(json.dumps(msg))
+        for text in ["[" * 30000 + "]" * 30000, "[1]", "5", '{"type": ["x"]}', "{", "\x00"]:
+            await c.ws.send_str(text)
+        await c.until(lambda c: {1, 2, 3} <= set(c.answers))
+        assert all(c.answers[i]["type"] == "refused" for i in (1, 2, 3))
+        c.next_id = 10
+        answer = await c.command({"kind": "speed", "speed": 50})
+        assert answer["type"] == "done", answer
+        await c.close()
+
+    with serving("--speed", "1") as s:
+        asyncio.run(check(s))
+        s.proc.send_signal(signal.SIGINT)
+        code, _, err = s.finish()
+    assert code == 130 and "Traceback" not in err, err
+    assert all(line.startswith("allsky: ") for line in err.splitlines()), err
+
+
+def test_the_browser_gets_no_token_on_its_command_line(tmp_path):
+    """The browser's argv is anyone's to read (ps): it names a private file that redirects."""
+    seen = tmp_path / "argv.txt"
+    browser = tmp_path / "browser.sh"
+    browser.write_text(f'#!/bin/sh\nprintf "%s\\n" "$@" > {seen}\ncat "${{1#file://}}" >> '
+                       f"{seen}.page\n")
+    browser.chmod(0o755)
+    with serving("--speed", "1", env={"BROWSER": f"{browser} %s"}, browser=True) as s:
+        argv_text = None
+        deadline = time.monotonic() + TIMEOUT_S
+        while time.monotonic() < deadline and not (seen.exists()
+                                                    and Path(f"{seen}.page").exists()):
+            time.sleep(0.1)
+        argv_text = seen.read_text()
+        page = Path(f"{seen}.page").read_text()
+        opened = Path(argv_text.strip()[len("file://"):])
+        assert opened.stat().st_mode & 0o777 == 0o600  # this user's only
+        s.proc.send_signal(signal.SIGINT)
+        assert s.finish()[0] == 130
+    assert s.token not in argv_text and argv_text.startswith("file://"), argv_text
+    assert "http-equiv=\"refresh\"" in page and s.token in page
+    assert not opened.exists()  # removed at the session's end
+
+
+def _attacks(rng, token: bytes, port: int, n: int):
+    """``n`` malformed HTTP requests and WebSocket messages, drawn from ``rng``."""
+    import random as _random
+
+    assert isinstance(rng, _random.Random)
+    host = b"Host: 127.0.0.1:%d\r\n" % port
+    get = b"GET /?token=" + token
+    http, ws = [], []
+    for k in range(n):
+        kind = rng.randrange(8)
+        if kind == 0:
+            http.append(get + b"&x=" + b"a" * rng.randint(8200, 30000) + b" HTTP/1.1\r\n" + host
+                        + b"\r\n")
+        elif kind == 1:
+            http.append(get + b" HTTP/1.1\r\n" + host + b"".join(
+                b"X%d: %s\r\n" % (i, b"v" * rng.randint(1, 50)) for i in
+                range(rng.randint(120, 3000))) + b"\r\n")
+        elif kind == 2:
+            http.append(get + b" HTTP/1.1\r\n" + rng.choice([b"", b"Host: \r\n",
+                                                             b'Host: a"b\r\n', b"Host: x y\r\n",
+                                                             b"Host: <i>\r\n"]) + b"\r\n")
+        elif kind == 3:
+            http.append(bytes(rng.randrange(256) for _ in range(rng.randint(1, 400)))
+                        + b"\r\n\r\n")
+        elif kind == 4:
+            http.append(b"POST /?token=" + token + b" HTTP/1.1\r\n" + host
+                        + b"Content-Length: 5\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n")
+        else:
+            depth = rng.choice([1, 50, 3000, 30000])
+            junk = [None, 1, "x", [1], {"a": 1}, [[]], True, 1e308]
+            ws.append(rng.choice([
+                "[" * depth + "]" * depth,
+                json.dumps({"type": "command", "id": k, "command": {"kind": rng.choice(junk)}}),
+                json.dumps({"type": rng.choice(junk), "id": k}),
+                json.dumps({"type": "command", "id": rng.choice(junk),
+                            "command": rng.choice(junk)}),
+                json.dumps({"type": "command", "id": k, "command": {
+                    "kind": "fault", "fault_kind": rng.choice(junk), "axis": rng.choice(junk)}}),
+                "".join(chr(rng.randrange(1, 0x3000)) for _ in range(rng.randint(1, 200))),
+            ]))
+    return http, ws
+
+
+def _attack_campaign(n, seed):
+    import random as _random
+
+    rng = _random.Random(seed)
+
+    async def talk(s, ws_messages):
+        c = await Client.connect(s.ws_url)
+        await c.until(lambda c: c.hello is not None)
+        for text in ws_messages:
+            await c.ws.send_str(text)
+        c.next_id = 10**6
+        answer = await c.command({"kind": "speed", "speed": 50})
+        assert answer["type"] == "done", answer
+        await c.close()
+        return answer
+
+    with serving("--speed", "1") as s:
+        port = urlsplit(s.url).port
+        http, ws = _attacks(rng, s.token.encode(), port, n)
+        for data in http:
+            answer = _raw(s, data)
+            assert answer.startswith(b"HTTP/1.") and answer[9:10] == b"4", (data[:80], answer)
+        asyncio.run(talk(s, ws))
+        assert asyncio.run(http_get(s.url))[0] == 200  # up
+        s.proc.send_signal(signal.SIGINT)
+        code, _, err = s.finish()
+    assert code == 130 and "Traceback" not in err and s.token not in err, err
+    assert all(line.startswith("allsky: ") for line in err.splitlines()), err
+    return len(http), len(ws)
+
+
+def test_a_short_attack_campaign_leaves_the_server_up():
+    assert sum(_attack_campaign(24, "allsky serve attacks")) == 24
+
+
+@pytest.mark.slow
+def test_the_long_attack_campaign():
+    """200 malformed HTTP requests and WebSocket messages (counts in docs/validation.md)."""
+    n_http, n_ws = _attack_campaign(200, "allsky serve long attacks")
+    print(f"\nserve attacks: {n_http} HTTP, {n_ws} WebSocket")

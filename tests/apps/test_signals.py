@@ -1,11 +1,12 @@
-"""Ctrl-C and SIGTERM at random moments of every command: one line, never a traceback.
+"""Ctrl-C, SIGTERM and SIGHUP at random moments of every command: one line, no traceback.
 
 Each command runs as the ``allsky`` command does (``python -m allsky``, its
 own session, SIGINT's disposition reset to the default as a terminal's
 foreground job has it). At a moment drawn from a seeded generator,
 between its start and about its end, it gets SIGINT (sent to its whole
-process group, workers included, as a terminal's Ctrl-C is) or SIGTERM
-(to the command alone), sometimes twice. Whatever the moment, it ends with
+process group, workers included, as a terminal's Ctrl-C is), SIGHUP (to the
+group, as a closed terminal sends it) or SIGTERM (to the command alone),
+sometimes twice. Whatever the moment, it ends with
 0, 1 or 130; with 130 its last line is ``allsky: interrupted; ...``; there
 is no traceback, no temporary file, no JSON file cut short, and no worker
 left behind. The moments are drawn, not timed: every outcome is checked,
@@ -65,7 +66,7 @@ def telemetry(tmp_path_factory):
 
 def _start_blocked():
     signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM, signal.SIGHUP})
 
 
 def _env():
@@ -85,7 +86,7 @@ def _session_gone(pgid) -> bool:
 
 def interrupt(argv, workdir: Path, rng: random.Random, span_s: float):
     """Run ``allsky argv`` in ``workdir``, signal it at a drawn moment; check the outcome."""
-    sig = rng.choice([signal.SIGINT, signal.SIGTERM])
+    sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
     delay = rng.uniform(0.0, span_s)
     twice = rng.random() < 0.25
     proc = subprocess.Popen([sys.executable, "-m", "allsky", *argv], cwd=workdir, env=_env(),
@@ -103,8 +104,9 @@ def interrupt(argv, workdir: Path, rng: random.Random, span_s: float):
                 if proc.poll() is not None:
                     break
                 try:
-                    if sig == signal.SIGINT:
-                        os.killpg(proc.pid, sig)  # Ctrl-C: the whole foreground group
+                    if sig in (signal.SIGINT, signal.SIGHUP):
+                        # Ctrl-C, or the terminal closed: the whole foreground group
+                        os.killpg(proc.pid, sig)
                     else:
                         proc.send_signal(sig)
                 except ProcessLookupError:

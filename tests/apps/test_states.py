@@ -168,6 +168,21 @@ def _edit_scenario(section, key, value):
     (_replace_array("counters", np.zeros(3)), ("state_counters is float64 of shape (3,), not "
                                               "int64 of shape (3,)")),
     (_replace_array("rng", np.ones(1, dtype=np.uint32)), "state_rng is uint32"),
+    # Field by field against the snapshot's keys: journal entries, the journal buffer, the star.
+    (lambda h, a: h["events"][0].pop("kind"), "events[0].kind = None is not a journal kind"),
+    (lambda h, a: h["events"][1].update(kind=["x"]), "events[1].kind = ['x'] is not"),
+    (lambda h, a: h["events"].append(7), "is not a journal entry"),
+    (lambda h, a: h["events"][0].update(t_s="0"), "events[0].t_s = '0': a finite time"),
+    (_edit_history(events={}), "events = {} is not a list of journal entries"),
+    (_edit_array("journal_n", 10**6), "state_journal_n = [1000000, 0]: rows filled within"),
+    (_edit_array("journal_n", -1, 1), "rows lost >= 0"),
+    (_edit_array("locked_star", 10**6), "state_locked_star = 1000000: -1 (none) or a star"),
+    (_edit_array("locked_star", -2), "state_locked_star = -2"),
+    (_edit_history(extra_key=1), "history: unknown key 'extra_key'"),
+    (lambda h, a: h.pop("events"), "history: no events"),
+    (_edit_history(targets=[1]), "targets = [1] is not a list of target records"),
+    (_edit_history(hold=[1]), "hold = [1] is not a table"),
+    (_edit_history(locked_star_name=5), "locked_star_name = 5 is not a name"),
 ])
 def test_load_refuses_a_state_no_mission_saves(tmp_path, before_6_1, edit, words):
     history, arrays = before_6_1

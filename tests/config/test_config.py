@@ -683,6 +683,19 @@ def test_toml_syntax_error_gives_the_line(tmp_path):
         load_scenario(deep)
 
 
+@pytest.mark.parametrize("text", [
+    "[" + ".".join(["a"] * 20000) + "]\n",  # a table header: tomllib reads it without recursion
+    "x = " + "[" * 100 + "]" * 100 + "\n",  # within tomllib's bound, past the scenario's
+    "a." * 5000 + "b = 1\n",  # a dotted key
+])
+def test_toml_nesting_is_bounded_for_headers_and_dotted_keys(tmp_path, text):
+    from allsky.config.toml_io import TOML_MAX_DEPTH
+
+    p = write(tmp_path, text, "deep.toml")
+    with pytest.raises(ConfigError, match=f"nested too deeply \\(over {TOML_MAX_DEPTH}"):
+        load_scenario(p)
+
+
 def test_scenario_from_dict_rejects_non_tables():
     with pytest.raises(ConfigError, match="table of sections"):
         scenario_from_dict([1])

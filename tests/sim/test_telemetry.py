@@ -459,6 +459,7 @@ def test_an_earlier_format_file_with_a_later_column_is_refused(tmp_path, table):
 
 def test_files_carry_their_format(tmp_path, table):
     csv_path = telemetry_files.write(tmp_path / "t.csv", table[:3])
-    assert csv_path.read_text().splitlines()[0] == f"# allsky telemetry format {recorder.FORMAT}"
+    assert csv_path.read_text().splitlines()[0].startswith(
+        f"# allsky telemetry format {recorder.FORMAT}; rows ")
     meta = pq.read_table(telemetry_files.write(tmp_path / "t.parquet", table[:3])).schema.metadata
     assert meta[telemetry_files.PARQUET_FORMAT_KEY] == str(recorder.FORMAT).encode()

@@ -72,8 +72,10 @@ def build() -> str:
             dispatcher.py_func)
         exports[qualified] = [aot.structure(x) for x in a]
     cc.compile()
+    built = os.path.join(cc.output_dir, cc.output_file)
     manifest = {"stamp": aot.stamp(), "cpu": aot.cpu_fingerprint(),
-                "cache_tag": __import__("sys").implementation.cache_tag, "exports": exports}
+                "cache_tag": __import__("sys").implementation.cache_tag, "exports": exports,
+                "extension": {"file": cc.output_file, **aot.file_digest(built)}}
     with open(aot.MANIFEST, "w", encoding="utf-8") as f:
         json.dump(manifest, f)
     return os.path.join(cc.output_dir, cc.output_file)

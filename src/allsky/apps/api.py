@@ -484,6 +484,7 @@ class Flight:
         from allsky.apps import plots, telemetry_files
         from allsky.apps.output import check_output, write_atomic
         from allsky.apps.replay import write_replay
+        from allsky.apps.summaries import summary_text
 
         if telemetry not in TELEMETRY_FORMATS:
             raise ValueError(f"telemetry={telemetry!r}: one of {', '.join(TELEMETRY_FORMATS)}")
@@ -492,7 +493,7 @@ class Flight:
         out.mkdir(parents=True, exist_ok=True)
         written = {
             "summary": write_atomic(out / SAVED_FILES["summary"],
-                                    json.dumps(self._summary, indent=2) + "\n"),
+                                    summary_text(self._summary)),
             "report": write_atomic(out / SAVED_FILES["report"], self.report() + "\n"),
             "scenario": write_atomic(out / SAVED_FILES["scenario"], self.scenario.to_toml()),
         }

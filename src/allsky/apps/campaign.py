@@ -788,4 +788,20 @@ def run_from_cli(cfg, args) -> int:
         where = (f"; continue with --resume --out {args.out}" if args.out else "")
         raise Interrupted(f"after {s['recorded']} of {s['runs']} runs (their summary "
                           f"written){where}")
-    return 0
+    return no_run_flown(s)
+
+
+def no_run_flown(s) -> int:
+    """The exit code of a finished campaign: 0 if any run was flown to its end.
+
+    A campaign whose every run was rejected (its drawn scenario invalid), raised
+    or lost its worker flew nothing: one line says so, exit 2 (3 when runs raised,
+    a defect). ``s`` is the campaign's summary (:func:`allsky.studies.montecarlo.summarize`).
+    """
+    if not s["recorded"] or s["complete"] + s["aborted"]:
+        return 0
+    counts = ", ".join(f"{s[k]} {k}" for k in ("invalid", "error", "worker_died") if s[k])
+    first = next(iter(s["abort_reasons"]), "")
+    print(f"allsky: error: no run of the campaign was flown ({counts}); the first: "
+          f"{first}", file=sys.stderr)
+    return 3 if s["error"] else 2

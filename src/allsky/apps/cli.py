@@ -24,7 +24,7 @@ Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
 2 a usage, input or output error, or a lost Dask cluster, reported as one
 line ``allsky: error: ...`` on stderr; 3 an internal error, reported as one
 line with a crash report file holding the traceback; 130 interrupted
-(Ctrl-C or SIGTERM), after writing what the finished work promised, in one
+(Ctrl-C, SIGTERM or SIGHUP), after writing what the finished work promised, in one
 line ``allsky: interrupted; ...``; 141 stdout's reader went away (``| head``) after
 every file asked for was written. Never a bare traceback.
 """
@@ -48,12 +48,18 @@ EXIT_CODES = {
     0: "success",
     1: "a mission ended aborted",
     2: "usage, input or output error (one line 'allsky: error: ...'), or the Dask cluster lost",
-    3: "internal error (one line, the traceback in a crash report file)",
-    130: "interrupted by Ctrl-C or SIGTERM (what finished is written; one line says what)",
+    3: "internal error (one line, the traceback in a crash report file), or a case of "
+       "allsky faults that raised (the matrix still written)",
+    130: "interrupted by Ctrl-C, SIGTERM or SIGHUP (a closed terminal): what finished is "
+         "written, partial files removed; one line says what",
     141: "stdout's reader went away (allsky ... | head): every file asked for was still "
          "written (a closed or full stdout: exit 2 and one line)",
 }
 EXIT_ABORTED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 130
+#: The signals that end a command as Ctrl-C does (:data:`EXIT_INTERRUPTED`): SIGHUP comes
+#: from a closed terminal or a dropped ssh session.
+ENDING_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
+                       if hasattr(signal, n))
 #: 128 + SIGPIPE, what a shell reports for a writer whose pipe closed.
 EXIT_STDOUT_GONE = 141
 #: The options that mean the same on every command that has them.
@@ -425,7 +431,7 @@ def _parser() -> argparse.ArgumentParser:
                "  allsky run mariner4-star-hopping")
     scen.add_argument("--json", metavar="PATH",
                       help="write the list as JSON ('-': to stdout, instead of the table)")
-    sub.add_parser(
+    warm = sub.add_parser(
         "warm-up", help="compile the frame loop once, so that no later command waits for it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Compile the frame loop, both its forms (the patent's vehicle without "
@@ -436,8 +442,14 @@ def _parser() -> argparse.ArgumentParser:
                     "machine. A Dask worker does the same with --preload allsky.apps.warm.",
         epilog="examples:\n"
                "  allsky warm-up                 # after pip install -e, or on a node\n"
+               "  allsky warm-up --check         # what is compiled and cached; does it load\n"
                "  dask worker tcp://10.0.0.5:8786 --preload allsky.apps.warm   # the same, "
                "per worker")
+    warm.add_argument("--check", action="store_true",
+                      help="compile nothing: say what is installed, built ahead of time, "
+                           "compiled and cached, and whether each loads (exit 1 if anything "
+                           "is damaged; a plain warm-up sets damaged cache files aside and "
+                           "rebuilds them)")
 
     # The same flags on every command (EXIT_CODES and COMMON_FLAGS in the epilog).
     leaves = [sp for name, sp in sub.choices.items() if name != "config"]
@@ -750,29 +762,44 @@ def crash_report(exc) -> str:
     return path
 
 
-#: Per command, the options that name files it writes: (dest, option, kind), kind "file"
-#: or the names a directory option writes into its directory (checked before the work).
-OUTPUTS = {
-    "run": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
-            ("plots", "--plots", "plots"), ("html", "--html", "file")),
-    "step": (("json", "--json", "file"), ("telemetry", "--telemetry", "file"),
-             ("save_dir", "--save-dir", "states")),
-    "compare": (("json", "--json", "file"), ("plot", "--plot", "file")),
-    "replay": (("html", "--html", "file"),),
-    "plot": (("out", "--out", "plots"),),
-    "analyze": (("json", "--json", "file"), ("plot", "--plot", "file")),
-    "montecarlo": (("json", "--json", "file"), ("out", "--out", "campaign")),
-    "stars": (("json", "--json", "file"),),
-    "faults": (("json", "--json", "file"),),
-    "scenarios": (("json", "--json", "file"),),
+#: Every command's files, in one table: per command, (dest, option, role, kind) for each
+#: option that names a file. ``role`` is "in" (read) or "out" (written); ``kind`` is "file"
+#: or, for a directory output, the names it writes into its directory. The clash check
+#: (:func:`check_paths`) is derived from it for every command: no output may name an input
+#: or another output.
+FILES = {
+    "run": (("scenario", "SCENARIO", "in", "file"), ("disperse", "--disperse", "in", "file"),
+            ("commands", "--commands", "in", "file"), ("json", "--json", "out", "file"),
+            ("telemetry", "--telemetry", "out", "file"), ("plots", "--plots", "out", "plots"),
+            ("html", "--html", "out", "file")),
+    "serve": (("scenario", "SCENARIO", "in", "file"),
+              ("save_commands", "--save-commands", "out", "file"),
+              ("json", "--json", "out", "file"), ("telemetry", "--telemetry", "out", "file"),
+              ("html", "--html", "out", "file")),
+    "step": (("scenario", "SCENARIO", "in", "file"), ("from_state", "--from", "in", "file"),
+             ("json", "--json", "out", "file"), ("telemetry", "--telemetry", "out", "file"),
+             ("save_dir", "--save-dir", "out", "states")),
+    "compare": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file"),
+                ("plot", "--plot", "out", "file")),
+    "replay": (("telemetry", "TELEMETRY", "in", "file"), ("summary", "--summary", "in", "file"),
+               ("scenario", "--scenario", "in", "file"), ("html", "--html", "out", "file")),
+    "plot": (("telemetry", "TELEMETRY", "in", "file"), ("summary", "--summary", "in", "file"),
+             ("out", "--out", "out", "plots")),
+    "analyze": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file"),
+                ("plot", "--plot", "out", "file")),
+    "montecarlo": (("scenario", "SCENARIO", "in", "file"),
+                   ("disperse", "--disperse", "in", "file"), ("json", "--json", "out", "file"),
+                   ("out", "--out", "out", "campaign")),
+    "stars": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file")),
+    "faults": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file")),
+    "scenarios": (("json", "--json", "out", "file"),),
+    "config": (("scenario", "SCENARIO", "in", "file"),),
+    "warm-up": (),
 }
-#: Per command, the options that name files it reads: (dest, option).
-INPUTS = {
-    "replay": (("telemetry", "TELEMETRY"), ("summary", "--summary"), ("scenario",
-                                                                      "--scenario")),
-    "plot": (("telemetry", "TELEMETRY"), ("summary", "--summary")),
-    "step": (("scenario", "SCENARIO"), ("from_state", "--from")),
-}
+#: Per command, the options that name files it writes: (dest, option, kind) (from FILES).
+OUTPUTS = {c: tuple((d, o, k) for d, o, r, k in rows if r == "out") for c, rows in FILES.items()}
+#: Per command, the options that name files it reads: (dest, option) (from FILES).
+INPUTS = {c: tuple((d, o) for d, o, r, _ in rows if r == "in") for c, rows in FILES.items()}
 
 
 def _directory_names(kind) -> tuple:
@@ -799,20 +826,18 @@ def check_paths(args):
     Every output option of the command is checked (:func:`allsky.apps.output.check_output`),
     then no two outputs, and no output and input, may be the same file
     (:func:`allsky.apps.output.check_distinct`). ``args`` is the parsed command
-    line (its ``command`` and the options of :data:`OUTPUTS` and ``INPUTS``).
+    line (its ``command`` and the options :data:`FILES` lists for it).
     """
     from allsky.apps.output import check_distinct, check_output
 
     outputs = []
-    for dest, option, kind in OUTPUTS.get(args.command, ()):
+    for dest, option, kind in OUTPUTS[args.command]:
         path = getattr(args, dest, None)
         if path is None:
             continue
         check_output(option, path, directory=kind != "file")
         outputs.append((option, path, _directory_names(kind)))
-    inputs = [(option, getattr(args, dest, None)) for dest, option in
-              INPUTS.get(args.command, (("scenario", "SCENARIO"),))]
-    inputs.append(("--disperse", getattr(args, "disperse", None)))
+    inputs = [(option, getattr(args, dest, None)) for dest, option in INPUTS[args.command]]
     check_distinct(outputs, [(o, p) for o, p in inputs if p is not None])
 
 
@@ -856,13 +881,13 @@ def build_note_once():
 
 
 def _take_signals() -> bool:
-    """Ctrl-C and SIGTERM raise KeyboardInterrupt from here on; False where they cannot.
+    """Ctrl-C, SIGTERM and SIGHUP raise KeyboardInterrupt from here on; False where not.
 
     Outside the main thread signals cannot be set, and nothing changes.
     """
     try:
-        signal.signal(signal.SIGINT, _interrupt)
-        signal.signal(signal.SIGTERM, _interrupt)
+        for sig in ENDING_SIGNALS:
+            signal.signal(sig, _interrupt)
     except ValueError:
         return False
     return True
@@ -878,9 +903,11 @@ def main(argv=None) -> int:
     import allsky
     from allsky.apps.console import guarded
 
-    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    old = {sig: signal.getsignal(sig) for sig in ENDING_SIGNALS}
     code, took = None, False
     _signalled.clear()
+    if "allsky.apps.output" in sys.modules:  # a command before this one in this process
+        sys.modules["allsky.apps.output"].forget_written()
     _running.append(True)
     try:
         took = _take_signals()
@@ -924,9 +951,9 @@ def _exit_now(code):
 
 
 def _hold_signals():
-    """Ignore further Ctrl-C and SIGTERM: the command is ending, its line being said."""
+    """Ignore further ending signals: the command is ending, its line being said."""
     try:
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in ENDING_SIGNALS:
             signal.signal(sig, signal.SIG_IGN)
     except ValueError:  # not the main thread
         pass
@@ -949,14 +976,15 @@ def _stdout_verdict(code, out) -> int:
 
 
 def _interrupted_line() -> str:
-    from allsky.apps.output import torn_writes
+    from allsky.apps.output import torn_writes, written_files
 
-    torn = torn_writes()
+    torn, done = torn_writes(), written_files()
+    whole = f"; written whole: {printable(', '.join(done))}" if done else ""
     if torn:
-        return (f"allsky: interrupted; {', '.join(torn)} cut short (written in place, not a "
-                "regular file); every regular file is whole or untouched")
+        return (f"allsky: interrupted; {printable(', '.join(torn))} cut short (written in "
+                f"place, not a regular file); every regular file is whole or untouched{whole}")
     return ("allsky: interrupted; nothing half-written (files are written whole or not at "
-            "all)")
+            f"all){whole or '; nothing written'}")
 
 
 def _main(argv) -> int:
@@ -995,11 +1023,17 @@ def _main(argv) -> int:
         return _report(e)
 
 
+def printable(text) -> str:
+    """``text`` with its control characters escaped (``\\x1b``): a path or a value in a
+    message cannot move the cursor, clear the screen or split the line."""
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in str(text))
+
+
 def _report(e) -> int:
     """One line for an exception that ended the command; its exit code."""
     try:
         if isinstance(e, _usage_errors()):
-            print(f"allsky: error: {e}", file=sys.stderr)
+            print(f"allsky: error: {printable(e)}", file=sys.stderr)
             return EXIT_USAGE
         if isinstance(e, _interrupted()):
             _hold_signals()
@@ -1011,9 +1045,10 @@ def _report(e) -> int:
             return EXIT_INTERRUPTED
         if isinstance(e, OSError):  # a file that the command's own checks did not name
             name = f"{e.filename}: " if e.filename else ""
-            print(f"allsky: error: {name}{(e.strerror or str(e)).lower()}", file=sys.stderr)
+            print(f"allsky: error: {printable(name)}{(e.strerror or str(e)).lower()}",
+                  file=sys.stderr)
             return EXIT_USAGE
-        print(f"allsky: internal error: {type(e).__name__}: {e} (details in "
+        print(f"allsky: internal error: {type(e).__name__}: {printable(e)} (details in "
               f"{crash_report(e)})", file=sys.stderr)
         return EXIT_INTERNAL
     except KeyboardInterrupt:  # a second Ctrl-C while the line was being made

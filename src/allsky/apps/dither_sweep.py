@@ -35,6 +35,10 @@ def sweep_axis(text):
     return name, tuple(out)
 
 
+#: Most grid points a trade study flies (amplitudes x record lengths).
+SWEEP_POINTS_MAX = 1000
+
+
 def grid_from_args(cfg, sweeps):
     """Amplitudes [µrad] and record lengths [s] from the ``--sweep`` options.
 
@@ -52,7 +56,13 @@ def grid_from_args(cfg, sweeps):
         given[name] = values
     amps = given.get("amplitude_urad", (max(cfg.dither.amplitude_urad),))
     records = given.get("record_s", (float(cfg.dither.record_s),))
-    return sorted(set(amps)), sorted(set(records))
+    amps, records = sorted(set(amps)), sorted(set(records))
+    points = len(amps) * len(records)
+    if points > SWEEP_POINTS_MAX:
+        raise ConfigError("--sweep", f"{len(amps)} x {len(records)}",
+                          f"{points} grid points, more than {SWEEP_POINTS_MAX} (each point "
+                          "flies --runs missions)")
+    return amps, records
 
 
 def _g(v, spec):
@@ -183,7 +193,15 @@ def run_from_cli(cfg, args) -> int:
 
     from tqdm import tqdm
 
-    from allsky.apps.output import FIGURE_SUFFIXES, cap_workers, check_output, write_atomic
+    from allsky.apps.output import (
+        FIGURE_SUFFIXES,
+        Interrupted,
+        cap_workers,
+        check_output,
+        write_atomic,
+    )
+    from allsky.config import ConfigError
+    from allsky.config.rules import RUNS_MAX
     from allsky.studies.dither_sweep import sweep
 
     check_output("--json", args.json)
@@ -197,6 +215,9 @@ def run_from_cli(cfg, args) -> int:
     to_stdout = args.json == "-"
     say = (lambda *a, **k: None) if to_stdout else print
     n_missions = runs * (1 + len(amps) * len(records))
+    if n_missions > RUNS_MAX:
+        raise ConfigError("--sweep", n_missions, f"missions ({runs} per grid point and for "
+                          f"the reference), more than {RUNS_MAX}, as --runs is bounded")
     workers, note = cap_workers(args.workers, n_missions)
     if note:
         print(f"allsky: {note}", file=sys.stderr)
@@ -208,14 +229,21 @@ def run_from_cli(cfg, args) -> int:
     finally:
         bar.close()
     say(format_sweep(result))
+    written = []
     if to_stdout:
         print(json.dumps(result, indent=2))
     elif args.json:
         write_atomic(args.json, json.dumps(result, indent=2) + "\n", option="--json")
         say(f"wrote trade study {args.json}")
-    if args.plot:
+        written.append(args.json)
+    if args.plot and result["points"]:
         def draw(tmp):
             sweep_figure(result).savefig(Path(tmp), dpi=120)
         write_atomic(args.plot, writer=draw, option="--plot")
         say(f"plot: {args.plot}")
+        written.append(args.plot)
+    if result.get("interrupted"):
+        files = f"; written: {', '.join(written)}" if written else ""
+        raise Interrupted(f"after {len(result['points'])} of {len(amps) * len(records)} grid "
+                          f"points (the table covers those){files}")
     return 0

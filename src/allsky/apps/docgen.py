@@ -105,9 +105,14 @@ def _subparsers(parser):
     return {}
 
 
+def _files(rows, role) -> str:
+    """The options of one role in a row of the command-line files table."""
+    return ", ".join(f"`{o}`" for _, o, r, _k in rows if r == role) or "-"
+
+
 def cli_reference() -> str:
     """Markdown of ``allsky --help`` and every command's ``--help``."""
-    from allsky.apps.cli import COMMON_FLAGS, EXIT_CODES, _parser
+    from allsky.apps.cli import COMMON_FLAGS, EXIT_CODES, FILES, _parser
 
     old = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = "100"  # argparse wraps to the terminal; fix it for the page
@@ -120,6 +125,12 @@ def cli_reference() -> str:
                *(f"| {k} | {v} |" for k, v in EXIT_CODES.items()), "",
                "**Flags common to the commands**", "", "| flag | meaning |", "|---|---|",
                *(f"| `{k}` | {v} |" for k, v in COMMON_FLAGS.items()), "",
+               "**Files each command reads and writes**", "",
+               ("No output may be an input or another output (symbolic and hard links "
+                "followed): the command refuses it before any work, exit 2."), "",
+               "| command | reads | writes |", "|---|---|---|",
+               *(f"| {c} | {_files(rows, 'in')} | {_files(rows, 'out')} |"
+                 for c, rows in FILES.items()), "",
                "## allsky", "", "```", root.format_help().rstrip(), "```"]
 
         def walk(parser, path):

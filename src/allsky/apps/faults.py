@@ -21,10 +21,11 @@ def _cell(row, notes) -> str:
     if row["status"] == "complete":
         pe = row["pointing_error_arcsec"]
         return f'{pe:.0f}"' if pe >= 10 else f'{pe:.1f}"'
-    if row["outcome"] not in notes:
-        notes[row["outcome"]] = len(notes) + 1
     mark = "E" if row["status"] == "error" else "A"
-    return f"{mark}{notes[row['outcome']]}"
+    key = (mark, row["outcome"])
+    if key not in notes:  # numbered per mark: A1, A2, ... and E1, E2, ...
+        notes[key] = sum(1 for m, _ in notes if m == mark) + 1
+    return f"{mark}{notes[key]}"
 
 
 def format_matrix(result, wall_s=None) -> str:
@@ -56,7 +57,8 @@ def format_matrix(result, wall_s=None) -> str:
         lines.append(f"  {k:<{first}}" + "".join(f"{c:>{w}}" for c, w in zip(cells, widths)))
     lines += ["", ('  x": complete, final pointing error [arcsec]; An: aborted (below); '
               "En: the case raised (a defect)")]
-    lines += [f"  A{n}  {text}" for text, n in notes.items()]
+    lines += [f"  {mark}{n}  {text}" for (mark, text), n in sorted(
+        notes.items(), key=lambda item: (item[0][0], item[1]))]
     lines += ["", "  faults flown: " + "; ".join(f"{k}: {result['faults'][k]}" for k in kinds)]
     c = result["counts"]["status"]
     tail = f" in {wall_s:.0f} s" if wall_s is not None else ""
@@ -129,6 +131,12 @@ def run_from_cli(cfg, args) -> int:
     if result.get("interrupted"):
         raise Interrupted(f"after {len(result['cases'])} of {total - 1} cases (the table and "
                           "JSON cover those)")
+    raised = result["counts"]["status"].get("error", 0)
+    if raised:  # a case that raised is a defect of allsky, not an outcome of the mission
+        print(f"allsky: internal error: {raised} case{'s' if raised != 1 else ''} of the "
+              "matrix raised (En in the table); the matrix and its JSON are written",
+              file=sys.stderr)
+        return 3
     return 0
 
 

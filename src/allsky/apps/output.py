@@ -111,6 +111,19 @@ def _kind(path: Path):
 
 #: Direct writes (not to a regular file) that an interruption or an error cut short.
 _torn = []
+#: Every file written whole by this process's command so far (:func:`written_files`).
+_completed = []
+
+
+def written_files() -> list:
+    """The outputs written whole so far, in order (a message after an interruption names
+    them); :func:`forget_written` starts the list again for a new command."""
+    return list(_completed)
+
+
+def forget_written():
+    """Start :func:`written_files` again (a new command in this process)."""
+    _completed.clear()
 
 
 def torn_writes() -> list:
@@ -146,7 +159,11 @@ def _write_direct(path: Path, data: bytes):
     if fd is not None:
         _write_fd(fd, data)
         return
-    with open(path, "wb") as f:  # a FIFO or a device: opened as it is, never replaced
+    from allsky.config.toml_io import open_fifo_waiting
+
+    # A FIFO or a device: opened as it is, never replaced; a FIFO with no reader is
+    # reported after a second, then waited for.
+    with open_fifo_waiting(path, "wb", "output") as f:
         f.write(data)
 
 
@@ -184,6 +201,7 @@ def write_atomic(path, data=None, writer=None, option=None) -> Path:
         raise OutputError(option, path, "it is a directory")
     if kind == "special":
         _write_special(path, data, writer, option)
+        _completed.append(str(path))
         return path
     tmp = _temporary(real)
     try:
@@ -195,6 +213,7 @@ def write_atomic(path, data=None, writer=None, option=None) -> Path:
                 f.flush()
                 os.fsync(f.fileno())
         os.replace(tmp, real)
+        _completed.append(str(path))
     except OSError as e:
         raise OutputError(option, path, write_reason(e)) from None
     finally:  # an interruption or a failed writer leaves no temporary file behind
@@ -253,6 +272,8 @@ def check_output(option, path, directory=False, suffixes=None):
     """
     if path is None or str(path) == "-":
         return
+    if "\0" in str(path):  # no file system takes one
+        raise OutputError(option, path, "a NUL character in the path")
     path = Path(path)
     if directory:
         probe = path
@@ -265,7 +286,7 @@ def check_output(option, path, directory=False, suffixes=None):
         if not os.access(probe, os.W_OK | os.X_OK):
             raise OutputError(option, path, f"{probe}: permission denied")
         return
-    if suffixes is not None and path.suffix.lower() not in suffixes:
+    if suffixes is not None and path.suffix.lower() not in suffixes and not _is_null(path):
         raise OutputError(option, path, f"unknown suffix {path.suffix or '(none)'!r}; "
                           f"use {' or '.join(suffixes)}")
     fd = descriptor_of(path)
@@ -293,6 +314,15 @@ def check_output(option, path, directory=False, suffixes=None):
         raise OutputError(option, path, f"{parent} is not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(option, path, "permission denied")
+
+
+def _is_null(path) -> bool:
+    """Whether ``path`` is the null device (it takes any output, of any suffix)."""
+    try:
+        st, null = os.stat(path), os.stat(os.devnull)
+    except (OSError, ValueError):
+        return False
+    return stat.S_ISCHR(st.st_mode) and st.st_rdev == null.st_rdev
 
 
 def _identity(path: Path):

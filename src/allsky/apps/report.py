@@ -1,10 +1,10 @@
 """The readable mission report and the ``allsky run`` entry point."""
 
-import json
 import sys
 from typing import NamedTuple
 
 from allsky.apps import telemetry_files
+from allsky.apps.summaries import summary_text
 from allsky.sim.journal import DRIFT_DAC
 from allsky.sim.results import calibration_errors
 from allsky.units import RAD2ARCSEC
@@ -329,10 +329,10 @@ def run_from_cli(cfg, args) -> int:
     say(format_report(summary, tracker_star(cfg)))
     outputs = []
     if to_stdout:
-        print(json.dumps(summary, indent=2))
+        print(summary_text(summary), end="")
     elif json_path:
         outputs.append((f"JSON summary {json_path}", lambda: write_atomic(
-            json_path, json.dumps(summary, indent=2) + "\n", option="--json")))
+            json_path, summary_text(summary), option="--json")))
     if tlm_path:
         outputs.append((f"telemetry {tlm_path}", lambda: telemetry_files.write(
             tlm_path, m.telemetry(), option="--telemetry")))

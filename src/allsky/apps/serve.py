@@ -34,8 +34,11 @@ import hmac
 import ipaddress
 import json
 import math
+import os
 import queue
+import re
 import secrets
+import shutil
 import signal
 import sys
 import threading
@@ -74,12 +77,74 @@ class ServeError(Exception):
 
 def is_loopback(host) -> bool:
     """Whether ``host`` (a name or an address) is this machine's loopback."""
-    if host == "localhost":
+    if host.lower() == "localhost":
         return True
     try:
         return ipaddress.ip_address(host.strip("[]")).is_loopback
     except ValueError:
         return False
+
+
+#: A Host header: a name, an IPv4 address or a bracketed IPv6 address, and a port. Nothing
+#: else is taken (the Host is written into the page): no quote, no space, no markup.
+_HOST = re.compile(r"^(?:[A-Za-z0-9](?:[A-Za-z0-9.-]{0,252})|\[[0-9A-Fa-f:.]{2,45}\])"
+                   r"(?::[0-9]{1,5})?$")
+
+
+def clean_host(value):
+    """A request's Host header, lowercased, or None when it is not a plain host[:port]."""
+    if not isinstance(value, str) or not _HOST.match(value):
+        return None
+    return value.lower()
+
+
+def _one_line(text, secrets_=()) -> str:
+    """``text`` on one line, at most 200 characters, each of ``secrets_`` masked."""
+    for secret in secrets_:
+        if secret:
+            text = text.replace(secret, "(token)")
+    text = re.sub(r"token=(?!\(token\))[A-Za-z0-9_-]*", "token=(token)", text)  # a cut one
+    text = " ".join(text.split())
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+class _LogLine:
+    """A logging handler writing each record as one line on stderr: no traceback, no token.
+
+    aiohttp logs a malformed request (an overlong line, too many headers,
+    Content-Length with Transfer-Encoding) with its traceback and the request
+    line, token included; the session's log says what happened in one line.
+    """
+
+    def __init__(self, tokens):
+        import logging
+
+        self.tokens = tokens
+
+        class Handler(logging.Handler):
+            def emit(inner, record):
+                try:
+                    what = record.getMessage()
+                    if record.exc_info and record.exc_info[1] is not None:
+                        e = record.exc_info[1]
+                        what += f": {type(e).__name__}: {e}"
+                    print(f"allsky: serve: {_one_line(what, self.tokens)}", file=sys.stderr)
+                except Exception:  # noqa: BLE001, S110 - a log line never ends the session
+                    pass
+
+        self.handler = Handler(logging.INFO)
+        self.loggers = [logging.getLogger(n) for n in ("aiohttp", "asyncio")]
+        self.before = [(lg.handlers[:], lg.propagate) for lg in self.loggers]
+
+    def __enter__(self):
+        for lg in self.loggers:
+            lg.handlers = [self.handler]
+            lg.propagate = False
+        return self
+
+    def __exit__(self, *exc):
+        for lg, (handlers, propagate) in zip(self.loggers, self.before):
+            lg.handlers, lg.propagate = handlers, propagate
 
 
 def _rows(table, start, stop, budget):
@@ -369,6 +434,10 @@ class Server:
         self.thread.join(timeout)
 
     def _serve(self):
+        with _LogLine(self._tokens()):
+            self._serve_logged()
+
+    def _serve_logged(self):
         try:
             from aiohttp import web
         except ImportError as e:  # pragma: no cover - a dependency of allsky
@@ -473,9 +542,11 @@ class Server:
 
     def _host_ok(self, request) -> bool:
         """The Host a browser asked for is this session's (loopback: no other name)."""
+        host = clean_host(request.headers.get("Host"))
+        if host is None:
+            return False
         if self.allow_remote:
             return True
-        host = request.host or ""
         name, _, port = host.rpartition(":")
         return port == str(self.port) and is_loopback(name)
 
@@ -486,6 +557,9 @@ class Server:
         if self._token_of(request) is None:
             return web.Response(status=403, text="403: forbidden: this allsky session needs "
                                 "its token (the URL allsky serve printed)\n")
+        if clean_host(request.headers.get("Host")) is None:
+            return web.Response(status=400, text="400: bad request: a Host header "
+                                "HOST[:PORT] is needed\n")
         if not self._host_ok(request):
             return web.Response(status=403, text="403: forbidden: not this session's host\n")
         response = await handler(request)
@@ -497,7 +571,7 @@ class Server:
     async def _get_page(self, request):
         from aiohttp import web
 
-        origin = f"ws://{request.host}"
+        origin = f"ws://{clean_host(request.headers.get('Host'))}"  # checked by _guard
         return web.Response(text=self.page(origin), content_type="text/html", charset="utf-8",
                             headers={"X-Frame-Options": "DENY",
                                      "Content-Security-Policy": "frame-ancestors 'none'"})
@@ -505,7 +579,8 @@ class Server:
     def _origin_ok(self, request) -> bool:
         """A browser's WebSocket comes from this session's page (no Origin: not a browser)."""
         origin = request.headers.get("Origin")
-        return origin is None or origin == f"http://{request.host}"
+        host = clean_host(request.headers.get("Host"))
+        return origin is None or origin.lower() == f"http://{host}"
 
     async def _get_ws(self, request):
         from aiohttp import WSMsgType, web
@@ -529,7 +604,14 @@ class Server:
             async for msg in ws:
                 if msg.type != WSMsgType.TEXT:
                     continue
-                self._received(client, msg.data)
+                try:
+                    self._received(client, msg.data)
+                except Exception as e:  # noqa: BLE001 - one line, an answer; the session goes on
+                    print(f"allsky: serve: a malformed message refused: "
+                          f"{_one_line(f'{type(e).__name__}: {e}', self._tokens())}",
+                          file=sys.stderr)
+                    client.outbox.append({"type": "error", "error": "malformed message"})
+                    client.wake.set()
         finally:
             self.clients.discard(client)
             self.flight.clients = len(self.clients)
@@ -538,11 +620,22 @@ class Server:
             await sender
         return ws
 
+    def _tokens(self):
+        return (self.token, self.watch_token)
+
     def _received(self, client, text):
+        """One text message: an acknowledgement or a command; anything else is answered."""
         try:
             msg = json.loads(text)
-            kind = msg.get("type")
-        except (ValueError, AttributeError):
+        except (ValueError, RecursionError):
+            msg = None
+        kind = msg.get("type") if isinstance(msg, dict) else None
+        if not isinstance(kind, str) or kind not in ("ack", "command"):
+            print(f"allsky: serve: a message that is not the session's refused "
+                  f"({len(text)} characters)", file=sys.stderr)
+            client.outbox.append({"type": "error", "error": "not a message of this session: "
+                                  'give {"type": "ack"} or {"type": "command", ...}'})
+            client.wake.set()
             return
         if kind == "ack":
             client.acked = True
@@ -561,10 +654,16 @@ class Server:
             return refuse("this link watches the session; commands need the commanding link")
         if self.final:
             return refuse("the session has ended")
+        if ident is not None and (isinstance(ident, bool) or not isinstance(ident, (int, str))):
+            ident = None
         try:
             checked = ground_commands.validate(command, self.flight.m.cfg)
         except ConfigError as e:
             return refuse(str(e))
+        except (TypeError, ValueError, RecursionError) as e:  # a shape no rule foresaw
+            print(f"allsky: serve: a malformed command refused ({type(e).__name__})",
+                  file=sys.stderr)
+            return refuse(f"malformed command: {type(e).__name__}")
         self.flight.commands.put((checked, (client, ident)))
 
     # -- updates -----------------------------------------------------------------------
@@ -707,6 +806,34 @@ def static_data(cfg, scenario) -> dict:
                        "stars": list(sky.star_names()), "speeds": list(SPEEDS)}}
 
 
+def open_browser(url):
+    """Open the browser on ``url`` without putting its token on a command line.
+
+    The browser's command line is readable by every local user (``ps``); it
+    gets a local file, readable by this user only, that sends it on to the
+    URL. Returns the file's directory (removed at the session's end), or None
+    when no browser could be started (the printed line says where to go).
+    """
+    import html
+    import tempfile
+    import webbrowser
+
+    folder = tempfile.mkdtemp(prefix="allsky-open-")  # mode 0700
+    path = os.path.join(folder, "open.html")
+    target = html.escape(url, quote=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(f'<!doctype html><meta charset="utf-8"><meta name="referrer" '
+                f'content="no-referrer"><meta http-equiv="refresh" content="0;url={target}">'
+                f'<title>allsky</title><a href="{target}">allsky live</a>\n')
+    try:
+        webbrowser.open("file://" + path)
+    except Exception:  # noqa: BLE001 - no browser: the line printed says where
+        shutil.rmtree(folder, ignore_errors=True)
+        return None
+    return folder
+
+
 def check_host(host, allow_remote) -> None:
     """Refuse a host beyond this machine unless ``allow_remote`` (ServeError, exit 2).
 
@@ -724,7 +851,7 @@ def run_from_cli(cfg, args) -> int:
     Prints one line on stdout, ``allsky: serving http://HOST:PORT/?token=TOKEN``,
     while the session lasts; at its end the report (as ``allsky run``) and
     what was written. The page's end button ends it with the mission's exit
-    code (0, or 1 if it ended aborted); Ctrl-C or SIGTERM with 130.
+    code (0, or 1 if it ended aborted); Ctrl-C, SIGTERM or SIGHUP with 130.
 
     ``cfg`` is the scenario the command line loaded and ``args`` the parsed
     command line (:mod:`allsky.apps.cli`); returns the exit status.
@@ -737,6 +864,7 @@ def run_from_cli(cfg, args) -> int:
         write_atomic,
     )
     from allsky.apps.report import format_report, tracker_star, where_stopped, write_outputs
+    from allsky.apps.summaries import summary_text
     from allsky.apps.telemetry_files import file_format
     from allsky.apps.telemetry_files import write as write_telemetry
     from allsky.config import ConfigError
@@ -778,13 +906,9 @@ def run_from_cli(cfg, args) -> int:
         raise ConfigError(None, rule=str(e)) from None
     flight.start()
     print(f"allsky: serving {url}", flush=True)
+    opener = None
     if not args.no_browser:
-        import webbrowser
-
-        try:
-            webbrowser.open(url)
-        except Exception:  # noqa: BLE001, S110 - no browser: the line printed says where
-            pass
+        opener = open_browser(url)
 
     signalled = []
 
@@ -794,7 +918,11 @@ def run_from_cli(cfg, args) -> int:
         signalled.append(signum)
         flight.commands.put(({"kind": "end"}, (None, None)))
 
-    before = {sig: signal.signal(sig, end_by_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    from allsky.apps.cli import ENDING_SIGNALS
+
+    # A hang-up (the terminal closed, ssh dropped) ends the session as Ctrl-C does: the
+    # summary, telemetry and command log are written.
+    before = {sig: signal.signal(sig, end_by_signal) for sig in ENDING_SIGNALS}
     try:
         while not flight.done.wait(0.2):
             pass
@@ -812,7 +940,7 @@ def run_from_cli(cfg, args) -> int:
     outputs = []
     if args.json:
         outputs.append((f"JSON summary {args.json}", lambda: write_atomic(
-            args.json, json.dumps(summary, indent=2) + "\n", option="--json")))
+            args.json, summary_text(summary), option="--json")))
     if args.telemetry:
         outputs.append((f"telemetry {args.telemetry}", lambda: write_telemetry(
             args.telemetry, m.telemetry(), option="--telemetry")))
@@ -828,6 +956,8 @@ def run_from_cli(cfg, args) -> int:
     written, failed = write_outputs(outputs)
     server.written = written
     server.stop()
+    if opener is not None:
+        shutil.rmtree(opener, ignore_errors=True)
     for what in written:
         print(f"wrote {what}")
     if signalled:

@@ -106,7 +106,12 @@ def load(path, telemetry=True) -> Mission:
     cfg, plan = _checked_history(history)
     arrays = {**NEWER_ARRAYS, **arrays}
     _check_arrays(arrays, cfg)
-    return Mission.from_snapshot({**history, "plan": list(plan)}, arrays, telemetry=telemetry)
+    try:
+        return Mission.from_snapshot({**history, "plan": list(plan)}, arrays,
+                                     telemetry=telemetry)
+    except (KeyError, IndexError, TypeError, ValueError) as e:  # a shape no check foresaw
+        raise StateError(f"it does not resume ({type(e).__name__}: "
+                         f"{' '.join(str(e).split())[:120]})") from None
 
 
 def _read_archive(path):
@@ -152,6 +157,68 @@ def _read_archive(path):
     return {k[len(ARRAY_PREFIX):]: v for k, v in members.items()}, history
 
 
+#: Every key a mission's history holds (:meth:`allsky.sim.mission.Mission.snapshot`):
+#: True for those every history has, False for those present only once flown or used.
+HISTORY_KEYS = {"format": True, "next_mode": True, "plan": True, "timeline": True,
+                "leg_count": True, "counted_arcsec": True, "status": True,
+                "abort_reason": True, "programmed_roll_deg": True, "programmed_yaw_deg": True,
+                "scenario": True, "events": True, "hold": False, "turn_roll_deg": False,
+                "turn_yaw_deg": False, "reference_sun_inertial": False, "held_axes": False,
+                "locked_star_name": False, "targets": False}
+
+
+def _check_keys(h):
+    unknown = sorted(k for k in h if k not in HISTORY_KEYS)
+    if unknown:
+        raise StateError(f"history: unknown key {_shown(unknown[0])} (a format "
+                         f"{STATE_FORMAT} history has {', '.join(HISTORY_KEYS)})")
+    missing = [k for k, needed in HISTORY_KEYS.items() if needed and k not in h]
+    if missing:
+        raise StateError(f"history: no {missing[0]} (every format {STATE_FORMAT} history "
+                         "has it)")
+
+
+def _check_events(events):
+    """The journal so far: entries of known kinds at finite, ordered times."""
+    from allsky.vocabulary import EVENT_KIND
+
+    if not isinstance(events, list):
+        raise StateError(f"events = {_shown(events)} is not a list of journal entries")
+    last = 0.0
+    for i, e in enumerate(events):
+        if not isinstance(e, dict):
+            raise StateError(f"events[{i}] = {_shown(e)} is not a journal entry (a table)")
+        kind = e.get("kind")
+        if not isinstance(kind, str) or kind not in EVENT_KIND:
+            raise StateError(f"events[{i}].kind = {_shown(kind)} is not a journal kind "
+                             "(docs/journal.md)")
+        t = e.get("t_s")
+        if not _finite(t) or t < last:
+            raise StateError(f"events[{i}].t_s = {_shown(t)}: a finite time [s], never "
+                             "before the entry before")
+        if e.get("mode") is not None and not isinstance(e["mode"], str):
+            raise StateError(f"events[{i}].mode = {_shown(e['mode'])} is not a mode's name")
+        last = t
+
+
+def _check_optional(h):
+    for key in ("turn_roll_deg", "turn_yaw_deg"):
+        if key in h and not _finite(h[key]):
+            raise StateError(f"{key} = {_shown(h[key])} is not a finite number")
+    for key in ("hold",):
+        if key in h and not isinstance(h[key], dict):
+            raise StateError(f"{key} = {_shown(h[key])} is not a table")
+    if "targets" in h and not (isinstance(h["targets"], list) and h["targets"]
+                               and all(isinstance(r, dict) for r in h["targets"])):
+        raise StateError(f"targets = {_shown(h['targets'])} is not a list of target records")
+    ref = h.get("reference_sun_inertial")
+    if ref is not None and not (isinstance(ref, list) and len(ref) == 3
+                                and all(map(_finite, ref))):
+        raise StateError(f"reference_sun_inertial = {_shown(ref)} is not 3 finite numbers")
+    if h.get("locked_star_name") is not None and not isinstance(h["locked_star_name"], str):
+        raise StateError(f"locked_star_name = {_shown(h['locked_star_name'])} is not a name")
+
+
 def _finite(x) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
 
@@ -160,6 +227,9 @@ def _checked_history(h):
     """The scenario and plan of a history; StateError for anything a mission never saves."""
     if h.get("format") != STATE_FORMAT or type(h.get("format")) is not int:
         raise StateError(f"format {_shown(h.get('format'))}, not {STATE_FORMAT}")
+    _check_keys(h)
+    _check_events(h["events"])
+    _check_optional(h)
     plan = tuple(h["plan"]) if isinstance(h.get("plan"), list) else None
     if plan not in _known_plans(h):
         known = "; ".join(f"{k}: {' '.join(v)}" for k, v in PLANS.items())
@@ -265,6 +335,24 @@ def _check_arrays(arrays, cfg):
             or not np.all(np.isin(fs[sim_faults.LATCHED], (0.0, 1.0))):
         raise StateError(f"{ARRAY_PREFIX}fault_state: onsets must be >= 0 s or "
                          f"{sim_faults.UNKNOWN:g} (not started), latches 0 or 1")
+    from allsky.sim import journal as sim_journal
+    from allsky.sim.mission import tracker_star_names
+
+    filled, lost = (int(v) for v in arrays["journal_n"][:2])
+    rows = arrays["journal"].shape[0]
+    if not (0 <= filled <= rows and lost >= 0):
+        raise StateError(f"{ARRAY_PREFIX}journal_n = {arrays['journal_n'].tolist()}: rows "
+                         f"filled within 0..{rows} (the journal buffer), rows lost >= 0")
+    codes = {k.code for k in sim_journal.EVENT_KIND.values()}
+    bad = [r for r in arrays["journal"][:filled, sim_journal.KIND] if int(r) not in codes]
+    if bad:
+        raise StateError(f"{ARRAY_PREFIX}journal: a row of kind code {bad[0]!r}, not a journal "
+                         "kind")
+    stars = len(tracker_star_names(cfg))
+    k = int(arrays["locked_star"][0])
+    if not -1 <= k < stars:
+        raise StateError(f"{ARRAY_PREFIX}locked_star = {k}: -1 (none) or a star of the "
+                         f"tracker's catalog, 0..{stars - 1}")
     for name, allowed in (("rate_sign", (-1, 1)), ("pwpf_out", (-1, 0, 1)),
                           ("overflow", (0, 1))):
         if not np.all(np.isin(arrays[name], allowed)):

@@ -18,6 +18,17 @@ from allsky.config import ConfigError
 from allsky.config.toml_io import os_reason, read_bounded
 from allsky.vocabulary import AXES, CROSS_COUPLING_KEYS, SCALE_FACTOR_AXES
 
+#: Format of the summary JSON files allsky writes (their ``format`` key). A file without
+#: the key was written before summaries carried one and is read as this format; a file of
+#: another format is refused.
+SUMMARY_FORMAT = 1
+
+
+def summary_text(summary) -> str:
+    """The JSON text of a mission summary as ``--json`` writes it: ``format`` first."""
+    return json.dumps({"format": SUMMARY_FORMAT, **summary}, indent=2) + "\n"
+
+
 #: [bytes] Largest summary file read (a mission's summary is a few kB; one of many
 #: targets some tens of kB).
 SUMMARY_MAX_BYTES = 16 * 2**20
@@ -30,6 +41,8 @@ _CROSS = CROSS_COUPLING_KEYS
 _WORDS = {"drift_deg_h": ("map", _AXES3, NUMBER), "scale_factor": ("map", SCALE_FACTOR_AXES,
                                                                     NUMBER),
           "cross_coupling": ("map", _CROSS, NUMBER)}
+#: The words, each present: the figures and the page read all three of a table given.
+_WORDS_ALL = {f"{k}!": v for k, v in _WORDS.items()}
 _HOLD = ({"drift_arcsec_per_min": ("map", _AXES3, NUMBER)}, NONE)
 _TARGET = ({"name": (TEXT, NONE), "star": (TEXT, NONE), "ra_deg": NUMBER,
             "dec_deg": NUMBER, "start_s": (NUMBER, NONE), "end_s": (NUMBER, NONE),
@@ -41,10 +54,17 @@ SHAPE = {
     "status!": TEXT, "abort_reason": (TEXT, NONE),
     "modes!": ("list", {"mode!": TEXT, "start_s!": NUMBER, "end_s!": NUMBER, "exit!": TEXT}),
     "target!": _TARGET, "targets": (("list", _TARGET), NONE),
-    "calibration": (_WORDS, NONE), "calibration_applied": FLAG,
-    "truth": ({**_WORDS}, NONE), "hold": _HOLD,
+    "calibration": (_WORDS_ALL, NONE), "calibration_applied": FLAG,
+    "truth": (_WORDS_ALL, NONE), "hold": _HOLD,
     "propellant_kg": (NUMBER, NONE), "mission_time_s": (NUMBER, NONE),
     "reference_star": (TEXT, NONE), "locked_star": (TEXT, NONE),
+    "seed": (NUMBER, NONE),
+    "end": ({"t_s": NUMBER, "mode": (TEXT, NONE),
+             "true_pointing_error_arcsec": (NUMBER, NONE), "propellant_kg": (NUMBER, NONE),
+             "propellant_remaining_kg": (NUMBER, NONE)}, NONE),
+    "events": ("list", {"kind!": TEXT, "t_s!": NUMBER, "mode": (TEXT, NONE)}),
+    "faults": (("list", {}), NONE),
+    "warnings": (("list", TEXT), NONE),
 }
 #: The statuses a summary can have.
 STATUSES = ("running", "complete", "aborted")
@@ -130,7 +150,11 @@ def check(summary) -> str | None:
     if summary["status"] not in STATUSES:
         return f"status {summary['status']!r} is not one of {', '.join(STATUSES)}"
     from allsky.sequencer.modes import MODE_TABLE
+    from allsky.vocabulary import EVENT_KIND
 
+    for k, e in enumerate(summary.get("events") or []):
+        if e["kind"] not in EVENT_KIND:
+            return f"events[{k}].kind {e['kind']!r} is not a journal kind"
     names = {m.name for m in MODE_TABLE}
     for k, r in enumerate(summary["modes"]):
         if r["mode"] not in names:
@@ -173,6 +197,10 @@ def read_summary(path) -> dict:
     except (ValueError, RecursionError) as e:
         raise ConfigError(None, rule=f"summary {shown} is not JSON "
                                      f"({' '.join(str(e).split())[:120]})") from None
+    if isinstance(summary, dict) and "format" in summary and (
+            type(summary["format"]) is not int or summary["format"] != SUMMARY_FORMAT):
+        raise ConfigError(None, rule=f"summary {shown} is of format {summary['format']!r}; "
+                                     f"this allsky reads summaries of format {SUMMARY_FORMAT}")
     why = check(summary)
     if why:
         raise ConfigError(None, rule=f"summary {shown} is not an allsky mission summary "

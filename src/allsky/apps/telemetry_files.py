@@ -7,7 +7,8 @@ float64 column per entry of :data:`allsky.sim.recorder.COLUMNS`. Files
 carry the unit in every column name, ``name [unit]`` (``time [s]``,
 :func:`allsky.sim.telemetry.header`), and the schema's format number
 (:data:`allsky.sim.recorder.FORMAT`): a first line ``# allsky telemetry
-format N`` in CSV, the key ``allsky.telemetry_format`` of the Parquet
+format N; rows R`` in CSV (R: the rows, so that a file cut short
+at a line boundary is refused as truncated), the key ``allsky.telemetry_format`` of the Parquet
 file's metadata. The format follows the file's suffix: ``.csv`` (text,
 every value written with its shortest exact decimal form) or ``.parquet``
 (Apache Parquet, float64 columns). Both read back bit-identical
@@ -74,6 +75,9 @@ def write(path, table: np.ndarray, option=None) -> Path:
 
 #: The first line of a CSV file: the schema's format.
 CSV_FORMAT_LINE = "# allsky telemetry format {}"
+#: What follows the format on that line: the number of rows, so that a file cut short at
+#: a line boundary is known as such (files written before it have no count).
+CSV_ROWS = "; rows {}"
 #: The Parquet metadata key holding the schema's format.
 PARQUET_FORMAT_KEY = b"allsky.telemetry_format"
 
@@ -87,7 +91,8 @@ def write_csv(path, table: np.ndarray, option=None) -> Path:
 
     def writer(tmp):
         with tmp.open("w", newline="") as f:
-            f.write(CSV_FORMAT_LINE.format(recorder.FORMAT) + "\n")
+            f.write(CSV_FORMAT_LINE.format(recorder.FORMAT) + CSV_ROWS.format(len(table))
+                    + "\n")
             w = csv.writer(f)
             w.writerow(header())
             for row in table:
@@ -224,9 +229,14 @@ def _read_csv(path, data: bytes):
     except UnicodeDecodeError as e:
         line = data.count(b"\n", 0, e.start) + 1
         raise _refuse(path, f"line {line}: not UTF-8 text (byte 0x{data[e.start]:02x})") from None
-    number, skipped = 1, 0
+    number, skipped, count = 1, 0, None
     first = text.split("\n", 1)[0].rstrip("\r")
     if first.startswith("#"):
+        first, sep, rows_text = first.partition(CSV_ROWS.format("").rstrip())
+        if sep:
+            if not rows_text.strip().isdigit():
+                raise _refuse(path, f"line 1: rows {_shown(rows_text.strip())} is not a count")
+            count = int(rows_text.strip())
         number = _csv_format(path, first)
         skipped = 1
         text = text.split("\n", 1)[1] if "\n" in text else ""
@@ -247,6 +257,10 @@ def _read_csv(path, data: bytes):
         if len(record) != width:
             raise _refuse(path, f"row {r} (line {line}): {len(record)} fields, the header "
                                 f"has {width}")
+    if count is not None and len(body) != count:
+        raise _refuse(path, f"truncated: {len(body)} of the {count} rows its first line "
+                      "promises (cut short)" if len(body) < count else
+                      f"{len(body)} rows, more than the {count} its first line says")
     try:
         table = np.array(body, dtype=np.float64).reshape(-1, width)
     except ValueError:  # find the cell, and read what numpy would not
@@ -424,7 +438,9 @@ def markdown() -> str:
          "file whose columns are not these. `allsky plot` draws the figures from such a file."),
         "",
         (f"Files carry the schema's format number, now {recorder.FORMAT}: a first line "
-         f"`{CSV_FORMAT_LINE.format(recorder.FORMAT)}` in CSV, the metadata key "
+         f"`{CSV_FORMAT_LINE.format(recorder.FORMAT)}{CSV_ROWS.format('N')}` in CSV (N the "
+         "rows that follow the header, so that a file cut short at a line boundary is "
+         "refused as truncated; a file without the count is read as it is), the metadata key "
          f"`{PARQUET_FORMAT_KEY.decode()}` in Parquet (a file without one is format 1). "
          "A format only appends columns to the one before, so a file of an earlier format "
          "is read, the columns it lacks given as NaN (not recorded); a file of a later "

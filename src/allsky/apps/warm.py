@@ -25,6 +25,8 @@ def run_from_cli(cfg, args) -> int:
         warm_up,
     )
 
+    if getattr(args, "check", False):
+        return check()
     if needs_compiling(loop_entries() + entry_points()[1:]) and not args.quiet:
         print(f"allsky: compiling the frame loop for this machine, once (about "
               f"{COMPILE_S['warm-up']} s)",
@@ -34,6 +36,103 @@ def run_from_cli(cfg, args) -> int:
     what = "compiled and cached" if compiled else "already compiled; loaded from the cache"
     print(f"frame loop {what} ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def _cache_dirs(entries):
+    """The cache directories of the compiled entry points (numba's, for this tree)."""
+    dirs = []
+    for d in entries:
+        try:
+            path = d._cache._cache_path
+        except AttributeError:
+            continue
+        if path not in dirs:
+            dirs.append(path)
+    return dirs
+
+
+def cache_problems(directory) -> tuple:
+    """``(files, damaged)`` of numba's cache in ``directory``: each index and data file
+    checked as a command loads it (it unpickles; a data file matches its recorded size and
+    sha256), without changing any."""
+    import os
+    import pickle
+
+    from allsky import jit_cache
+
+    files, damaged = 0, []
+    try:
+        names = sorted(os.listdir(directory))
+    except OSError:
+        return 0, []
+    for name in names:
+        path = os.path.join(directory, name)
+        if name.endswith(".nbi"):
+            files += 1
+            try:
+                with open(path, "rb") as f:
+                    pickle.load(f)
+                    pickle.loads(f.read())
+            except Exception as e:  # noqa: BLE001 - a damaged pickle fails in many ways
+                damaged.append(f"{path} ({type(e).__name__})")
+        elif name.endswith(".nbc"):
+            files += 1
+            try:
+                with open(path + jit_cache.DIGEST, encoding="ascii") as f:
+                    want = f.read().strip()
+            except OSError:
+                want = None
+            if want is not None and jit_cache._digest(path) != want:
+                damaged.append(f"{path} (its size or sha256 is not what was saved)")
+                continue
+            try:
+                with open(path, "rb") as f:
+                    pickle.loads(f.read())
+            except Exception as e:  # noqa: BLE001
+                damaged.append(f"{path} ({type(e).__name__})")
+    return files, damaged
+
+
+def check() -> int:
+    """``allsky warm-up --check``: what is installed, compiled and cached, and whether it
+    loads; changes nothing. Exit 0 when nothing is damaged, 1 otherwise."""
+    import os
+
+    import numba
+
+    import allsky
+    from allsky import aot
+    from allsky.sim.warm_up import entry_points, loop_entries, needs_compiling
+
+    bad = 0
+    print(f"allsky {allsky.__version__} at {os.path.dirname(allsky.__file__)}; python "
+          f"{sys.version.split()[0]}; numba {numba.__version__}")
+    if not os.path.exists(aot.MANIFEST):
+        print("ahead of time: not built (missions use numba's compiled loop)")
+    else:
+        m = aot._manifest()
+        if m is None:
+            print("ahead of time: the manifest is damaged (bypassed)")
+            bad += 1
+        elif m.get("stamp") != aot.stamp() or m.get("cpu") != aot.cpu_fingerprint() or (
+                m.get("cache_tag") != sys.implementation.cache_tag):
+            print("ahead of time: built for other sources, CPU or Python (not used)")
+        else:
+            why = aot.extension_problem(m)
+            print("ahead of time: built, and it loads" if why is None
+                  else f"ahead of time: damaged: {why}")
+            bad += why is not None
+    entries = loop_entries() + entry_points()[1:]
+    print("frame loop: " + ("not compiled yet (allsky warm-up compiles it)"
+                            if needs_compiling(entries) else "compiled, in numba's cache"))
+    for directory in _cache_dirs(entries):
+        files, damaged = cache_problems(directory)
+        print(f"numba cache {directory}: {files} files, "
+              + (f"{len(damaged)} damaged" if damaged else "all load"))
+        for what in damaged:
+            print(f"  damaged: {what} (allsky warm-up sets it aside and compiles it again)")
+        bad += len(damaged)
+    return 1 if bad else 0
 
 
 def dask_setup(worker=None):

@@ -85,6 +85,48 @@ def _size_text(n: int) -> str:
     return f"{n} bytes"
 
 
+#: [s] How long opening a FIFO may wait for its other end before a line says so.
+FIFO_PARTNER_S = 1.0
+
+
+def open_fifo_waiting(path, mode: str, what: str):
+    """Open ``path`` with ``mode``; a FIFO with no other end is reported, then waited for.
+
+    Opening a FIFO blocks until a process opens its other end (a reader for
+    an output, a writer for an input). After :data:`FIFO_PARTNER_S` one line
+    on stderr says what is awaited; the wait goes on (Ctrl-C ends it). Any
+    other path is opened at once. ``what`` names the file in the line.
+    """
+    try:
+        is_fifo = stat.S_ISFIFO(os.stat(path).st_mode)
+    except (OSError, ValueError):
+        is_fifo = False
+    if not is_fifo:
+        return open(path, mode)
+    import threading
+
+    box = {}
+
+    def opener():
+        try:
+            box["file"] = open(path, mode)  # noqa: SIM115 - the caller closes it
+        except BaseException as e:  # noqa: BLE001 - handed to the waiting thread
+            box["error"] = e
+
+    t = threading.Thread(target=opener, name="allsky-fifo-open", daemon=True)
+    t.start()
+    t.join(FIFO_PARTNER_S)
+    if t.is_alive():
+        partner = "reader" if "w" in mode or "a" in mode else "writer"
+        print(f"allsky: {what} {path} is a FIFO with no {partner} yet; waiting for one "
+              "(Ctrl-C to stop)", file=sys.stderr, flush=True)
+        while t.is_alive():
+            t.join(0.1)
+    if "error" in box:
+        raise box["error"]
+    return box["file"]
+
+
 def read_bounded(path, limit: int, what: str) -> bytes:
     """The bytes of the file at ``path``; ConfigError past ``limit`` bytes.
 
@@ -93,9 +135,10 @@ def read_bounded(path, limit: int, what: str) -> bytes:
     it ends or passes the limit, so that no input can fill the memory. The
     refusal is one line naming ``what`` (``"telemetry file"``), the path and
     the limit. OSError (no such file, a directory, no permission) and
-    ValueError (a NUL in the path) are the caller's to word.
+    ValueError (a NUL in the path) are the caller's to word. A FIFO with no
+    writer is reported after a second and waited for (:func:`open_fifo_waiting`).
     """
-    with open(path, "rb") as f:
+    with open_fifo_waiting(path, "rb", what) as f:
         st = os.fstat(f.fileno())
         if stat.S_ISREG(st.st_mode) and st.st_size > limit:
             data = None
@@ -137,15 +180,39 @@ def read_toml(path, what="scenario file") -> dict:
     return parse_toml(text, str(p))
 
 
+#: Deepest nesting of tables and arrays read (a scenario nests 4 deep); deeper is refused
+#: before anything walks it, whether it came from brackets or from a table header
+#: ``[a.b.c...]``, which tomllib reads without recursion.
+TOML_MAX_DEPTH = 64
+
+
+def _depth_over(doc, limit) -> bool:
+    """Whether ``doc`` nests tables and arrays deeper than ``limit`` (without recursion)."""
+    stack = [(doc, 1)]
+    while stack:
+        v, d = stack.pop()
+        if d > limit:
+            return True
+        children = v.values() if isinstance(v, dict) else v
+        stack.extend((c, d + 1) for c in children if isinstance(c, dict | list))
+    return False
+
+
 def parse_toml(text: str, source: str) -> dict:
-    """The parsed TOML ``text``; a syntax error names ``source`` and the line."""
+    """The parsed TOML ``text``; a syntax error names ``source`` and the line.
+
+    Tables and arrays nested deeper than :data:`TOML_MAX_DEPTH` are refused.
+    """
     try:
-        return _loads(text)
+        doc = _loads(text)
+        if _depth_over(doc, TOML_MAX_DEPTH):
+            raise RecursionError
+        return doc
     except tomllib.TOMLDecodeError as e:  # its message gives the line and column
         raise ConfigError(None, source, f"{source}: TOML syntax error: {e}") from None
     except RecursionError:
-        raise ConfigError(None, source, f"{source}: TOML syntax error: nested too deeply"
-                          ) from None
+        raise ConfigError(None, source, f"{source}: TOML syntax error: nested too deeply "
+                          f"(over {TOML_MAX_DEPTH} tables or arrays)") from None
     except ValueError as e:  # a long integer where _loads could not mark it
         raise ConfigError(None, source, f"{source}: TOML value not readable: {e}") from None
 

@@ -111,7 +111,7 @@ def validate(command, cfg, where="command") -> dict:
     if not isinstance(command, Mapping):
         raise ConfigError(where, command, f"must be a table, not {type_name(command)}")
     kind = command.get("kind")
-    if kind not in GROUND_COMMAND:
+    if not isinstance(kind, str) or kind not in GROUND_COMMAND:
         raise ConfigError(f"{where}.kind", kind, "must be one of "
                           + ", ".join(f'"{k}"' for k in GROUND_COMMAND))
     spec = GROUND_COMMAND[kind]
@@ -548,7 +548,10 @@ def read_log(path) -> tuple:
         if k not in ("format", "scenario", "commands"):
             raise ConfigError(k, rule="unknown key of a command log; valid: format, scenario, "
                               "commands")
-    if data.get("format", LOG_FORMAT) != LOG_FORMAT:
+    if "format" not in data:
+        raise ConfigError("format", rule=f"missing: a command log says its format (format = "
+                          f"{LOG_FORMAT}, as allsky serve --save-commands writes it)")
+    if type(data["format"]) is not int or data["format"] != LOG_FORMAT:
         raise ConfigError("format", data["format"], f"this allsky reads command logs of "
                           f"format {LOG_FORMAT}")
     scenario = data.get("scenario")

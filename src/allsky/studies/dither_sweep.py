@@ -208,7 +208,10 @@ def sweep(cfg, amplitudes_urad, records_s, runs=1, workers=2, on_progress=None) 
         point: ``amplitude_urad``, ``record_s``, the RMS and mean errors with
         and without misalignment known, ``predicted_sigma_ppm``, ``time_s``,
         ``max_excursion_arcsec``, ``propellant_kg``), ``crossover``
-        (:func:`crossover`), ``runs`` and ``seeds``.
+        (:func:`crossover`), ``runs``, ``seeds`` and ``interrupted``: True
+        when Ctrl-C stopped the grid, ``points`` then holding those whose
+        every seed was flown (Ctrl-C during the reference raises
+        KeyboardInterrupt).
     """
     from allsky.studies.montecarlo import ordered_rows
 
@@ -222,23 +225,23 @@ def sweep(cfg, amplitudes_urad, records_s, runs=1, workers=2, on_progress=None) 
     def phase(fly, jobs, before):
         progress = None if on_progress is None else (
             lambda done, n: on_progress(before + done, total))
-        rows, interrupted = ordered_rows(fly, jobs, workers, progress)
-        if interrupted:  # the sweep needs every point: stop, as before the first row
-            raise KeyboardInterrupt
-        return rows
+        return ordered_rows(fly, jobs, workers, progress)
 
-    legacy_rows = phase(fly_legacy, [(data, s) for s in seeds], 0)
+    legacy_rows, interrupted = phase(fly_legacy, [(data, s) for s in seeds], 0)
+    if interrupted:  # the reference needs every seed: stop, as before the first row
+        raise KeyboardInterrupt
     words = {r["seed"]: r.get("cross_coupling") for r in legacy_rows}
     jobs = [(data, point_overrides(cfg, a, t), s, words[s]) for a, t in grid for s in seeds]
-    dither_rows = phase(fly_dither, jobs, runs)
+    dither_rows, interrupted = phase(fly_dither, jobs, runs)
     legacy = _summarise(legacy_rows)
     points = []
-    for k, ((a, t), pc) in enumerate(zip(grid, point_cfgs)):
+    finished = len(dither_rows) // runs  # Ctrl-C: the points whose every seed was flown
+    for k, ((a, t), pc) in enumerate(zip(grid[:finished], point_cfgs)):
         rows = dither_rows[k * runs:(k + 1) * runs]
         points.append({"amplitude_urad": a, "record_s": t, **_summarise(rows),
                        "predicted_sigma_ppm": predicted(pc)["dither"], "rows": rows})
     ref = legacy.get("scale_factor_rms_error_ppm", {})
-    return {"runs": runs, "seeds": [seeds[0], seeds[-1]],
+    return {"runs": runs, "seeds": [seeds[0], seeds[-1]], "interrupted": bool(interrupted),
             "legacy": {**legacy, "rows": legacy_rows}, "points": points,
             "crossover": crossover(points, ref) if ref else {},
             "crossover_own_register": (crossover(points, ref, "scale_factor_rms_error_ppm")

@@ -292,7 +292,7 @@ def stop_pool(pool, interrupted):
 
 @contextlib.contextmanager
 def interrupts_held():
-    """Ignore Ctrl-C and SIGTERM while an interrupted campaign tidies up.
+    """Ignore Ctrl-C, SIGTERM and SIGHUP while an interrupted campaign tidies up.
 
     The tidying (rows that finished, workers ended) is short and bounded; a
     second Ctrl-C in the middle of it would leave workers behind or a row
@@ -300,8 +300,9 @@ def interrupts_held():
     changes.
     """
     try:
-        old = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT,
-                                                                   signal.SIGTERM)}
+        ending = [getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
+                  if hasattr(signal, n)]
+        old = {sig: signal.signal(sig, signal.SIG_IGN) for sig in ending}
     except ValueError:
         yield
         return

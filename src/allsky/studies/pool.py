@@ -77,6 +77,8 @@ def worker_process_setup(parent_pid: int):
     ``parent_pid``.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGHUP"):  # a closed terminal hangs up the whole group: the parent's
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if sys.platform.startswith("linux"):
         try:
@@ -100,7 +102,8 @@ def worker_process_setup(parent_pid: int):
 
 #: The signals a worker is started with blocked (:class:`_Worker`), until it has set its own
 #: handlers: a Ctrl-C at the instant of the fork reaches no handler of the parent's.
-_HELD = {signal.SIGINT, signal.SIGTERM}
+_HELD = {signal.SIGINT, signal.SIGTERM} | (
+    {signal.SIGHUP} if hasattr(signal, "SIGHUP") else set())
 
 
 def _unblock():

@@ -56,10 +56,10 @@ def _frame(p, t_s):
     ('{kind="propellant_leak", rate_kg_s=0.1}', "faults[0].torque_n_m"),
     ('{kind="propellant_leak", rate_kg_s=0.1, vent_position_m=[0, 0, 1]}',
      "faults[0].vent_direction"),
-    ('{kind="propellant_leak", rate_kg_s=0.1, vent_position_m=[0, 0, 1], '
-     'vent_direction=[0, 0, 0]}', "faults[0].vent_direction"),
-    ('{kind="propellant_leak", rate_kg_s=0.1, torque_n_m=[0, 0, 0], '
-     'vent_position_m=[0, 0, 1], vent_direction=[1, 0, 0]}', "faults[0].vent_position_m"),
+    (('{kind="propellant_leak", rate_kg_s=0.1, vent_position_m=[0, 0, 1], '
+      'vent_direction=[0, 0, 0]}'), "faults[0].vent_direction"),
+    (('{kind="propellant_leak", rate_kg_s=0.1, torque_n_m=[0, 0, 0], '
+      'vent_position_m=[0, 0, 1], vent_direction=[1, 0, 0]}'), "faults[0].vent_position_m"),
     ('{kind="tracker_stray_light", offset_deg=1, magnitude="bright"}', "faults[0].magnitude"),
 ])
 def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):

@@ -1,4 +1,4 @@
-"""The roll braking after a star hand-over, against the slit, on the thrust the feed gives.
+"""The roll braking after a star hand-over against the slit, at the feed's thrust.
 
 A roll search (Modes 2 and 4, a re-acquisition) turns at the rate of
 rate-command module 120, ``electronics.rate_command_deg_s``. Once the star
@@ -62,7 +62,7 @@ def handover_braking(cfg) -> dict:
 
 
 def handover_warning(cfg):
-    """One sentence when the roll braking after a hand-over can overshoot the slit, or None.
+    """A sentence when the roll stop after a hand-over can overshoot the slit, or None.
 
     ``cfg`` is a validated scenario. Only a vehicle on its jets
     (``actuators.kind = "jets"``); the wheels brake without the tank.

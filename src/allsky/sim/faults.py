@@ -171,7 +171,8 @@ def vent_torque_n_m(rate_kg_s, isp_s, vent_position_m, vent_direction):
     """The body torque [N m] of gas leaving a vent at the jets' exhaust speed.
 
     The gas leaves at ``rate_kg_s`` [kg/s] along the unit ``vent_direction``
-    (body axes) with the exhaust speed ``isp_s g0`` [m/s]; the vehicle feels
+    (body axes) with the exhaust speed ``isp_s g0`` [m/s] (``isp_s`` [s], the
+    jets' specific impulse, ``jets.isp_s``); the vehicle feels
     the opposite thrust ``F = -rate v_e d`` at ``vent_position_m`` [m] from
     the centre of mass, the torque ``r x F``. (The thrust's force moves the
     centre of mass; the emulator has no translation, so only the torque

@@ -83,3 +83,18 @@ def handover_warning(cfg):
             f"of usable propellant (p/p0 {b['min_thrust_fraction']:.3f}, after "
             f"{usable - b['min_propellant_kg']:.3f} of its {usable:g} kg are used): a star "
             "acquisition or re-acquisition from then on overshoots the slit and loses the star")
+
+
+def flight_warning(cfg, propellant_left_kg):
+    """:func:`handover_warning` with what a flight's tank ended with, or None.
+
+    The summary's first warning and the replay's (at 0 s: it is the
+    scenario's). ``cfg`` is the scenario flown, ``propellant_left_kg`` [kg]
+    the usable propellant left at the end of the flight.
+    """
+    text = handover_warning(cfg)
+    if text is None:
+        return None
+    left = float(propellant_left_kg)
+    below = left < handover_braking(cfg)["min_propellant_kg"]
+    return f"{text}; this flight's tank ended with {left:.3f} kg" + (", below it" if below else "")

@@ -41,7 +41,7 @@ from allsky.sequencer.watch import sensors_in_use
 from allsky.sim import faults as sim_faults
 from allsky.sim import frame_loop, journal, results
 from allsky.sim import state as sim_state
-from allsky.sim.braking import handover_braking, handover_warning
+from allsky.sim.braking import flight_warning
 from allsky.sim.telemetry import COLUMNS
 from allsky.vehicle import plant, quaternion, sky, wheels
 from allsky.vocabulary import AXES
@@ -1088,12 +1088,9 @@ class Mission:
             out["wheels"] = self.wheel_summary()
         out["warnings"] = results.warnings(out, self.journal, fault_config.describe,
                                            self.params.sequencer.settle_threshold_arcsec)
-        braking = handover_warning(self.cfg)
+        braking = flight_warning(self.cfg, self.state.propellant_kg[0])
         if braking is not None:  # the scenario's, before any time: first
-            left = float(self.state.propellant_kg[0])
-            below = left < handover_braking(self.cfg)["min_propellant_kg"]
-            out["warnings"].insert(0, f"{braking}; this flight's tank ended with {left:.3f} kg"
-                                   + (", below it" if below else ""))
+            out["warnings"].insert(0, braking)
         out["events"] = [dict(e) for e in self.journal.events]
         return out
 

@@ -60,3 +60,6 @@ def test_a_small_blowdown_tank_is_warned_of_and_loses_the_star_below_the_limit(c
     assert s["status"] == "aborted" and s["abort_reason"].startswith("Mode 2: star lost")
     assert 1.0 - s["propellant_kg"] < 0.714
     assert "0.714 kg" in s["warnings"][0] and s["warnings"][0].endswith("below it")
+    from allsky.apps.replay import _warnings  # the replay's list: the same sentence at 0 s
+
+    assert _warnings(s, m.cfg)[0] == {"t_s": 0.0, "text": s["warnings"][0]}

@@ -372,13 +372,14 @@ def test_wheel_blocks_are_compiled_without_the_runtime():
     assert frame_loop.actuate_wheels.targetoptions["inline"] == "always"
 
 
-def _wheel_leg_allocations(frames):
+def _wheel_leg_allocations(frames, allocation):
     from numba.core.runtime import rtsys
 
     from allsky.sequencer import legs
     from allsky.sim import frame_loop, recorder
 
-    m = Mission(load_scenario(overrides=WHEELS), telemetry=False)
+    m = Mission(load_scenario(overrides=[*WHEELS, f'wheels.allocation="{allocation}"']),
+                telemetry=False)
     leg = legs.Leg(1, 1.0, legs.PROGRAM_MODE1, legs.WATCH_ELAPSED, 0, 0, 0, frames,
                    clock.NEVER)
     args = (np.empty((0, recorder.N_TLM)), np.zeros(1, dtype=np.int64),
@@ -390,14 +391,16 @@ def _wheel_leg_allocations(frames):
 
 
 @needs_jit
-def test_a_wheel_leg_allocates_the_same_for_10_and_10000_frames():
+@pytest.mark.parametrize("allocation", ["pseudo_inverse", "direct"])
+def test_a_wheel_leg_allocates_the_same_for_10_and_10000_frames(allocation):
     from numba.core.runtime import _nrt_python
 
     was_on = _nrt_python.memsys_stats_enabled()
     _nrt_python.memsys_enable_stats()
     try:
-        _wheel_leg_allocations(1)
-        assert _wheel_leg_allocations(10) == _wheel_leg_allocations(10_000)
+        _wheel_leg_allocations(1, allocation)
+        assert (_wheel_leg_allocations(10, allocation)
+                == _wheel_leg_allocations(10_000, allocation))
     finally:
         if not was_on:
             _nrt_python.memsys_disable_stats()

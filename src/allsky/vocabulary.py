@@ -104,7 +104,9 @@ FAULT_KINDS = (
                                                         "25", "26", "27"),
               "one bit of a counter or storage register flips, once"),
     FaultKind("propellant_leak", 12, ("rate_kg_s",), ("",),
-              "the tank leaks at the rate, with a body torque if given", ("torque_n_m",)),
+              "the tank leaks at the rate (at the initial tank pressure; following it on a "
+              "blow-down feed), with the given body torque or thrusting from its vent at the "
+              "jets' exhaust speed", ("torque_n_m", "vent_position_m", "vent_direction")),
 )
 #: Fault kind name -> :class:`FaultKind`.
 FAULT_KIND = {k.name: k for k in FAULT_KINDS}

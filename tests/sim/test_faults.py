@@ -53,6 +53,13 @@ def _frame(p, t_s):
     ('{kind="jet_stuck_open", axis="roll", sign=1, jets=3}', "faults[0].jets"),
     ('{kind="gyro_dead", axis="roll", jets=1}', "faults[0].jets"),
     ('{kind="propellant_leak", rate_kg_s=0.1, torque_n_m=[1, 2]}', "faults[0].torque_n_m"),
+    ('{kind="propellant_leak", rate_kg_s=0.1}', "faults[0].torque_n_m"),
+    ('{kind="propellant_leak", rate_kg_s=0.1, vent_position_m=[0, 0, 1]}',
+     "faults[0].vent_direction"),
+    (('{kind="propellant_leak", rate_kg_s=0.1, vent_position_m=[0, 0, 1], '
+      'vent_direction=[0, 0, 0]}'), "faults[0].vent_direction"),
+    (('{kind="propellant_leak", rate_kg_s=0.1, torque_n_m=[0, 0, 0], '
+      'vent_position_m=[0, 0, 1], vent_direction=[1, 0, 0]}'), "faults[0].vent_position_m"),
     ('{kind="tracker_stray_light", offset_deg=1, magnitude="bright"}', "faults[0].magnitude"),
 ])
 def test_a_bad_fault_is_refused_naming_its_key(fault, key, capsys):
@@ -361,7 +368,7 @@ def test_a_failed_jet_gives_nothing_when_commanded():
 
 
 def test_a_leak_drains_the_tank_until_it_is_dry():
-    _, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.5}')
+    _, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.5, torque_n_m=[0, 0, 0]}')
     ok, torque, used = _actuate(p, fs, [0, 0, 0])
     assert ok and used == pytest.approx(0.005) and list(torque) == [0.0, 0.0, 0.0]
     ok, _, _ = _actuate(p, fs, [0, 0, 0], kg=0.004)
@@ -393,6 +400,56 @@ def test_a_leak_with_a_torque_turns_the_vehicle_as_euler_says():
     assert tank[0] == pytest.approx(1.0 - 0.001 * 50.0, abs=1e-12)
 
 
+def test_a_leak_without_its_torque_thrusts_from_its_vent_at_the_exhaust_speed():
+    """5 g/s from a vent at 1.25 m along +z, the gas leaving along (1, 1, 0)/sqrt 2: the
+    vehicle feels F = -rate Isp g0 d at r, the torque r x F: with Isp 65 s, |F| = 3.187 N
+    (5e-3 * 65 * 9.80665) and r x F = 1.25 |F| / sqrt 2 (+1, -1, 0) = (2.82, -2.82, 0) N m."""
+    cfg, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.005, vent_position_m=[0, 0, '
+                         '1.25], vent_direction=[1, 1, 0]}')
+    force = 0.005 * cfg.jets.isp_s * 9.80665
+    assert force == pytest.approx(3.187, abs=1e-3)
+    ok, torque, used = _actuate(p, fs, [0, 0, 0])
+    k = 1.25 * force / math.sqrt(2.0)
+    np.testing.assert_allclose(torque, [k, -k, 0.0], rtol=1e-12, atol=1e-15)
+    assert ok and used == pytest.approx(0.005 * 0.01, rel=1e-12)
+    with pytest.raises(ConfigError) as e:  # a leak must say how its gas turns the vehicle
+        _cfg('{kind="propellant_leak", rate_kg_s=0.005}')
+    assert "vent_position_m" in str(e.value) and e.value.key == "faults[0].torque_n_m"
+
+
+def _blowdown_leak(rate, kg, torque="[0, 0.01, 0]"):
+    return _params(f'{{kind="propellant_leak", rate_kg_s={rate}, torque_n_m={torque}}}',
+                   extra=('jets.supply="blowdown"', f"jets.propellant_kg={kg}",
+                          "jets.tank_pressure_initial_bar=20.0",
+                          "jets.tank_pressure_final_bar=5.0"))
+
+
+def test_a_blowdown_leak_falls_with_the_tank_pressure_as_the_closed_form_says():
+    """On a blow-down feed the leak's flow is its rate times p/p0 = f + (1 - f) m/M at each
+    frame's start (f = 5/20): per frame m' + c = (m + c)(1 - (1 - f) r dt / M) with c =
+    f M/(1 - f), so m_k = (M + c) a^k - c exactly, a geometric decay; the torque follows
+    p/p0 too. 10 g/s from a 1 kg tank over 60 s: the closed form, not 0.4 kg."""
+    from allsky.hardware.jets import thrust_fraction
+
+    rate, kg, frames, dt = 0.01, 1.0, 6000, 0.01
+    _, p, fs = _blowdown_leak(rate, kg)
+    tank = np.array([kg])
+    for k in range(frames):
+        feed = thrust_fraction(p.jets, tank[0])
+        torque = np.zeros(3)
+        assert sf.fault_actuate(p.faults, fs, k, p.jets, dt, np.zeros(3, dtype=np.int64),
+                                tank, torque, True, feed)
+        assert torque[1] == pytest.approx(0.01 * feed, rel=1e-15)
+    f = 0.25
+    c = f * kg / (1.0 - f)
+    a = 1.0 - (1.0 - f) * rate * dt / kg
+    assert tank[0] == pytest.approx((kg + c) * a**frames - c, rel=1e-12)
+    # Continuous limit: m(t) = (M + c) exp(-(1 - f) r t / M) - c, within the Euler error.
+    assert tank[0] == pytest.approx((kg + c) * math.exp(-(1 - f) * rate * 60.0 / kg) - c,
+                                    rel=1e-4)
+    assert tank[0] > kg - rate * 60.0 + 0.05  # the regulated drain would leave 0.4 kg
+
+
 # -- outcomes -----------------------------------------------------------------------
 
 def _fly(*faults, extra=()):
@@ -410,7 +467,8 @@ def test_complete_with_degraded_figures():
     ('{kind="tracker_dropout", start_s=640, duration_s=60}',
      ("Mode 5:", "star lost", "(tracker dropout at 640.0 s)")),
     ('{kind="sun_sensor_blind", start_mode="3"}', ("Mode 3:", "Sun lost", "sun sensor blind")),
-    ('{kind="propellant_leak", rate_kg_s=0.01}', ("propellant exhausted", "propellant leak")),
+    ('{kind="propellant_leak", rate_kg_s=0.01, torque_n_m=[0, 0, 0]}',
+     ("propellant exhausted", "propellant leak")),
     ('{kind="gyro_dead", axis="yaw", start_mode="6-2"}',
      ("Mode 6-2:", "mode timeout", "yaw gyro dead")),
     ('{kind="jet_stuck_open", axis="roll", sign=1, start_mode="4"}',

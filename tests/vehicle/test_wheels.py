@@ -1,5 +1,6 @@
 """Reaction wheels: the gyrostat plant, torque distribution, unloading, missions on wheels."""
 
+import functools
 import math
 
 import control
@@ -371,13 +372,14 @@ def test_wheel_blocks_are_compiled_without_the_runtime():
     assert frame_loop.actuate_wheels.targetoptions["inline"] == "always"
 
 
-def _wheel_leg_allocations(frames):
+def _wheel_leg_allocations(frames, allocation):
     from numba.core.runtime import rtsys
 
     from allsky.sequencer import legs
     from allsky.sim import frame_loop, recorder
 
-    m = Mission(load_scenario(overrides=WHEELS), telemetry=False)
+    m = Mission(load_scenario(overrides=[*WHEELS, f'wheels.allocation="{allocation}"']),
+                telemetry=False)
     leg = legs.Leg(1, 1.0, legs.PROGRAM_MODE1, legs.WATCH_ELAPSED, 0, 0, 0, frames,
                    clock.NEVER)
     args = (np.empty((0, recorder.N_TLM)), np.zeros(1, dtype=np.int64),
@@ -389,14 +391,16 @@ def _wheel_leg_allocations(frames):
 
 
 @needs_jit
-def test_a_wheel_leg_allocates_the_same_for_10_and_10000_frames():
+@pytest.mark.parametrize("allocation", ["pseudo_inverse", "direct"])
+def test_a_wheel_leg_allocates_the_same_for_10_and_10000_frames(allocation):
     from numba.core.runtime import _nrt_python
 
     was_on = _nrt_python.memsys_stats_enabled()
     _nrt_python.memsys_enable_stats()
     try:
-        _wheel_leg_allocations(1)
-        assert _wheel_leg_allocations(10) == _wheel_leg_allocations(10_000)
+        _wheel_leg_allocations(1, allocation)
+        assert (_wheel_leg_allocations(10, allocation)
+                == _wheel_leg_allocations(10_000, allocation))
     finally:
         if not was_on:
             _nrt_python.memsys_disable_stats()
@@ -455,12 +459,18 @@ def _array_params(name, allocation):
                     f'wheels.allocation="{allocation}"'])
 
 
+@functools.cache
+def _jets_params():
+    from allsky.sim.mission import build_params
+
+    return build_params(load_scenario()).jets
+
+
 def _delivered(p, command_n_m):
     """The body torque of the wheels for a command, through frame_loop.actuate_wheels."""
     from allsky.sim.frame_loop import actuate_wheels
-    from allsky.sim.mission import build_params
 
-    jets_p = build_params(load_scenario()).jets
+    jets_p = _jets_params()
     n = p.axes.shape[0]
     volts = np.asarray(command_n_m) / p.torque_per_volt_n_m_v
     u, hb, hdot = np.zeros(n), np.zeros(3), np.zeros(3)
@@ -498,14 +508,15 @@ def test_direct_allocation_delivers_the_inscribed_radius_in_every_direction(name
 @pytest.mark.parametrize("name", sorted(ARRAYS))
 def test_direct_allocation_reaches_the_boundary_beyond_it(name):
     """Twice the envelope's reach along a direction: delivered is the boundary point,
-    the direction kept (1e-9 N m); the zonotope's reach along the body axes too."""
+    the direction kept (1e-9 N m), wherever the command stays inside the envelope's box
+    (the extent along each body axis, beyond every axis's reach on a skew array); the
+    zonotope's reach along the body axes too."""
     p = _array_params(name, "direct")
     env = make_envelope(p.axes, p.max_torque_n_m)
     rng = np.random.default_rng(8)
     for d in _directions(p, rng)[:60]:
         reach = env.max_along(d)
-        # Only where no body axis is clipped to its own reach first.
-        if np.any(np.abs(2 * reach * d) > p.axis_reach_n_m):
+        if np.any(np.abs(2 * reach * d) > p.axis_support_n_m):
             continue
         got, _ = _delivered(p, 2 * reach * d)
         assert np.linalg.norm(got - reach * d) < 1e-9
@@ -513,6 +524,101 @@ def test_direct_allocation_reaches_the_boundary_beyond_it(name):
         e = np.zeros(3)
         e[a] = p.axis_reach_n_m[a]
         assert np.linalg.norm(_delivered(p, e)[0] - e) < 1e-9
+
+
+def _lp_reach(axes, limits, direction):
+    """The largest torque along ``direction`` [N m], by linear programming (HiGHS simplex).
+
+    Maximise ``s`` over ``abs(c_i) <= 1`` with ``sum_i c_i L_i g_i = s d``: independent of
+    the envelope's facets and of the allocation's tables.
+    """
+    from scipy.optimize import linprog
+
+    n = len(limits)
+    a_eq = np.hstack([axes.T * limits, -np.asarray(direction)[:, None]])
+    cost = np.zeros(n + 1)
+    cost[-1] = -1.0
+    res = linprog(cost, A_eq=a_eq, b_eq=np.zeros(3), bounds=[(-1.0, 1.0)] * n + [(0.0, None)],
+                  method="highs-ds")
+    assert res.status == 0
+    return res.x[-1]
+
+
+#: Redundant arrays the random ones never draw: a coplanar triple, parallel and antiparallel
+#: wheels with unequal limits (each pierced facet then holds more than two wheels, or an
+#: edge of it more than one).
+_R = math.sqrt(0.5)
+_S = 1.0 / math.sqrt(3.0)
+REDUNDANT = [
+    ([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 0], [_S, _S, _S]], [0.3, 0.5, 0.4, 0.1, 0.6]),
+    ([[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [_R, _R, 0]], [0.3, 0.5, 0.4, 0.9, 0.2]),
+    ([[1, 0, 0], [0, 1, 0], [0, 0, 1], [_R, _R, 0], [_R, -_R, 0], [0, _R, _R]],
+     [0.3, 0.5, 0.4, 0.9, 0.2, 0.7]),
+]
+
+
+def _random_array(rng):
+    n = int(rng.integers(4, 7))
+    axes = rng.normal(size=(n, 3))
+    return axes / np.linalg.norm(axes, axis=1)[:, None], rng.uniform(0.05, 1.0, n)
+
+
+def _allocated(p, command_n_m):
+    """The body torque of :func:`wheels.direct_allocation` alone (no per-axis limit)."""
+    u = np.zeros(p.axes.shape[0])
+    scale = wheels.direct_allocation(p, *np.asarray(command_n_m, dtype=float), u)
+    return -(p.axes.T @ (u * scale)), u * scale
+
+
+def _check_against_lp(axes, limits, directions, rng):
+    """Commands inside (0.3, 0.999, 1 of the LP reach) and beyond (1.001, 1.5, 10, 1000):
+    delivered ``min(k, 1)`` times the LP reach along the command's direction, to 1e-9
+    relative and 1e-9 rad, no wheel beyond its limit; by the allocation itself, and
+    through the loop's actuator stage for every command inside the envelope's box (the
+    stage limits each axis to it first)."""
+    axes, limits = np.asarray(axes, dtype=float), np.asarray(limits, dtype=float)
+    p = wheels.make_params(axes, limits, 1e6, 0.05, [1.0, 1.0, 1.0], 0.8, 0.1,
+                           [1.0, 1.0, 1.0], 5, allocation="direct")
+    worst_reach = worst_angle = 0.0
+    staged = 0
+    for _ in range(directions):
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        reach = _lp_reach(axes, limits, d)
+        for k in (0.3, 0.999, 1.0, 1.001, 1.5, 10.0, 1000.0):
+            command = k * reach * d
+            ways = [_allocated]
+            if np.all(np.abs(command) <= p.axis_support_n_m * (1 + 1e-12)):
+                ways.append(_delivered)
+                staged += 1
+            for way in ways:
+                got, u = way(p, command)
+                worst_reach = max(worst_reach,
+                                  abs(np.linalg.norm(got) / (min(k, 1.0) * reach) - 1))
+                worst_angle = max(worst_angle,
+                                  math.atan2(np.linalg.norm(np.cross(got, d)), got @ d))
+                assert np.all(np.abs(u) <= limits * (1 + 1e-12))
+    assert worst_reach < 1e-9
+    assert worst_angle < 1e-9
+    assert staged > 3 * directions  # every command inside the envelope, and more
+
+
+def test_direct_allocation_meets_the_lp_on_random_and_redundant_arrays():
+    """Four random arrays of 4-6 wheels (skew, unequal limits) and three redundant ones,
+    200 directions each (the whole campaign: the slow test below)."""
+    rng = np.random.default_rng(35)
+    for _ in range(4):
+        _check_against_lp(*_random_array(rng), 200, rng)
+    for axes, limits in REDUNDANT:
+        _check_against_lp(axes, limits, 200, rng)
+
+
+@pytest.mark.slow
+def test_direct_allocation_meets_the_lp_on_twenty_random_arrays():
+    """Twenty random arrays of 4-6 wheels, 2000 directions each."""
+    rng = np.random.default_rng(2035)
+    for _ in range(20):
+        _check_against_lp(*_random_array(rng), 2000, rng)
 
 
 def test_null_space_momentum_decays_without_turning_the_body():

@@ -692,9 +692,14 @@ def _config(cfg, args) -> int:
     if args.config_command == "show":
         print(cfg.to_toml(annotate=True), end="")
     else:
+        from allsky.sim.braking import handover_warning
+
         what = args.scenario or "the packaged default"
         sets = f" with {len(args.overrides)} --set" if args.overrides else ""
         print(f"ok: {what}{sets}")
+        braking = handover_warning(cfg)
+        if braking is not None:
+            print(f"warning: {braking}")
     return 0
 
 

@@ -355,13 +355,16 @@ def _ending(summary, journal, t_end_s) -> dict:
 def _warnings(summary, cfg) -> list:
     """The summary's warnings, each at the time it is about, from its journal."""
     from allsky.config.faults import describe
+    from allsky.sim.braking import flight_warning
     from allsky.sim.journal import Journal
     from allsky.sim.results import timed_warnings
 
     if not summary or "events" not in summary or "targets" not in summary:
         return []
-    return timed_warnings(summary, Journal(summary["events"]), describe,
-                          float(cfg.sequencer.settle_threshold_arcsec))
+    out = timed_warnings(summary, Journal(summary["events"]), describe,
+                         float(cfg.sequencer.settle_threshold_arcsec))
+    braking = flight_warning(cfg, cfg.jets.propellant_kg - summary["propellant_kg"])
+    return ([{"t_s": 0.0, "text": braking}] if braking is not None else []) + out
 
 
 def fault_boxes(fault) -> list:

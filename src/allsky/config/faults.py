@@ -31,8 +31,14 @@ The kinds (:data:`KINDS`) and the fields each needs:
 * ``counter_upset``: ``register`` (the numeral as a string: "13"-"18" up/down
   and drift counters, "25"-"27" storage registers) and ``bit`` (0 = least
   significant, below the word length): the bit flips once, at the onset;
-* ``propellant_leak``: ``rate_kg_s``; optional ``torque_n_m``, the body torque
-  [roll, pitch, yaw] the escaping gas gives while the tank leaks (none if absent).
+* ``propellant_leak``: ``rate_kg_s`` [kg/s], the flow at the initial tank
+  pressure (on a blow-down feed it follows the tank pressure, as the jets'
+  flow does); and either ``torque_n_m``, the body torque [roll, pitch, yaw]
+  the escaping gas gives at that pressure, or the vent it escapes from:
+  ``vent_position_m`` [m] (body axes, from the centre of mass) and
+  ``vent_direction`` (body axes, the way the gas leaves; normalised), the
+  gas then thrusting at the jets' exhaust speed ``jets.isp_s g0``. A leak
+  with neither is refused (naming ``torque_n_m``).
 
 ``start_s`` [s] (mission time) or ``start_mode`` (a mode name: the fault
 starts when that mode starts) gives the onset; neither means ``start_s =
@@ -90,6 +96,10 @@ SCALE_STEP_MAX_PPM = 1e6
 LEAK_MAX_KG_S = 1.0
 #: [N m] largest leak torque per axis (a leak of 1 kg/s at Isp 65 s thrusts 640 N).
 LEAK_TORQUE_MAX_N_M = 100.0
+#: [m] Largest distance of a leak's vent from the centre of mass, per body axis.
+VENT_MAX_M = 10.0
+#: The fields that give a leak's vent instead of its torque.
+VENT_KEYS = ("vent_position_m", "vent_direction")
 #: [mag] brightest and faintest glint a stray-light fault may give (the Sun is -26.7).
 GLINT_MAG_RANGE = (-30.0, 30.0)
 DISPERSION_DIST = "fault"
@@ -175,8 +185,18 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
             out[k] = number(in_closed(*GLINT_MAG_RANGE))(key, v)
         elif k == "rate_kg_s":
             out[k] = number(POSITIVE, in_closed(0, LEAK_MAX_KG_S))(key, v)
+        elif k == "vent_position_m":
+            out[k] = vector(3, in_closed(-VENT_MAX_M, VENT_MAX_M))(key, v)
+        elif k == "vent_direction":
+            d = vector(3)(key, v)
+            norm = xmath.hypot(xmath.hypot(d[0], d[1]), d[2])
+            if not norm > 0.0:
+                raise ConfigError(key, v, "must not be zero: the way the gas leaves the vent")
+            out[k] = tuple(float(x) / norm for x in d)
         else:  # every field of the vocabulary has a rule above (tests/config/test_config.py)
             raise AssertionError(f"fault field {k!r}: the vocabulary names it, no rule checks it")
+    if kind == "propellant_leak":
+        _leak_thrusts(where, out)
     if "start_s" in entry and "start_mode" in entry:
         raise ConfigError(where, rule="give start_s or start_mode, not both")
     if "start_mode" in entry:
@@ -188,6 +208,22 @@ def validate_fault(where: str, entry, values: Mapping) -> dict:
     if "duration_s" in entry:
         out["duration_s"] = number(POSITIVE)(f"{where}.duration_s", entry["duration_s"])
     return out
+
+
+def _leak_thrusts(where, out):
+    """A leak's gas turns the vehicle: its torque is given, or its vent is (not both)."""
+    vent = [k for k in VENT_KEYS if k in out]
+    if "torque_n_m" in out and vent:
+        raise ConfigError(f"{where}.{vent[0]}", rule="give the leak's torque_n_m or its vent "
+                          f"({' and '.join(VENT_KEYS)}), not both")
+    if "torque_n_m" not in out and len(vent) < 2:
+        if vent:
+            missing = next(k for k in VENT_KEYS if k not in out)
+            raise ConfigError(f"{where}.{missing}", rule=f"missing: a leak's vent needs both "
+                              f"{' and '.join(VENT_KEYS)}")
+        raise ConfigError(f"{where}.torque_n_m", rule="missing: the escaping gas thrusts (at "
+                          "the jets' exhaust speed, 5 g/s about 3.2 N): give the leak's body "
+                          "torque, or its vent (" + " and ".join(VENT_KEYS) + ")")
 
 
 def _starts_in_time(key, start_s, values):
@@ -337,7 +373,12 @@ def describe(fault: Mapping) -> str:
         "counter_upset": f"bit {fault.get('bit', 0)} of {fault.get('register', '')} upset",
         "propellant_leak": (f"propellant leak {fault.get('rate_kg_s', 0):g} kg/s"
                             + (" with torque [" + ", ".join(f"{t:g}" for t in fault["torque_n_m"])
-                               + "] N m" if "torque_n_m" in fault else "")),
+                               + "] N m" if "torque_n_m" in fault else "")
+                            + (" venting at [" + ", ".join(f"{t:g}" for t in
+                                                            fault["vent_position_m"])
+                               + "] m along [" + ", ".join(f"{t:.3g}" for t in
+                                                            fault["vent_direction"]) + "]"
+                               if "vent_position_m" in fault else "")),
     }[kind]
 
 

@@ -152,6 +152,9 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
         magnitude[i] = f.get("magnitude", np.nan)
         jets[i] = f.get("jets", 2)
         torque[i] = f.get("torque_n_m", (0.0, 0.0, 0.0))
+        if "vent_position_m" in f:
+            torque[i] = vent_torque_n_m(f["rate_kg_s"], cfg.jets.isp_s, f["vent_position_m"],
+                                        f["vent_direction"])
     extra = [s for s in wrong_stars(faults) if s not in window_names]
     if extra:
         stars = np.vstack([tracker.stars_inertial.reshape(-1, 3),
@@ -162,6 +165,23 @@ def compile_faults(cfg, tracker: StarTrackerParams, window_names, star_direction
                                    magnitudes=np.ascontiguousarray(mags))
     return FaultParams(n, kind, axis, sign, duration, size, word, bit, width, magnitude, jets,
                        torque, tracker)
+
+
+def vent_torque_n_m(rate_kg_s, isp_s, vent_position_m, vent_direction):
+    """The body torque [N m] of gas leaving a vent at the jets' exhaust speed.
+
+    The gas leaves at ``rate_kg_s`` [kg/s] along the unit ``vent_direction``
+    (body axes) with the exhaust speed ``isp_s g0`` [m/s] (``isp_s`` [s], the
+    jets' specific impulse, ``jets.isp_s``); the vehicle feels
+    the opposite thrust ``F = -rate v_e d`` at ``vent_position_m`` [m] from
+    the centre of mass, the torque ``r x F``. (The thrust's force moves the
+    centre of mass; the emulator has no translation, so only the torque
+    acts.) Values at the initial tank pressure.
+    """
+    f = -float(rate_kg_s) * float(isp_s) * units.G0_M_S2 * np.asarray(vent_direction, float)
+    r = np.asarray(vent_position_m, dtype=float)
+    return np.array([r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2],
+                     r[0] * f[1] - r[1] * f[0]])
 
 
 def arm(fault_state, faults, ck) -> None:
@@ -470,7 +490,8 @@ def fault_actuate(fp, fault_state, frame, jets_p, dt_s, valve, propellant_kg, to
     of it stuck open (``jets`` 1) gives half the couple's torque and flow,
     so that the opposite couple, commanded, still brakes at half its torque.
     A couple failed off gives no torque and uses no gas when commanded. A
-    leak drains the tank and, if given, turns the vehicle. ``feed`` is the
+    leak drains the tank and turns the vehicle, both in proportion to the
+    feed pressure, as the jets' flow and thrust are. ``feed`` is the
     jets' thrust over its full-pressure value in this frame
     (:func:`allsky.hardware.jets.thrust_fraction` at the frame's start, 1 on
     a regulated feed): a stuck or failed jet's thrust and flow are the
@@ -511,10 +532,10 @@ def fault_actuate(fp, fault_state, frame, jets_p, dt_s, valve, propellant_kg, to
         elif k == JET_FAILED_OFF and valve[a] == fp.sign[i]:
             torque[a] -= fp.sign[i] * jets_p.torque_n_m[a] * feed
             propellant_kg[0] += jets_p.flow_kg_s[a] * dt_s * feed
-        elif k == PROPELLANT_LEAK:
-            propellant_kg[0] -= fp.size[i] * dt_s
+        elif k == PROPELLANT_LEAK:  # the flow and its thrust follow the feed pressure
+            propellant_kg[0] -= fp.size[i] * dt_s * feed
             for j in range(3):
-                torque[j] += fp.torque_n_m[i, j]
+                torque[j] += fp.torque_n_m[i, j] * feed
     if propellant_kg[0] <= 0.0:
         propellant_kg[0] = 0.0
         return False

@@ -40,6 +40,7 @@ from allsky.sequencer.watch import sensors_in_use
 from allsky.sim import board, frame_loop, journal, results
 from allsky.sim import faults as sim_faults
 from allsky.sim import state as sim_state
+from allsky.sim.braking import flight_warning
 from allsky.sim.telemetry import COLUMNS, INDEX
 from allsky.vehicle import plant, quaternion, sky, wheels
 from allsky.vocabulary import AXES
@@ -1071,6 +1072,9 @@ class Mission:
             out["wheels"] = self.wheel_summary()
         out["warnings"] = results.warnings(out, self.journal, fault_config.describe,
                                            self.params.sequencer.settle_threshold_arcsec)
+        braking = flight_warning(self.cfg, self.state.propellant_kg[0])
+        if braking is not None:  # the scenario's, before any time: first
+            out["warnings"].insert(0, braking)
         out["events"] = [dict(e) for e in self.journal.events]
         return out
 

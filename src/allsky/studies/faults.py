@@ -34,7 +34,10 @@ MATRIX_FAULTS = {
     "tracker_stray_light": {"offset_deg": 1.5, "duration_s": 30.0},
     "wrong_star": {"star": "Avior"},
     "counter_upset": {"register": "14", "bit": 12},
-    "propellant_leak": {"rate_kg_s": 0.005},
+    # At the pitch jets' end of the vehicle (1.25 m along +z), the gas leaving along +x:
+    # 5 g/s at 637 m/s thrusts 3.19 N, -3.98 N m about pitch (the pitch couple gives 1.25).
+    "propellant_leak": {"rate_kg_s": 0.005, "vent_position_m": [0.0, 0.0, 1.25],
+                        "vent_direction": [1.0, 0.0, 0.0]},
 }
 #: The modes a fault starts in, by default: the patent's.
 MATRIX_MODES = MODES

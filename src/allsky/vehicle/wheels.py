@@ -28,21 +28,27 @@ default pyramid leaves 0.667 N m of the envelope's 0.816 N m inscribed
 radius in the worst direction (its own polytope,
 :func:`pseudo_inverse_envelope`).
 
-``wheels.allocation = "direct"`` reaches the whole envelope. Whenever the
-minimum-norm torques would exceed a limit, the command is instead
-allocated where its ray leaves the zonotope (direct allocation, Durham,
-J. Guidance Control Dyn. 16(4), 1993; for three moments it is the
-l-infinity-optimal allocation): the facet ``f`` whose normal maximises the
-gauge ``g = n_f . tau / h(n_f)`` is pierced; the wheels off its plane run
-at ``sign(n_f . g_i) g L_i``, the two (or more) in its plane share the
-rest exactly, ``u = M_f tau + g w_f`` with ``M_f`` and ``w_f`` built per
-array by :func:`make_params` (no allocation in the loop). For ``g <= 1``
-the torque is delivered with no wheel beyond ``g`` of its limit (the least
+``wheels.allocation = "direct"`` reaches the whole envelope. Its command
+is limited per body axis only to the envelope's extent along that axis
+(its bounding box, ``sum_i L_i abs(g_ia)``), which cuts no torque the
+envelope holds and still keeps a turn commanded far beyond the wheels'
+authority from starving the held axes. Whenever the minimum-norm torques
+would then exceed a limit, the command is allocated where its ray leaves
+the zonotope (direct allocation, Durham, J. Guidance Control Dyn. 16(4),
+1993): the facet whose normal maximises the gauge ``g = n_f . tau /
+h(n_f)`` is pierced; the wheels off its plane run at ``sign(n_f . g_i) g
+L_i``; the rest of the torque lies in the facet's plane, and the same rule
+one dimension down (the facet's zonogon, its edge of the largest gauge)
+sets the in-plane wheels off that edge, the wheels along the edge sharing
+what is left in proportion to their limits. The tables are built per array
+by :func:`direct_tables` (no allocation in the loop), for any array: skew,
+coplanar sets, parallel wheels, unequal limits. For ``g <= 1`` the torque
+is delivered exactly with no wheel beyond ``g`` of its limit (the least
 possible); beyond the envelope the command is scaled by ``1/g`` onto its
-boundary, keeping its direction. Such torques are not in the row space of
-``A``: the wheels then store momentum in the array's null space, which
-turns no body but uses the wheels' momentum room. *Null-space momentum
-management* returns it: every frame the wheels also get
+boundary, the largest torque along its direction. Such torques are not in
+the row space of ``A``: the wheels then store momentum in the array's null
+space, which turns no body but uses the wheels' momentum room. *Null-space
+momentum management* returns it: every frame the wheels also get
 ``-(I - A+ A) h / T`` (:data:`NULL_SPACE_TIME_S`), as much of it as the
 torque room left allows; it changes no body torque (``A (I - A+ A) = 0``).
 
@@ -70,7 +76,7 @@ from typing import NamedTuple
 import numpy as np
 
 from allsky.jit import njit, njit_stage
-from allsky.vehicle.envelopes import make_envelope
+from allsky.vehicle.envelopes import PLANE_TOL, make_envelope
 
 #: The frame loop's actuator codes (``Params.actuator``).
 ACTUATOR_JETS = 0
@@ -101,14 +107,20 @@ class WheelParams(NamedTuple):
     inertia_kg_m2: np.ndarray  #: (n,) [kg m^2] spin-axis inertia per wheel
     torque_per_volt_n_m_v: np.ndarray  #: (3,) [N m/V] amplifier output -> body torque command
     axis_reach_n_m: np.ndarray  #: (3,) [N m] the array's largest torque along body x, y, z
+    axis_support_n_m: np.ndarray  #: (3,) [N m] the envelope's extent along x, y, z (its box)
     unload_start_fraction: float  #: [-] unloading starts at this fraction of a wheel's limit
     unload_deadband_n_m_s: float  #: [N m s] a body axis stops unloading inside this
     unload_pulse_frames: int  #: [frames] length of one unloading pulse (the valve minimum)
     unload_period_frames: np.ndarray  #: (3,) int64 [frames] from pulse to pulse, per axis
     allocation: int  #: :data:`ALLOCATION_CODE` of ``wheels.allocation``
     facet_gauge: np.ndarray  #: (m, 3) [1/(N m)] facet normal / offset, every torque facet
-    facet_solve: np.ndarray  #: (m, n, 3) [-] M_f: the in-plane wheels' share of the command
-    facet_corner: np.ndarray  #: (m, n) [N m] w_f: the allocation per unit gauge on facet f
+    facet_sign: np.ndarray  #: (m, n) [N m] off-plane wheels' torque per unit gauge on facet f
+    facet_corner: np.ndarray  #: (m, 3) [N m] their body torque per unit gauge, A facet_sign
+    edge_gauge: np.ndarray  #: (m, e, 3) [1/(N m)] in-plane edge normal / offset, per facet
+    edge_sign: np.ndarray  #: (m, e, n) [N m] in-plane wheels off edge e, per unit gauge
+    edge_corner: np.ndarray  #: (m, e, 3) [N m] their body torque per unit gauge
+    edge_axis: np.ndarray  #: (m, e, 3) [-] unit direction of edge e (one of its axes)
+    edge_share: np.ndarray  #: (m, e, n) [-] each on-edge wheel's share of the torque along it
     null_projector: np.ndarray  #: (n, n) [-] I - A+ A, onto the array's null space
     null_rate_per_s: float  #: [1/s] 1 / NULL_SPACE_TIME_S
 
@@ -132,34 +144,74 @@ def pseudo_inverse(axes) -> np.ndarray:
 
 
 def direct_tables(axes, max_torque_n_m):
-    """The direct allocation's tables of an array: gauge rows, M_f and w_f per facet.
+    """The direct allocation's tables of an array, one row per torque facet.
 
-    For facet ``f`` (normal ``n``, offset ``h``) of the torque envelope:
-    the gauge row ``n / h``; ``s_i = sign(n . g_i) L_i`` for the wheels off
-    its plane (0 in it); ``M_f`` (n, 3) the minimum-norm inverse of the
-    in-plane wheels' axes scaled by their limits, ``L_P pinv(A_P L_P)``,
-    on their rows (exact for the two in-plane wheels of a generic array);
-    ``w_f = s - M_f A s``. A torque ``tau`` whose ray leaves through
-    facet ``f`` at gauge ``g`` is ``A (M_f tau + g w_f)``.
+    A facet ``f`` of the torque envelope (normal ``n``, offset ``h``) gives
+    the gauge row ``n / h``; the off-plane wheels' corner ``s_i = sign(n .
+    g_i) L_i`` (0 for the wheels in its plane) and its torque ``A s``. The
+    wheels in its plane span a zonogon (the facet itself, translated); each of
+    its edges ``e`` (in-plane normal ``m``, perpendicular to one set of
+    parallel in-plane axes, offset ``k = sum over the plane of L_i abs(m .
+    g_i)``) gives the gauge row ``m / k``, the corner ``sign(m . g_i) L_i``
+    of the in-plane wheels off the edge and its torque, the edge's unit
+    direction ``d`` (one of its axes) and the share ``sign(d . g_i) L_i /
+    sum L`` of each wheel along it. A torque ``tau`` whose ray leaves
+    through facet ``f`` at gauge ``g``, and whose in-plane rest ``r = tau - g
+    A s`` leaves the zonogon through edge ``e`` at gauge ``g2 <= g``, is
+    ``A u`` with ``u = g s + g2 s_e + (d . (r - g2 A s_e)) share_e``: exact,
+    and no wheel beyond ``g`` of its limit. With no three axes coplanar and
+    none parallel a facet has two wheels in its plane and four edges; a
+    coplanar set or parallel wheels give more, shorter rows are padded with
+    zero (their gauge 0 never beats a real edge's, which is positive for one
+    of each opposite pair).
 
     ``axes`` holds the unit spin axes, one row per wheel (body axes), and
     ``max_torque_n_m`` [N m] the motor torque limit ``L_i`` of each wheel.
+    Returns the arrays of :class:`WheelParams` ``facet_gauge`` ...
+    ``edge_share``, in that order.
     """
     env = make_envelope(axes, max_torque_n_m)
     g = env.axes
     lim = env.limits
     m, n = len(env.offsets), len(lim)
-    gauge = env.normals / env.offsets[:, None]
-    solve = np.zeros((m, n, 3))
-    corner = np.zeros((m, n))
+    edges = []  # per facet: (normal m, offset k, corner, unit direction, share)
     for f in range(m):
+        normal = env.normals[f]
         plane = list(env.facet_axes[f])
-        s = np.sign(g @ env.normals[f]) * lim
-        s[plane] = 0.0
-        ap = g[plane].T * lim[plane]  # (3, k) in-plane generators
-        solve[f, plane, :] = lim[plane][:, None] * np.linalg.pinv(ap)
-        corner[f] = s - solve[f] @ (g.T @ s)
-    return gauge, solve, corner
+        reps = []  # one axis of each set of parallel axes in the plane: the same edges
+        for q in plane:
+            if all(np.linalg.norm(np.cross(g[q], g[r])) > PLANE_TOL for r in reps):
+                reps.append(q)
+        facet_edges = []
+        for q in reps:
+            side = np.cross(normal, g[q])
+            side /= np.linalg.norm(side)
+            on = [i for i in plane if abs(side @ g[i]) <= PLANE_TOL]
+            off = [i for i in plane if i not in on]
+            share = np.zeros(n)
+            share[on] = np.sign(g[on] @ g[q]) * lim[on] / lim[on].sum()
+            for sgn in (1.0, -1.0):
+                mm = sgn * side
+                corner = np.zeros(n)
+                corner[off] = np.sign(g[off] @ mm) * lim[off]
+                offset = float(np.abs(g[plane] @ mm) @ lim[plane])
+                facet_edges.append((mm / offset, corner, g[q], share))
+        edges.append(facet_edges)
+    e_max = max(len(e) for e in edges)
+    gauge = env.normals / env.offsets[:, None]
+    sign = np.sign(env.normals @ g.T) * lim
+    for f in range(m):
+        sign[f, list(env.facet_axes[f])] = 0.0
+    corner = sign @ g
+    edge_gauge, edge_corner = np.zeros((m, e_max, 3)), np.zeros((m, e_max, 3))
+    edge_sign, edge_axis = np.zeros((m, e_max, n)), np.zeros((m, e_max, 3))
+    edge_share = np.zeros((m, e_max, n))
+    for f, facet_edges in enumerate(edges):
+        for e, (row, s, d, share) in enumerate(facet_edges):
+            edge_gauge[f, e], edge_sign[f, e], edge_axis[f, e] = row, s, d
+            edge_corner[f, e] = s @ g
+            edge_share[f, e] = share
+    return gauge, sign, corner, edge_gauge, edge_sign, edge_corner, edge_axis, edge_share
 
 
 def pseudo_inverse_envelope(axes, max_torque_n_m):
@@ -220,11 +272,11 @@ def make_params(axes, max_torque_n_m, max_momentum_n_m_s, inertia_kg_m2,
     period = np.array([max(pulses + 1, math.ceil(jet[a] * pulses
                                                   / (UNLOAD_TORQUE_SHARE * reach[a])))
                        for a in range(3)], dtype=np.int64)
-    gauge, solve, corner = direct_tables(g, torque)
     return WheelParams(g, pinv, torque, momentum, per_wheel(inertia_kg_m2, n),
                        np.asarray(torque_per_volt_n_m_v, dtype=float).copy(),
-                       np.array(reach, dtype=float), float(unload_fraction), deadband, pulses,
-                       period, ALLOCATION_CODE[allocation], gauge, solve, corner,
+                       np.array(reach, dtype=float), np.abs(g).T @ torque,
+                       float(unload_fraction), deadband, pulses,
+                       period, ALLOCATION_CODE[allocation], *direct_tables(g, torque),
                        np.eye(n) - pinv @ g.T, 1.0 / NULL_SPACE_TIME_S)
 
 
@@ -286,10 +338,14 @@ def distribute(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
 def distribute_direct(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
     """:func:`distribute` with ``wheels.allocation = "direct"``.
 
-    The same limits and scaling, but where the minimum-norm torques would
-    exceed a limit the command is allocated directly on the envelope
-    (:func:`direct_allocation`), and the null-space momentum is managed
-    (:func:`null_space_momentum`). Returns the scale.
+    Each component of the command is limited to the envelope's extent along
+    its axis (``axis_support_n_m``, the envelope's box: no torque inside the
+    envelope is touched); where the minimum-norm torques would then exceed a
+    limit it is allocated directly on the envelope
+    (:func:`direct_allocation`), delivered exactly inside the envelope and,
+    beyond it, as the largest torque along its direction. The momentum room
+    scales it as in :func:`distribute`, and the null-space momentum is
+    managed (:func:`null_space_momentum`). Returns the scale.
 
     Parameters
     ----------
@@ -305,7 +361,7 @@ def distribute_direct(p, torque_body_n_m, h_n_m_s, dt_s, u_n_m):
         [N m] written: the motor torques.
     """
     n = p.axes.shape[0]
-    r = p.axis_reach_n_m
+    r = p.axis_support_n_m
     tx = min(max(torque_body_n_m[0], -r[0]), r[0])
     ty = min(max(torque_body_n_m[1], -r[1]), r[1])
     tz = min(max(torque_body_n_m[2], -r[2]), r[2])
@@ -335,15 +391,21 @@ def direct_allocation(p, tx, ty, tz, u_n_m):
 
     The motor torques go into ``u_n_m``.
 
-    The facet the torque's ray leaves through is the one of the largest
-    gauge ``g``; ``u = -(M_f tau + g w_f)`` delivers ``tau`` exactly (``-A u``).
-    Returns 1 inside the envelope, ``1/g`` beyond it (``u`` then exceeds
-    the limits by ``g``, and the caller's scaling puts it on the boundary).
+    The facet the torque's ray leaves the envelope through is the one of the
+    largest gauge ``g`` (the envelope's gauge function: ``tau / g`` is on
+    its boundary); the wheels off its plane run at ``g`` times their corner.
+    The rest lies in the facet's plane, and its ray leaves the facet's
+    zonogon through the edge of the largest in-plane gauge ``g2 <= g``: the
+    in-plane wheels off that edge run at ``g2`` times theirs, and the
+    wheels along the edge share what is left, each in proportion to its
+    limit (:func:`direct_tables`). ``-A u`` is then ``tau`` to rounding,
+    with no wheel beyond ``g`` of its limit. Returns 1 inside the envelope,
+    ``1/g`` beyond it (``u`` then exceeds the limits by ``g``, and the
+    caller's scaling puts the torque on the boundary, along its direction).
 
     ``p`` is the wheel array (:class:`WheelParams`, its facet tables);
-    ``tx``, ``ty``, ``tz`` [N m] the body torque commanded about body x, y, z
-    (already limited to the axes' reach); ``u_n_m`` (n) receives the motor
-    torques [N m].
+    ``tx``, ``ty``, ``tz`` [N m] the body torque commanded about body x, y, z;
+    ``u_n_m`` (n) receives the motor torques [N m].
     """
     best, f = -1.0, 0
     for k in range(p.facet_gauge.shape[0]):
@@ -351,9 +413,22 @@ def direct_allocation(p, tx, ty, tz, u_n_m):
         if v > best:
             best, f = v, k
     g = max(best, 0.0)
+    rx = tx - g * p.facet_corner[f, 0]
+    ry = ty - g * p.facet_corner[f, 1]
+    rz = tz - g * p.facet_corner[f, 2]
+    best, e = -1.0, 0
+    for k in range(p.edge_gauge.shape[1]):
+        row = p.edge_gauge[f, k]
+        v = row[0] * rx + row[1] * ry + row[2] * rz
+        if v > best:
+            best, e = v, k
+    g2 = max(best, 0.0)
+    c = p.edge_corner[f, e]
+    d = p.edge_axis[f, e]
+    along = (d[0] * (rx - g2 * c[0]) + d[1] * (ry - g2 * c[1]) + d[2] * (rz - g2 * c[2]))
     for i in range(p.axes.shape[0]):
-        m = p.facet_solve[f, i]
-        u_n_m[i] = -(m[0] * tx + m[1] * ty + m[2] * tz + g * p.facet_corner[f, i])
+        u_n_m[i] = -(g * p.facet_sign[f, i] + g2 * p.edge_sign[f, e, i]
+                     + along * p.edge_share[f, e, i])
     return 1.0 / g if g > 1.0 else 1.0
 
 

@@ -190,6 +190,8 @@
     bit: { label: "bit", number: true, integer: true },
     rate_kg_s: { label: "rate [kg/s]", number: true },
     torque_n_m: { label: "torque roll,pitch,yaw [N m]", vector: true },
+    vent_position_m: { label: "vent at x,y,z [m]", vector: true },
+    vent_direction: { label: "vent direction x,y,z", vector: true },
   };
   let GROUND = null, controlsBuilt = false;
 

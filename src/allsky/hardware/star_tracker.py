@@ -32,7 +32,12 @@ from the catalog). The tracker has a memory, ``lock`` (:func:`new_lock`):
   the search goes on. Mariner 4's operators told Canopus from other objects
   by brightness and cone angle in the same way. The check is armed only
   while the roll axis is held on the Sun (``cone_armed``), where the pitch
-  output is the cone angle.
+  output is the cone angle. A star locked while the check was not armed (a
+  star Mode 1 meets on its way to the Sun, carried into Mode 2) is judged
+  the first frame the check is armed with the Sun on the roll axis (the sun
+  sensor's pitch error under a tenth of the check, ``sun_pitch_arcsec``):
+  before the loop uses it. Refused, it is dropped and remembered as any
+  refusal, and the search goes on.
 
 "Star present" flags a lock, and the tracker tells which star it holds
 (its index in ``stars_inertial``): the programmed angles assume a planned
@@ -57,6 +62,10 @@ NONE = -1
 #: Stars the cone-angle check remembers as refused at once (a slit +-16 x +-8 deg rarely
 #: holds more than two window stars; a fifth refusal replaces the first).
 N_REFUSED = 4
+#: A lock carried into an armed check is judged once the sun sensor's pitch error is under
+#: this fraction of the check: the roll axis on the Sun, where the pitch output is the cone
+#: angle to within a tenth of the check.
+SETTLED_FRACTION = 0.1
 # Entries of the tracker's memory ``lock`` (State.tracker_lock), all float64.
 HELD = 0  #: the target held: a star's index, NONE, or FALSE_TARGET (a glint)
 REFUSED = 1  #: N_REFUSED slots: stars refused by the cone-angle check, still in the field
@@ -66,7 +75,10 @@ GATE = REFUSED_CONE_ARCSEC + 1  #: 1.0 while the light in the slit exceeds the b
 DROPPED = GATE + 1  #: the target the bright gate last took the lock from
 NEW_DROP = DROPPED + 1  #: the target the bright gate took the lock from in this frame (NONE)
 SEEN_MAG = NEW_DROP + 1  #: [mag] the light in the slit when the gate took the lock
-N_LOCK = SEEN_MAG + 1
+#: 1.0 once the target held has been judged by an armed cone-angle check (0.0: locked while
+#: the check was not armed, or no check); a lock not yet judged is judged when next armed
+CHECKED = SEEN_MAG + 1
+N_LOCK = CHECKED + 1
 
 
 class StarTrackerParams(NamedTuple):
@@ -128,6 +140,7 @@ def new_lock() -> np.ndarray:
     lock[GATE] = 0.0
     lock[REFUSED_CONE_ARCSEC] = 0.0
     lock[SEEN_MAG] = 0.0
+    lock[CHECKED] = 0.0
     return lock
 
 
@@ -167,7 +180,7 @@ def _sight(p, r0, r1, r2, k):
 
 
 @njit_stage
-def star_tracker(p, q, lock, out, rng, cone_armed=True):
+def star_tracker(p, q, lock, out, rng, cone_armed=True, sun_pitch_arcsec=0.0):
     """Outputs of star tracker 105 for attitude ``q``, written into ``out``.
 
     ``out = [yaw_arcsec, pitch_arcsec, present]``; ``lock`` is the tracker's
@@ -178,7 +191,10 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
     sensor's pitch to control amplifier 32). Returns the index of the
     tracked star in ``p.stars_inertial``, -1 when it holds none, and
     :data:`FALSE_TARGET` while it holds a glint (whose outputs the fault
-    that makes it writes, :func:`allsky.sim.faults.fault_sense`).
+    that makes it writes, :func:`allsky.sim.faults.fault_sense`). A held
+    star the armed check has not judged (``lock[CHECKED]``) is judged once
+    the sun sensor's pitch error ``sun_pitch_arcsec`` [arcsec] is under a
+    tenth of the check (:data:`SETTLED_FRACTION`).
 
     ``p`` is the tracker (:class:`StarTrackerParams`: slit, noise, the window's
     stars); ``rng`` the (1,) uint64 noise generator state (``allsky.gauss``),
@@ -208,6 +224,14 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
         return FALSE_TARGET
     if 0 <= held < n:
         inside, yaw, pitch = _sight(p, r0, r1, r2, held)
+        if inside and check_rad > 0.0 and lock[CHECKED] == 0.0 \
+                and abs(sun_pitch_arcsec) < SETTLED_FRACTION * check_rad * RAD2ARCSEC:
+            # A lock made while the check was not armed, judged before the loop uses it.
+            if abs(pitch - p.reference_cone_rad) > check_rad:
+                refuse_now(lock, held, pitch * RAD2ARCSEC)
+                inside = False
+            else:
+                lock[CHECKED] = 1.0
         if inside:  # held: no other star is looked at (the same noise as a star found)
             out[0] = yaw * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
             out[1] = pitch * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
@@ -237,9 +261,10 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
             yaw_best = yaw
             pitch_best = pitch
             k_best = k
-    if refuse >= 0:  # one refusal a frame, remembered and told to the journal
+    if refuse >= 0 and lock[NEW_REFUSAL] == NONE:  # one refusal a frame, remembered, told
         refuse_now(lock, refuse, refuse_pitch * RAD2ARCSEC)
     lock[HELD] = k_best
+    lock[CHECKED] = 1.0 if check_rad > 0.0 else 0.0
     if k_best < 0:
         out[0] = 0.0
         out[1] = 0.0

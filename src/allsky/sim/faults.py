@@ -298,12 +298,14 @@ def _glint_refused(tracker_p, lock, cone_armed):
     """Whether the cone-angle check refuses a glint (its cone angle, pitch output, is 0).
 
     Only while the check is armed (``cone_armed``: the roll axis on the Sun).
-    The refusal is remembered and flagged once, as a star's is.
+    The refusal is remembered and flagged once, as a star's is (in the next
+    frame if a star was refused in this one).
     """
     if not cone_armed or tracker_p.cone_check_rad <= 0.0 \
             or abs(tracker_p.reference_cone_rad) <= tracker_p.cone_check_rad:
         return False
-    if not st.refused(lock, FALSE_TARGET):
+    # One refusal a frame: a star's refused in this frame leaves the glint's to the next.
+    if not st.refused(lock, FALSE_TARGET) and lock[st.NEW_REFUSAL] == st.NONE:
         st.refuse_now(lock, FALSE_TARGET, 0.0)
     return True
 

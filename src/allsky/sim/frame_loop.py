@@ -454,7 +454,8 @@ def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias
     """
     rotate_to_body(x, sun_inertial, sun_b)
     sun_sensor(sun_p, sun_b, fine, rng)
-    star = star_tracker(tracker_p, x, tracker_lock, trk, rng, cone_armed)
+    star = star_tracker(tracker_p, x, tracker_lock, trk, rng, cone_armed,
+                        fine[0] if fine[2] != 0.0 else 1e9)
     gyro_output(gyro_p, dtheta_rad, dt_s, bias_rw_arcsec_s, gyro, step_bias, rng)
     return star
 

@@ -1161,6 +1161,9 @@ class Mission:
         # Copies, so that one snapshot can be resumed any number of times; the arrays
         # added since the format's first files stand for what an older file meant.
         arrays = {**newer_state_arrays(), **arrays}
+        lock = np.asarray(arrays["tracker_lock"], dtype=float)
+        if lock.shape[0] < star_tracker.N_LOCK:  # entries added since: as a new lock's
+            arrays["tracker_lock"] = np.concatenate([lock, star_tracker.new_lock()[lock.shape[0]:]])
         state = sim_state.State(**{k: np.array(arrays[k], copy=True)
                                    for k in sim_state.State._fields})
         cfg = scenario_from_dict(history["scenario"])

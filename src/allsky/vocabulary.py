@@ -188,12 +188,15 @@ EVENT_KINDS = (
                           "`active` (true at the onset, false at the end)"),
     EventKind("abort", 9, "`reason`"),
     EventKind("lock_rejected", 10, "`star` (the star, or `stray light`, the tracker found "
-                                   "in its slit and refused), `cone_angle_deg` (its position "
+                                   "in its slit and refused, or held from a lock made while "
+                                   "the check was not armed and refused before the loop used "
+                                   "it), `cone_angle_deg` (its position "
                                    "along the slit), `reference_cone_angle_deg` (the planned "
                                    "reference star's), `check_deg` "
                                    "(`star_tracker.cone_angle_check_deg`), `in_use`"),
     EventKind("lock_dropped", 11, "`star` (the star, or `stray light`, the tracker held), "
-                                  "`magnitude` (the light in its slit), `gate_magnitude` (the "
+                                  "`magnitude` (all the light in its slit: every star's and "
+                                  "glint's), `gate_magnitude` (the "
                                   "bright gate: the magnitude window's bright end), `in_use`"),
     EventKind("ground_command", 12, "`command` (its kind: one of the ground commands), the "
                                     "command's fields, `text` (in words); a `fault` command "

@@ -127,7 +127,7 @@ def build_params(cfg) -> sim_state.Params:
         st.fov_long_half_deg * units.DEG2RAD, st.fov_narrow_half_deg * units.DEG2RAD,
         float(st.noise_arcsec), stars_inertial, [s.magnitude for s in stars], (lo, hi),
         reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
-        bool(st.bright_gate))
+        bool(st.bright_gate), *gate_stars(cfg))
     el = cfg.electronics
     return sim_state.Params(
         frame_s=dt,
@@ -328,6 +328,20 @@ def reference_cone_deg(cfg) -> float:
     sun = sky.sun_direction_inertial(cfg.mission.date_utc)
     cos = xmath.dot3(sun, reference_star_inertial(cfg))
     return star_tracker.cone_angle_deg(math.degrees(xmath.acos(max(-1.0, min(1.0, cos)))))
+
+
+def gate_stars(cfg):
+    """``(directions, magnitudes)`` of every catalog star, whose light the bright gate counts.
+
+    One entry per star (its variant names are one), inside the magnitude
+    window or not, at the mission date; none without a gate
+    (``star_tracker.bright_gate`` false).
+    """
+    if not cfg.star_tracker.bright_gate:
+        return np.zeros((0, 3)), np.zeros(0)
+    stars = [sky.star(n, cfg.mission.date_utc) for n in sky.star_names()]
+    return (np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars]).reshape(-1, 3),
+            np.array([s.magnitude for s in stars]))
 
 
 def tracker_star_names(cfg) -> list:

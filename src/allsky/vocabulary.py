@@ -246,6 +246,10 @@ GROUND_COMMANDS = (
                 "held outside the new window is lost"),
     CommandKind("bright_gate", ("enabled",), (), "hardware",
                 "enable or disable star tracker 105's bright gate"),
+    CommandKind("step_on", (), (), "hardware",
+                "star tracker 105 lets go of the object it holds and ignores it until it has "
+                "left the slit, as the cone-angle check ignores a star it refused; the search "
+                "goes on (Mariner 4's star-hopping; with `reacquire` the roll searches again)"),
     CommandKind("target", (), ("star", "ra_deg", "dec_deg"), "sequencer",
                 "upload register 24's programmed angles for a new target (`star`, or "
                 "`ra_deg` and `dec_deg`): it replaces the target while the vehicle has not "

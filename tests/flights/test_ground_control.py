@@ -49,6 +49,33 @@ def test_each_historical_command_log_recovers_the_mission(scenario, log, overrid
     assert f"{end['true_pointing_error_arcsec']:.1f}″ off" in DOC
 
 
+def test_mariner_star_hopping_locks_wrong_objects_and_steps_on_to_canopus_by_command():
+    m, station = fly("mariner4-star-hopping", "mariner4-star-hopping.toml",
+                     ("star_tracker.cone_angle_check_deg=0",))
+    s = m.summary()
+    locks = [(e["t_s"], e["star"]) for e in s["events"]
+             if e["kind"] == "star_lock" and e["mode"] == "2" and e["star"]]
+    wrong = [k for _, k in locks if k != "Canopus"]
+    assert wrong == ["stray light", "Regulus"]  # two wrong objects locked ...
+    stepped = [c["t_s"] for c in station.log if c["kind"] == "step_on"]
+    assert [round(t, 1) for t in stepped] == [195.0, 222.0]  # ... each stepped over
+    assert [t for t, k in locks if k != "Canopus"] < stepped  # each locked before its step
+    assert locks[-1][1] == "Canopus" and locks[-1][0] > stepped[-1]
+    assert s["status"] == "complete" and s["locked_star"] == "Canopus" and not s["warnings"]
+    end = s["end"]
+    assert f"complete at {end['t_s']:.1f} s, {end['true_pointing_error_arcsec']:.1f}″ off" in DOC
+    for t, k in locks:
+        assert f"{k} at {t:.1f} s" in DOC or f"Canopus at {t:.1f} s" in DOC or \
+            f"Earth at {t:.1f} s" in DOC
+
+
+def test_step_on_needs_something_held():
+    cfg = load_scenario()
+    m = Mission(cfg)
+    with pytest.raises(commands.Refused, match="holds nothing"):
+        commands.fly_log(m, commands.validate_log([{"t_s": 0.0, "kind": "step_on"}], cfg))
+
+
 def test_the_classroom_walk_through(tmp_path):
     cfg = load_scenario()
     log = [{"t_s": 310.0, "kind": "fault", "fault_kind": "tracker_dropout", "duration_s": 20.0},

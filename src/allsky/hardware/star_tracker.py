@@ -328,12 +328,11 @@ def search_and_hold(p, q, lock, out, rng, cone_armed, sun_pitch_arcsec):
     r1 = (2.0 * (x * y - w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z + w * x))
     r2 = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z)
     # Refused stars are forgotten once they have left the field (a glint's, by its fault);
-    # only the cone-angle check refuses any.
-    if p.cone_check_rad > 0.0:
-        for j in range(N_REFUSED):
-            k = int(lock[REFUSED + j])
-            if k >= 0 and (k >= n or not _sight(p, r0, r1, r2, k)[0]):
-                lock[REFUSED + j] = NONE
+    # the cone-angle check refuses them, and the ground's step-on.
+    for j in range(N_REFUSED):
+        k = int(lock[REFUSED + j])
+        if k >= 0 and (k >= n or not _sight(p, r0, r1, r2, k)[0]):
+            lock[REFUSED + j] = NONE
     held = int(lock[HELD])
     if held == FALSE_TARGET:
         out[0] = 0.0

@@ -376,8 +376,8 @@ def fault_sense(fp, tracker_p, fault_state, frame, dt_s, dtheta_rad, fine, trk, 
                 glint_flux += xmath.exp10(-0.4 * m)
             take = (not bright or (star == -1 and tracker_p.window_bright_mag <= m
                                    <= tracker_p.window_faint_mag))
-            if star == FALSE_TARGET or (take and not _glint_refused(tracker_p, lock,
-                                                                    cone_armed)):
+            if star == FALSE_TARGET or (take and not st.refused(lock, FALSE_TARGET)
+                                        and not _glint_refused(tracker_p, lock, cone_armed)):
                 trk[0] = fp.size[i]
                 trk[1] = 0.0
                 trk[2] = 1.0

@@ -911,6 +911,27 @@ class Mission:
             self.target_log[-1] = new_target_record(cfg, self.target_index, start)
             self.state.target_inertial[:] = self.target_direction()
 
+    def held_object(self):
+        """Name of the object star tracker 105 holds now: a star, "stray light", or None."""
+        held = int(self.state.tracker_lock[star_tracker.HELD])
+        if held == star_tracker.FALSE_TARGET:
+            return "stray light"
+        return tracker_star_names(self.cfg)[held] if held >= 0 else None
+
+    def step_on(self) -> None:
+        """Star tracker 105 lets go of what it holds and ignores it until it leaves the slit.
+
+        The ground's ``step_on`` (:mod:`allsky.sim.commands`): the object is
+        remembered as the cone-angle check remembers a star it refused
+        (:func:`allsky.hardware.star_tracker.refuse_now`), so the search
+        passes it by; the journal's ``star_lock`` tells the lock's end.
+        """
+        lock = self.state.tracker_lock
+        held = lock[star_tracker.HELD]
+        _python(star_tracker.refuse_now)(lock, held, 0.0)
+        lock[star_tracker.NEW_REFUSAL] = star_tracker.NONE  # the ground's, not the check's
+        lock[star_tracker.HELD] = star_tracker.NONE
+
     def _carry_tracker(self, old_names, new_names) -> None:
         """Star tracker 105's memory, from the star list ``old_names`` to ``new_names``."""
         s = self.state

@@ -201,6 +201,9 @@ def test_mariner_star_hopping_refuses_the_glare_and_the_stars_until_canopus():
          "refuses Achernar, Fomalhaut, Deneb and Regulus",
          f"completes {s['target']['pointing_error_arcsec']:.1f}\" off", plain["abort_reason"])
     assert sky.star("Alderamin").magnitude > 1.64 and sky.star("Naos").magnitude > 1.64
+    # One star, one name: the catalog's 116 names are 108 stars.
+    assert len(sky.star_names()) == 108 and len(sky.star_names()) + len(sky.VARIANT_NAMES) == 116
+    says(HOPPING, "116 names (108 stars)", "(Fomalhaut/Formalhaut, Hadar/Agena, Adhara/Adara)")
     assert "Regor" not in sky.star_names() and "Gamma Velorum" not in sky.star_names()
 
 
@@ -273,6 +276,18 @@ def test_a_calibration_on_another_star_is_one_warning_naming_it():
         "Canopus" in w
     assert f"{stored:.4f} against the true {true:.4f}, {1e6 * (stored - true):+.0f} ppm" in w
     assert "\n" not in w
+
+
+def test_mariner_the_sourced_slit_is_an_assumption_the_card_measures():
+    """Mariner's 4 deg wide field: the roll's braking after the 2 deg hand-over overshoots it."""
+    cfg = load_scenario(HOPPING)
+    assert (cfg.star_tracker.fov_long_half_deg, cfg.star_tracker.fov_narrow_half_deg) == (16, 8)
+    for seed in range(1, 5):
+        _, s = fly(HOPPING, "star_tracker.fov_narrow_half_deg=2", f"mission.seed={seed}")
+        assert s["status"] == "aborted" and s["abort_reason"].startswith("Mode 2: star lost")
+    says(HOPPING, "about 11 deg × 4 deg", "seeds 1 to 4 lose Canopus in Mode 2",
+         "an 11 deg slit about the boresight could not do with Canopus at "
+         f"{cone_deg('Canopus', cfg.mission.date_utc):.1f} deg")
 
 
 def test_mariner_dust_glints_drop_the_lock_six_times_and_the_sixth_loses_the_star():

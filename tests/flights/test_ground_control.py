@@ -27,17 +27,18 @@ def fly(scenario, log, overrides=()):
 
 
 @pytest.mark.parametrize("scenario, log, overrides, acted_s, modes", [
-    ("mariner4-dust-glints", "mariner4-gate-off.toml", (), 905.0,
-     ["references", "1", "2", "5", "6-1", "6-2"]),
+    ("mariner4-dust-glints", "mariner4-gate-off.toml", (), [1900.0],
+     ["5", "6-1", "6-2"]),
     ("mariner4-star-hopping", "mariner4-step-on.toml",
-     ("star_tracker.cone_angle_check_deg=0",), 200.0, ["references", "1", "2", "3", "4"]),
-    ("voyager1-wrong-star", "voyager1-back-to-canopus.toml", (), 700.0,
+     ("star_tracker.cone_angle_check_deg=0",), [200.0, 200.0],
+     ["references", "1", "2", "3", "4"]),
+    ("voyager1-wrong-star", "voyager1-back-to-canopus.toml", (), [700.0, 700.0],
      ["restart", "1", "2", "3", "4", "5", "6-1", "6-2"]),
 ])
 def test_each_historical_command_log_recovers_the_mission(scenario, log, overrides, acted_s,
                                                           modes):
     m, station = fly(scenario, log, overrides)
-    assert [round(c["t_s"], 1) for c in station.log] == [acted_s, acted_s]
+    assert [round(c["t_s"], 1) for c in station.log] == acted_s
     flown = [r.mode for r in m.timeline]
     after = flown[flown.index(modes[0]):]
     assert after[: len(modes)] == modes

@@ -255,20 +255,23 @@ EVENT_KINDS = (
         F("active", "", "true at the onset, false at the end"))),
     EventKind("abort", 9, (F("reason", "", "why the mission ended"),)),
     EventKind("lock_rejected", 10, (
-        F("star", "", "the star, or `stray light`, the tracker found in its slit and refused"),
+        F("star", "", "the star, or `stray light`, the tracker found in its slit and "
+                      "refused, or held from a lock made while the check was not armed and "
+                      "refused before the loop used it"),
         F("cone_angle_deg", "deg", "its position along the slit"),
         F("reference_cone_angle_deg", "deg", "the planned reference star's"),
         F("check_deg", "deg", "`star_tracker.cone_angle_check_deg`"),
         F("in_use", "", "S12 or S13 closed"))),
     EventKind("lock_dropped", 11, (
         F("star", "", "the star, or `stray light`, the tracker held"),
-        F("magnitude", "mag", "the light in its slit"),
+        F("magnitude", "mag", "all the light in its slit: every star's and glint's"),
         F("gate_magnitude", "mag", "the bright gate: the magnitude window's bright end"),
         F("in_use", "", "S12 or S13 closed"))),
     EventKind("ground_command", 12, (
         F("command", "", "its kind: one of the ground commands"),
         F("text", "", "in words"),
-        F("fault", "", "a `fault` command's index in `[[faults]]`", False)),
+        F("fault", "", "a `fault` command's index in `[[faults]]`", False),
+        F("object", "", "what a `step_on` command let go of (a star, `stray light`)", False)),
         more="and the command's own fields"),
 )
 del F
@@ -316,6 +319,10 @@ GROUND_COMMANDS = (
                 "held outside the new window is lost"),
     CommandKind("bright_gate", ("enabled",), (), "hardware",
                 "enable or disable star tracker 105's bright gate"),
+    CommandKind("step_on", (), (), "hardware",
+                "star tracker 105 lets go of the object it holds and ignores it until it has "
+                "left the slit, as the cone-angle check ignores a star it refused; the search "
+                "goes on (Mariner 4's star-hopping; with `reacquire` the roll searches again)"),
     CommandKind("target", (), ("star", "ra_deg", "dec_deg"), "sequencer",
                 "upload register 24's programmed angles for a new target (`star`, or "
                 "`ra_deg` and `dec_deg`): it replaces the target while the vehicle has not "

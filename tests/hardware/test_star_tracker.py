@@ -335,3 +335,45 @@ def test_the_cone_angle_check_acts_only_while_armed():
     lock = new_lock()
     assert star_tracker(p, IDENTITY, lock, out, RNG, True) == -1
     assert lock[trk.NEW_REFUSAL] == 0
+
+
+# -- the bright gate counts every light in the slit -----------------------------------
+
+
+def _gate_params(gate_stars, gate_mags, window=(-2.88, 1.64)):
+    """A tracker whose window holds the first gate star, with the gate on."""
+    return params(gate_stars[0], magnitudes=[gate_mags[0]], window_mag=window,
+                  bright_gate=True, gate_stars_inertial=gate_stars, gate_magnitudes=gate_mags)
+
+
+def pogson(*mags):
+    """The magnitude of several sources together: fluxes add (Pogson)."""
+    return -2.5 * math.log10(sum(10.0 ** (-0.4 * m) for m in mags))
+
+
+def test_the_gate_counts_the_held_star_the_other_stars_in_the_slit_and_no_star_outside():
+    held, other, faint, outside = (star_at(0.0, 0.0), star_at(3.0, 10.0), star_at(-6.0, -14.0),
+                                   star_at(9.0, 0.0))  # the last beyond the 8 deg half-width
+    mags = [-0.62, -2.8, 3.5, -5.0]  # the faint one outside the window, yet its light counts
+    p = _gate_params(np.array([held, other, faint, outside]), mags, window=(-2.88, 1.64))
+    lock = new_lock()
+    out = np.zeros(3)
+    star_tracker(p, IDENTITY, lock, out, RNG)
+    seen = pogson(*mags[:3])
+    assert -2.5 * math.log10(lock[trk.SLIT_FLUX]) == pytest.approx(seen, abs=1e-12)
+    assert seen < -2.88 < pogson(mags[0], mags[2]) < pogson(mags[0])  # only the three trip it
+    assert trk.bright_gate(p, lock, 0, out) == -1 and out[2] == 0.0
+    assert lock[trk.NEW_DROP] == 0 and lock[trk.SEEN_MAG] == pytest.approx(seen, abs=1e-12)
+    # Without the bright neighbour the slit stays under the gate, and the lock is kept.
+    p2 = _gate_params(np.array([held, faint, outside]), [mags[0], mags[2], mags[3]])
+    lock2 = new_lock()
+    star_tracker(p2, IDENTITY, lock2, out, RNG)
+    assert trk.bright_gate(p2, lock2, 0, out) == 0 and lock2[trk.GATE] == 0.0
+
+
+def test_a_tracker_without_a_gate_counts_no_light():
+    p = params(star_at(0.0, 0.0), bright_gate=False)
+    assert p.gate_stars_inertial.shape == (0, 3)
+    lock = new_lock()
+    star_tracker(p, IDENTITY, lock, np.zeros(3), RNG)
+    assert lock[trk.SLIT_FLUX] == 0.0

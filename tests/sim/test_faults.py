@@ -203,11 +203,18 @@ def test_blind_sun_sensor_dropout_and_stray_light():
 
 
 def _tracker_frame(p, fs, t, lock, star=0):
-    """``fault_sense`` after a tracker that found ``star``: (trk, star)."""
-    trk = np.array([7.0, 8.0, 1.0]) if star >= 0 else np.zeros(3)
-    star = sf.fault_sense(p.faults, p.faults.tracker, fs, _frame(p, t), 0.01, np.zeros(3),
-                          np.array([5.0, 6.0, 1.0]), trk, np.zeros(3), lock, star, True)
-    return trk, star
+    """``fault_sense`` after a tracker that found ``star``, then the bright gate: (trk, star).
+
+    The slit holds that star alone: its light is the stars' the tracker counts.
+    """
+    tp = p.faults.tracker
+    out = np.array([7.0, 8.0, 1.0]) if star >= 0 else np.zeros(3)
+    lock[trk.SLIT_FLUX] = 10.0 ** (-0.4 * tp.magnitudes[star]) if star >= 0 else 0.0
+    star = sf.fault_sense(p.faults, tp, fs, _frame(p, t), 0.01, np.zeros(3),
+                          np.array([5.0, 6.0, 1.0]), out, np.zeros(3), lock, star, True)
+    if tp.bright_gate_mag > -np.inf:
+        star = trk.bright_gate(tp, lock, star, out)
+    return out, star
 
 
 def test_the_bright_gate_drops_the_lock_while_the_slit_is_too_bright():

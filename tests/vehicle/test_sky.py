@@ -226,7 +226,8 @@ def test_magnitude_window_is_sorted_and_consistent_with_star():
 def test_star_names_sorted_and_complete():
     names = sky.star_names()
     assert list(names) == sorted(names)
-    assert set(names) == set(ephem.stars.stars)
+    # PyEphem's names, each star once: its variant spellings resolve to the name kept.
+    assert set(names) | set(sky.VARIANT_NAMES) == set(ephem.stars.stars)
     assert {"Canopus", "Sirius", "Rigil Kentaurus"} <= set(names)
 
 
@@ -335,3 +336,16 @@ def test_separation_exact_cases_and_small_angles():
     assert sky.separation_deg(x, y) == pytest.approx(math.degrees(tiny_rad), rel=1e-6)
     assert sky.separation_deg(x, -y) == pytest.approx(180.0 - math.degrees(tiny_rad),
                                                       abs=1e-12)
+
+
+def test_each_star_has_one_name():
+    """No two names of the catalog share a place: variants resolve to the name kept."""
+    names = sky.star_names()
+    dirs = np.array([sky.star_direction_inertial(n) for n in names])
+    close = np.argwhere(np.triu(dirs @ dirs.T, 1) > np.cos(np.radians(0.01)))
+    assert close.size == 0, [(names[i], names[j]) for i, j in close]
+    for variant, kept in sky.VARIANT_NAMES.items():
+        assert variant not in names and kept in names
+        assert sky.star(variant).name == kept
+        assert sky.separation_deg(sky.star_direction_inertial(variant),
+                                  sky.star_direction_inertial(kept)) < 0.01

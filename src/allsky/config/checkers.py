@@ -183,10 +183,14 @@ def magnitude_window(key, v):
 
 @functools.cache
 def _catalog() -> dict:
-    """Lower-case name -> catalog spelling, for every star of the sky's catalog."""
-    from allsky.vehicle.sky import star_names  # PyEphem loads only when a star is named
+    """Lower-case name -> catalog spelling, for every name of the sky's catalog.
 
-    return {name.lower(): name for name in star_names()}
+    A variant name gives the one its star is kept under (``sky.VARIANT_NAMES``).
+    """
+    from allsky.vehicle.sky import VARIANT_NAMES, star_names  # PyEphem loads when named
+
+    names = {name.lower(): name for name in star_names()}
+    return {**names, **{v.lower(): kept for v, kept in VARIANT_NAMES.items()}}
 
 
 def star_name(key, v):

@@ -266,6 +266,33 @@ def _reference_star_in_window(v):
                           f"[{lo:g}, {hi:g}]: the tracker could never lock it")
 
 
+def _cone_check_passes_the_reference_star(v):
+    """`star_tracker.cone_angle_check_deg`, if set, passes the reference star at the slit's edge.
+
+    A roll search finds a star at the edge of the slit's narrow width
+    (`star_tracker.fov_narrow_half_deg`), where its pitch output is further
+    from zero than its cone angle (``atan(tan c / cos psi)``); a check
+    smaller than that offset refuses the reference star itself.
+    """
+    check = v["star_tracker.cone_angle_check_deg"]
+    if check <= 0.0:
+        return
+    from allsky.hardware.star_tracker import check_to_pass_deg, cone_angle_deg
+
+    name, date = v["star_tracker.reference_star"], v["mission.date_utc"]
+    sun = sky.sun_direction_inertial(date)
+    cosine = max(-1.0, min(1.0, float(sun @ sky.star_direction_inertial(name, date))))
+    cone = cone_angle_deg(math.degrees(math.acos(cosine)))
+    narrow = v["star_tracker.fov_narrow_half_deg"]
+    need = check_to_pass_deg(cone, cone, narrow)
+    if check <= need:
+        raise ConfigError("star_tracker.cone_angle_check_deg", check,
+                          f"too small to pass {name} itself: met at the slit's edge "
+                          f"(star_tracker.fov_narrow_half_deg = {narrow:g}) its pitch output "
+                          f"is {need:.3f} deg from its cone angle {cone:+.2f} deg; the check "
+                          f"must be > {need:.3f} deg")
+
+
 def _blowdown_pressures(v):
     """`jets.tank_pressure_final_bar` < `jets.tank_pressure_initial_bar` (the tank empties)."""
     p0, pf = v["jets.tank_pressure_initial_bar"], v["jets.tank_pressure_final_bar"]
@@ -281,4 +308,4 @@ CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_l
                _unload_hysteresis, _converters_follow_the_turns,
                _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
                _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window,
-               _blowdown_pressures)
+               _cone_check_passes_the_reference_star, _blowdown_pressures)

@@ -32,7 +32,12 @@ from the catalog). The tracker has a memory, ``lock`` (:func:`new_lock`):
   the search goes on. Mariner 4's operators told Canopus from other objects
   by brightness and cone angle in the same way. The check is armed only
   while the roll axis is held on the Sun (``cone_armed``), where the pitch
-  output is the cone angle.
+  output is the cone angle. A star locked while the check was not armed (a
+  star Mode 1 meets on its way to the Sun, carried into Mode 2) is judged
+  the first frame the check is armed with the Sun on the roll axis (the sun
+  sensor's pitch error under a tenth of the check, ``sun_pitch_arcsec``):
+  before the loop uses it. Refused, it is dropped and remembered as any
+  refusal, and the search goes on.
 
 "Star present" flags a lock, and the tracker tells which star it holds
 (its index in ``stars_inertial``): the programmed angles assume a planned
@@ -57,6 +62,10 @@ NONE = -1
 #: Stars the cone-angle check remembers as refused at once (a slit +-16 x +-8 deg rarely
 #: holds more than two window stars; a fifth refusal replaces the first).
 N_REFUSED = 4
+#: A lock carried into an armed check is judged once the sun sensor's pitch error is under
+#: this fraction of the check: the roll axis on the Sun, where the pitch output is the cone
+#: angle to within a tenth of the check.
+SETTLED_FRACTION = 0.1
 # Entries of the tracker's memory ``lock`` (State.tracker_lock), all float64.
 HELD = 0  #: the target held: a star's index, NONE, or FALSE_TARGET (a glint)
 REFUSED = 1  #: N_REFUSED slots: stars refused by the cone-angle check, still in the field
@@ -66,7 +75,13 @@ GATE = REFUSED_CONE_ARCSEC + 1  #: 1.0 while the light in the slit exceeds the b
 DROPPED = GATE + 1  #: the target the bright gate last took the lock from
 NEW_DROP = DROPPED + 1  #: the target the bright gate took the lock from in this frame (NONE)
 SEEN_MAG = NEW_DROP + 1  #: [mag] the light in the slit when the gate took the lock
-N_LOCK = SEEN_MAG + 1
+#: 1.0 once the target held has been judged by an armed cone-angle check (0.0: locked while
+#: the check was not armed, or no check); a lock not yet judged is judged when next armed
+CHECKED = SEEN_MAG + 1
+#: [-] the light of the catalog's stars in the slit this frame, in magnitude-0 stars (the
+#: bright gate's; 0.0 without a gate)
+SLIT_FLUX = CHECKED + 1
+N_LOCK = SLIT_FLUX + 1
 
 
 class StarTrackerParams(NamedTuple):
@@ -83,11 +98,16 @@ class StarTrackerParams(NamedTuple):
     cone_check_rad: float  #: [rad] refuse a lock this far from it; 0 = no check
     #: [mag] the lock is dropped while the slit is brighter than this; -inf = no gate
     bright_gate_mag: float
+    #: [-] (m, 3) unit vectors of every catalog star, one per star, whose light the gate
+    #: counts in the slit ((0, 3) without a gate)
+    gate_stars_inertial: np.ndarray
+    gate_magnitudes: np.ndarray  #: [mag] (m,) their visual magnitudes
 
 
 def make_params(fov_long_half_rad, fov_narrow_half_rad, noise_arcsec, stars_inertial,
                 magnitudes=None, window_mag=(-math.inf, math.inf), reference_cone_rad=0.0,
-                cone_check_rad=0.0, bright_gate=False) -> StarTrackerParams:
+                cone_check_rad=0.0, bright_gate=False, gate_stars_inertial=None,
+                gate_magnitudes=None) -> StarTrackerParams:
     """:class:`StarTrackerParams` from the field, the noise and the stars.
 
     Parameters
@@ -108,6 +128,10 @@ def make_params(fov_long_half_rad, fov_narrow_half_rad, noise_arcsec, stars_iner
         [rad] refuse a lock whose cone angle is further than this from it; 0 = no check.
     bright_gate : bool
         Drop the lock while the light in the slit is brighter than the window's bright end.
+    gate_stars_inertial, gate_magnitudes : array_like, optional
+        (m, 3) unit vectors and (m,) [mag] magnitudes of every star whose light
+        the gate counts in the slit, inside the window or not (default: the
+        window's stars). Kept only with ``bright_gate``.
     """
     stars = np.ascontiguousarray(np.asarray(stars_inertial, dtype=float).reshape(-1, 3))
     bright, faint = float(window_mag[0]), float(window_mag[1])
@@ -116,10 +140,18 @@ def make_params(fov_long_half_rad, fov_narrow_half_rad, noise_arcsec, stars_iner
     mags = np.ascontiguousarray(np.asarray(magnitudes, dtype=float).reshape(-1))
     if mags.shape[0] != stars.shape[0]:
         raise ValueError(f"{stars.shape[0]} stars but {mags.shape[0]} magnitudes")
+    if gate_stars_inertial is None:
+        gate_stars_inertial, gate_magnitudes = stars, mags
+    gate_stars = np.ascontiguousarray(np.asarray(gate_stars_inertial, dtype=float).reshape(-1, 3))
+    gate_mags = np.ascontiguousarray(np.asarray(gate_magnitudes, dtype=float).reshape(-1))
+    if gate_mags.shape[0] != gate_stars.shape[0]:
+        raise ValueError(f"{gate_stars.shape[0]} gate stars but {gate_mags.shape[0]} magnitudes")
+    if not bright_gate:
+        gate_stars, gate_mags = np.zeros((0, 3)), np.zeros(0)
     return StarTrackerParams(float(fov_long_half_rad), float(fov_narrow_half_rad),
                              float(noise_arcsec), stars, mags, bright, faint,
                              float(reference_cone_rad), float(cone_check_rad),
-                             bright if bright_gate else -math.inf)
+                             bright if bright_gate else -math.inf, gate_stars, gate_mags)
 
 
 def new_lock() -> np.ndarray:
@@ -128,6 +160,8 @@ def new_lock() -> np.ndarray:
     lock[GATE] = 0.0
     lock[REFUSED_CONE_ARCSEC] = 0.0
     lock[SEEN_MAG] = 0.0
+    lock[CHECKED] = 0.0
+    lock[SLIT_FLUX] = 0.0
     return lock
 
 
@@ -139,6 +173,33 @@ def cone_angle_deg(sun_star_angle_deg) -> float:
     ``sun_star_angle_deg`` is theta [deg].
     """
     return 90.0 - float(sun_star_angle_deg)
+
+
+def edge_pitch_deg(cone_deg, narrow_half_deg) -> float:
+    """The pitch output [deg] of a star of cone angle ``cone_deg`` at the slit's edge.
+
+    A roll search brings a star into the slit across its narrow width: the
+    tracker finds it at yaw ``narrow_half_deg``, where ``s = (sin c, -cos c
+    sin psi, cos c cos psi)`` and the pitch output ``atan2(s_x, s_z)`` is
+    ``atan(tan c / cos psi)``, further from zero than the cone angle c. The
+    cone-angle check judges this output against the reference star's cone
+    angle, so a check passes a star of cone angle c by the slit's own
+    geometry, not by c alone.
+    """
+    c, psi = math.radians(cone_deg), math.radians(narrow_half_deg)
+    return math.degrees(xmath.atan(xmath.tan(c) / xmath.cos(psi)))
+
+
+def check_to_pass_deg(cone_deg, reference_cone_deg, narrow_half_deg) -> float:
+    """The smallest cone-angle check [deg] that passes a star met at the slit's edge.
+
+    A star of cone angle ``cone_deg`` found at the edge of a slit of half
+    width ``narrow_half_deg`` [deg] is passed by a check larger than this,
+    refused by one smaller; for the reference star itself
+    (``cone_deg == reference_cone_deg``) it is the slit's own offset, which
+    no check may be under.
+    """
+    return abs(edge_pitch_deg(cone_deg, narrow_half_deg) - reference_cone_deg)
 
 
 def seen_magnitude(magnitudes) -> float:
@@ -167,8 +228,78 @@ def _sight(p, r0, r1, r2, k):
 
 
 @njit_stage
-def star_tracker(p, q, lock, out, rng, cone_armed=True):
+def star_tracker(p, q, lock, out, rng, cone_armed=True, sun_pitch_arcsec=0.0):
     """Outputs of star tracker 105 for attitude ``q``, written into ``out``.
+
+    The lock and its outputs as :func:`search_and_hold` makes them; with a
+    bright gate (``p.bright_gate_mag`` finite) the light of every catalog
+    star in the slit (``p.gate_stars_inertial``: the held star, the others,
+    inside the window or not) is kept in ``lock[SLIT_FLUX]``, to which a
+    fault's glints add theirs (:func:`allsky.sim.faults.fault_sense`) before
+    the gate judges it (:func:`bright_gate`, after the faults). Returns the
+    target held, as :func:`search_and_hold`.
+    """
+    star = search_and_hold(p, q, lock, out, rng, cone_armed, sun_pitch_arcsec)
+    if p.bright_gate_mag > -np.inf:
+        lock[SLIT_FLUX] = slit_flux(p, q)
+    return star
+
+
+@njit
+def slit_flux(p, q) -> float:
+    """The light [magnitude-0 stars] of every gate star inside the slit at attitude ``q``.
+
+    ``p`` is the tracker (:class:`StarTrackerParams`); fluxes add (Pogson),
+    a star of magnitude m giving ``10**(-0.4 m)``.
+    """
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    r0 = (w * w + x * x - y * y - z * z, 2.0 * (x * y + w * z), 2.0 * (x * z - w * y))
+    r1 = (2.0 * (x * y - w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z + w * x))
+    r2 = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z)
+    flux = 0.0
+    for k in range(p.gate_stars_inertial.shape[0]):
+        a, b, c = (p.gate_stars_inertial[k, 0], p.gate_stars_inertial[k, 1],
+                   p.gate_stars_inertial[k, 2])
+        sz = r2[0] * a + r2[1] * b + r2[2] * c
+        if sz <= 0.0:
+            continue
+        sx = r0[0] * a + r0[1] * b + r0[2] * c
+        sy = r1[0] * a + r1[1] * b + r1[2] * c
+        if abs(xmath.atan2(-sy, sz)) <= p.fov_narrow_half_rad \
+                and abs(xmath.atan2(sx, sz)) <= p.fov_long_half_rad:
+            flux += xmath.exp10(-0.4 * p.gate_magnitudes[k])
+    return flux
+
+
+@njit_stage
+def bright_gate(p, lock, star, out):
+    """Star tracker 105's bright gate: the lock is lost while the slit is too bright.
+
+    The light is all the light in the slit, ``lock[SLIT_FLUX]``
+    [magnitude-0 stars]: the stars' and the glints'. A lock the gate takes is flagged
+    once in ``lock`` (for the journal), with the light seen; ``out`` (the
+    outputs) is cleared. Returns the target held after the gate (-1 when it
+    took it). ``p`` is the tracker (:class:`StarTrackerParams`).
+    """
+    flux = lock[SLIT_FLUX]
+    over = flux > 0.0 and -2.5 * xmath.log10(flux) < p.bright_gate_mag
+    if over:
+        if star != -1 and (lock[GATE] == 0.0 or lock[DROPPED] != star):
+            lock[NEW_DROP] = star
+            lock[DROPPED] = star
+            lock[SEEN_MAG] = -2.5 * xmath.log10(flux)
+        out[0] = 0.0
+        out[1] = 0.0
+        out[2] = 0.0
+        star = -1
+        lock[HELD] = NONE
+    lock[GATE] = 1.0 if over else 0.0
+    return star
+
+
+@njit
+def search_and_hold(p, q, lock, out, rng, cone_armed, sun_pitch_arcsec):
+    """The lock of star tracker 105 for attitude ``q`` and its outputs, into ``out``.
 
     ``out = [yaw_arcsec, pitch_arcsec, present]``; ``lock`` is the tracker's
     memory (:func:`new_lock`), updated: the star it holds, the stars the
@@ -178,7 +309,10 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
     sensor's pitch to control amplifier 32). Returns the index of the
     tracked star in ``p.stars_inertial``, -1 when it holds none, and
     :data:`FALSE_TARGET` while it holds a glint (whose outputs the fault
-    that makes it writes, :func:`allsky.sim.faults.fault_sense`).
+    that makes it writes, :func:`allsky.sim.faults.fault_sense`). A held
+    star the armed check has not judged (``lock[CHECKED]``) is judged once
+    the sun sensor's pitch error ``sun_pitch_arcsec`` [arcsec] is under a
+    tenth of the check (:data:`SETTLED_FRACTION`).
 
     ``p`` is the tracker (:class:`StarTrackerParams`: slit, noise, the window's
     stars); ``rng`` the (1,) uint64 noise generator state (``allsky.gauss``),
@@ -194,12 +328,11 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
     r1 = (2.0 * (x * y - w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z + w * x))
     r2 = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z)
     # Refused stars are forgotten once they have left the field (a glint's, by its fault);
-    # only the cone-angle check refuses any.
-    if p.cone_check_rad > 0.0:
-        for j in range(N_REFUSED):
-            k = int(lock[REFUSED + j])
-            if k >= 0 and (k >= n or not _sight(p, r0, r1, r2, k)[0]):
-                lock[REFUSED + j] = NONE
+    # the cone-angle check refuses them, and the ground's step-on.
+    for j in range(N_REFUSED):
+        k = int(lock[REFUSED + j])
+        if k >= 0 and (k >= n or not _sight(p, r0, r1, r2, k)[0]):
+            lock[REFUSED + j] = NONE
     held = int(lock[HELD])
     if held == FALSE_TARGET:
         out[0] = 0.0
@@ -208,6 +341,14 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
         return FALSE_TARGET
     if 0 <= held < n:
         inside, yaw, pitch = _sight(p, r0, r1, r2, held)
+        if inside and check_rad > 0.0 and lock[CHECKED] == 0.0 \
+                and abs(sun_pitch_arcsec) < SETTLED_FRACTION * check_rad * RAD2ARCSEC:
+            # A lock made while the check was not armed, judged before the loop uses it.
+            if abs(pitch - p.reference_cone_rad) > check_rad:
+                refuse_now(lock, held, pitch * RAD2ARCSEC)
+                inside = False
+            else:
+                lock[CHECKED] = 1.0
         if inside:  # held: no other star is looked at (the same noise as a star found)
             out[0] = yaw * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
             out[1] = pitch * RAD2ARCSEC + p.noise_arcsec * standard_normal(rng)
@@ -237,9 +378,10 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True):
             yaw_best = yaw
             pitch_best = pitch
             k_best = k
-    if refuse >= 0:  # one refusal a frame, remembered and told to the journal
+    if refuse >= 0 and lock[NEW_REFUSAL] == NONE:  # one refusal a frame, remembered, told
         refuse_now(lock, refuse, refuse_pitch * RAD2ARCSEC)
     lock[HELD] = k_best
+    lock[CHECKED] = 1.0 if check_rad > 0.0 else 0.0
     if k_best < 0:
         out[0] = 0.0
         out[1] = 0.0

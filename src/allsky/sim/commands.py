@@ -36,7 +36,10 @@ table, never by writing the state:
   ``clear_fault`` gives an acting fault the ``duration_s`` that ends it at
   the boundary; ``tracker_window`` and ``bright_gate`` set
   ``star_tracker.magnitude_window`` and ``star_tracker.bright_gate``
-  (:meth:`allsky.sim.mission.Mission.amend`);
+  (:meth:`allsky.sim.mission.Mission.amend`); ``step_on`` has the tracker
+  let go of the object it holds and ignore it until it leaves the slit
+  (:meth:`allsky.sim.mission.Mission.step_on`), as the cone-angle check
+  ignores a star it refused;
 * ``target``, ``hold``, ``proceed``, ``reacquire`` and ``recycle`` change
   the plan with the modes of the mode table (:mod:`allsky.sequencer.ground`,
   :meth:`allsky.sim.mission.Mission.replan`); a target flown again or anew
@@ -237,6 +240,8 @@ def words(command, fault_index=None) -> str:
         return f"tracker's magnitude window {lo:+g} to {hi:+g} mag"
     if kind == "bright_gate":
         return f"tracker's bright gate {'enabled' if command['enabled'] else 'disabled'}"
+    if kind == "step_on":
+        return "tracker steps on past the object it holds"
     if kind == "target":
         return f"new target {mission_mod.target_name(_target_spec(command))}"
     if kind == "speed":
@@ -366,6 +371,11 @@ class Station:
             cfg = _amended(m, lambda data: data["star_tracker"].update(
                 bright_gate=bool(fields["enabled"])))
             return (lambda: m.amend(cfg)), {}
+        if kind == "step_on":
+            held = m.held_object()
+            if held is None:
+                raise Refused("star tracker 105 holds nothing to step on from")
+            return m.step_on, {"object": held}
         if kind in ground.SEQUENCER_COMMANDS:
             return self._sequencer(kind, fields), {}
         if kind == "resume" and not self.paused:

@@ -318,12 +318,14 @@ def _glint_refused(tracker_p, lock, cone_armed):
     """Whether the cone-angle check refuses a glint (its cone angle, pitch output, is 0).
 
     Only while the check is armed (``cone_armed``: the roll axis on the Sun).
-    The refusal is remembered and flagged once, as a star's is.
+    The refusal is remembered and flagged once, as a star's is (in the next
+    frame if a star was refused in this one).
     """
     if not cone_armed or tracker_p.cone_check_rad <= 0.0 \
             or abs(tracker_p.reference_cone_rad) <= tracker_p.cone_check_rad:
         return False
-    if not st.refused(lock, FALSE_TARGET):
+    # One refusal a frame: a star's refused in this frame leaves the glint's to the next.
+    if not st.refused(lock, FALSE_TARGET) and lock[st.NEW_REFUSAL] == st.NONE:
         st.refuse_now(lock, FALSE_TARGET, 0.0)
     return True
 
@@ -341,8 +343,9 @@ def fault_sense(fp, tracker_p, fault_state, frame, dt_s, dtheta_rad, fine, trk, 
     fault's offset in the yaw output and at cone angle 0, takes the lock
     (unless the cone-angle check refuses it) or, given a brightness, is
     locked only when the tracker holds nothing and the glint is inside the
-    magnitude window. With a bright gate, a slit brighter than the gate
-    (the held star's light and the glints' together) loses the lock.
+    magnitude window. With a bright gate the glints' light is added to the
+    stars' in the slit (``lock[SLIT_FLUX]``), which the gate judges next
+    (:func:`allsky.hardware.star_tracker.bright_gate`).
     ``cone_armed`` says whether the cone-angle check is armed.
 
     Parameters
@@ -393,42 +396,15 @@ def fault_sense(fp, tracker_p, fault_state, frame, dt_s, dtheta_rad, fine, trk, 
                 glint_flux += xmath.exp10(-0.4 * m)
             take = (not bright or (star == -1 and tracker_p.window_bright_mag <= m
                                    <= tracker_p.window_faint_mag))
-            if star == FALSE_TARGET or (take and not _glint_refused(tracker_p, lock,
-                                                                    cone_armed)):
+            if star == FALSE_TARGET or (take and not st.refused(lock, FALSE_TARGET)
+                                        and not _glint_refused(tracker_p, lock, cone_armed)):
                 trk[0] = fp.size[i]
                 trk[1] = 0.0
                 trk[2] = 1.0
                 star = FALSE_TARGET
                 lock[st.HELD] = FALSE_TARGET
-    if tracker_p.bright_gate_mag > -np.inf:
-        star = _bright_gate(tracker_p, lock, star, glint_flux, trk)
-    return star
-
-
-@njit_stage
-def _bright_gate(tracker_p, lock, star, glint_flux, trk):
-    """Star tracker 105's bright gate: the lock is lost while the slit is too bright.
-
-    The light is the held star's and the glints' of known brightness
-    (``glint_flux``, in units of a magnitude-0 star). A lock the gate takes
-    is flagged once in ``lock`` (for the journal), with the light seen.
-    Returns the star the tracker holds after the gate (-1 when it took it).
-    """
-    flux = glint_flux
-    if star >= 0:
-        flux += xmath.exp10(-0.4 * tracker_p.magnitudes[star])
-    over = flux > 0.0 and -2.5 * xmath.log10(flux) < tracker_p.bright_gate_mag
-    if over:
-        if star != -1 and (lock[st.GATE] == 0.0 or lock[st.DROPPED] != star):
-            lock[st.NEW_DROP] = star
-            lock[st.DROPPED] = star
-            lock[st.SEEN_MAG] = -2.5 * xmath.log10(flux)
-        trk[0] = 0.0
-        trk[1] = 0.0
-        trk[2] = 0.0
-        star = -1
-        lock[st.HELD] = st.NONE
-    lock[st.GATE] = 1.0 if over else 0.0
+    if tracker_p.bright_gate_mag > -np.inf:  # the glints' light beside the stars' in the slit
+        lock[st.SLIT_FLUX] += glint_flux
     return star
 
 

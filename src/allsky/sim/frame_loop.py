@@ -46,7 +46,7 @@ from allsky.hardware.gyro import RRW_STEP_S, gyro_output
 from allsky.hardware.jets import jets, thrust_fraction
 from allsky.hardware.pwpf import pwpf_step
 from allsky.hardware.rate_command import rate_command
-from allsky.hardware.star_tracker import star_tracker
+from allsky.hardware.star_tracker import bright_gate, star_tracker
 from allsky.hardware.storage_register import store
 from allsky.hardware.summing_amp import summing_amp
 from allsky.hardware.sun_acquisition import sun_acquisition
@@ -311,6 +311,8 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         if faults is not None:
             star = fault_sense(faults, tracker_p, fault_state, frame, dt, s.dtheta_rad, fine,
                                trk, gyro, s.tracker_lock, star, cone_armed)
+        if tracker_p.bright_gate_mag > -np.inf:  # every light in the slit, glints too
+            star = bright_gate(tracker_p, s.tracker_lock, star, trk)
         if star_in_use and star >= 0:
             s.locked_star[0] = star  # the star the loop is closed on (S12/S13)
         sum_and_count(el, p.vfc, dt, gates, gyro, s.drift_counters, s.counters,
@@ -467,7 +469,8 @@ def sense(sun_p, tracker_p, gyro_p, dt_s, sun_inertial, x, dtheta_rad, step_bias
     """
     rotate_to_body(x, sun_inertial, sun_b)
     sun_sensor(sun_p, sun_b, fine, rng)
-    star = star_tracker(tracker_p, x, tracker_lock, trk, rng, cone_armed)
+    star = star_tracker(tracker_p, x, tracker_lock, trk, rng, cone_armed,
+                        fine[0] if fine[2] != 0.0 else 1e9)
     gyro_output(gyro_p, dtheta_rad, dt_s, bias_rw_arcsec_s, gyro, step_bias, rng)
     return star
 

@@ -130,7 +130,7 @@ def build_params(cfg) -> sim_state.Params:
         st.fov_long_half_deg * units.DEG2RAD, st.fov_narrow_half_deg * units.DEG2RAD,
         float(st.noise_arcsec), stars_inertial, [s.magnitude for s in stars], (lo, hi),
         reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
-        bool(st.bright_gate))
+        bool(st.bright_gate), *gate_stars(cfg))
     el = cfg.electronics
     return sim_state.Params(
         frame_s=dt,
@@ -331,6 +331,20 @@ def reference_cone_deg(cfg) -> float:
     sun = sky.sun_direction_inertial(cfg.mission.date_utc)
     cos = xmath.dot3(sun, reference_star_inertial(cfg))
     return star_tracker.cone_angle_deg(math.degrees(xmath.acos(max(-1.0, min(1.0, cos)))))
+
+
+def gate_stars(cfg):
+    """``(directions, magnitudes)`` of every catalog star, whose light the bright gate counts.
+
+    One entry per star (its variant names are one), inside the magnitude
+    window or not, at the mission date; none without a gate
+    (``star_tracker.bright_gate`` false).
+    """
+    if not cfg.star_tracker.bright_gate:
+        return np.zeros((0, 3)), np.zeros(0)
+    stars = [sky.star(n, cfg.mission.date_utc) for n in sky.star_names()]
+    return (np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars]).reshape(-1, 3),
+            np.array([s.magnitude for s in stars]))
 
 
 def tracker_star_names(cfg) -> list:
@@ -876,6 +890,27 @@ class Mission:
             self.target_log[-1] = new_target_record(cfg, self.target_index, start)
             self.state.target_inertial[:] = self.target_direction()
 
+    def held_object(self):
+        """Name of the object star tracker 105 holds now: a star, "stray light", or None."""
+        held = int(self.state.tracker_lock[star_tracker.HELD])
+        if held == star_tracker.FALSE_TARGET:
+            return "stray light"
+        return tracker_star_names(self.cfg)[held] if held >= 0 else None
+
+    def step_on(self) -> None:
+        """Star tracker 105 lets go of what it holds and ignores it until it leaves the slit.
+
+        The ground's ``step_on`` (:mod:`allsky.sim.commands`): the object is
+        remembered as the cone-angle check remembers a star it refused
+        (:func:`allsky.hardware.star_tracker.refuse_now`), so the search
+        passes it by; the journal's ``star_lock`` tells the lock's end.
+        """
+        lock = self.state.tracker_lock
+        held = lock[star_tracker.HELD]
+        _python(star_tracker.refuse_now)(lock, held, 0.0)
+        lock[star_tracker.NEW_REFUSAL] = star_tracker.NONE  # the ground's, not the check's
+        lock[star_tracker.HELD] = star_tracker.NONE
+
     def _carry_tracker(self, old_names, new_names) -> None:
         """Star tracker 105's memory, from the star list ``old_names`` to ``new_names``."""
         s = self.state
@@ -1149,6 +1184,9 @@ class Mission:
         # Copies, so that one snapshot can be resumed any number of times; the arrays
         # added since the format's first files stand for what an older file meant.
         arrays = {**newer_state_arrays(), **arrays}
+        lock = np.asarray(arrays["tracker_lock"], dtype=float)
+        if lock.shape[0] < star_tracker.N_LOCK:  # entries added since: as a new lock's
+            arrays["tracker_lock"] = np.concatenate([lock, star_tracker.new_lock()[lock.shape[0]:]])
         state = sim_state.State(**{k: np.array(arrays[k], copy=True)
                                    for k in sim_state.State._fields})
         cfg = scenario_from_dict(history["scenario"])

@@ -108,6 +108,58 @@ def _likely_cause(summary, t_s, describe) -> str:
             "the counters)")
 
 
+#: The register 23 word each calibration turn stores its scale factor in, by axis.
+_SCALE_WORD = {"roll": "sf_roll", "yaw": "sf_yaw"}
+
+
+def _held_at(locks, t_s):
+    """The star the journal's ``star_lock`` entries ``locks`` say is held at ``t_s`` [s]."""
+    held = None
+    for e in locks:
+        if e["t_s"] > t_s:
+            break
+        held = e["star"]
+    return held
+
+
+def wrong_star_calibrations(summary, journal) -> list:
+    """``(t_s, sentence)`` for each calibration turn made on a star not the reference star.
+
+    A roll (Mode 4) or yaw (Mode 5) calibration turn is flown from the star
+    held as it begins to the star held when calibration sequencer 19 stores
+    register 23; either one other than ``summary["reference_star"]`` makes
+    the turn's scale factor wrong by the angle between them. The sentence
+    names the star and the scale factor's error against the truth [ppm].
+    """
+    reference = summary.get("reference_star")
+    truth = summary.get("truth")
+    if reference is None:
+        return []
+    locks = [e for e in journal.events if e["kind"] == "star_lock"]
+    starts = {e["mode"]: e["t_s"] for e in journal.events if e["kind"] == "mode_start"}
+    out = []
+    for e in journal.events:
+        if e["kind"] != "register" or e.get("word") not in _SCALE_WORD.values():
+            continue
+        axis = next(a for a, w in _SCALE_WORD.items() if w == e["word"])
+        start = _held_at(locks, starts.get(e["mode"], e["t_s"]) - 1e-9)
+        end = _held_at(locks, e["t_s"])
+        wrong = [k for k in dict.fromkeys((start, end)) if k is not None and k != reference]
+        if not wrong:
+            continue
+        stored = e["value"]
+        true = truth["scale_factor"][axis] if truth else 1.0
+        path = f"from {start or 'no star'} to {end or 'no star'}" if start != end \
+            else "held through the turn"
+        text = (f"{axis} calibration at {e['t_s']:.1f} s on "
+                f"{' and '.join(wrong)} ({path}), not the reference star {reference}: "
+                f"{axis} scale factor {stored:.4f} against the true {true:.4f}, "
+                f"{FRACTION2PPM * (stored - true):+.0f} ppm in every {axis} the computer "
+                "programs")
+        out.append((e["t_s"], text))
+    return out
+
+
 class _Timed:
     """Warnings as they are found, each with its time."""
 
@@ -138,7 +190,9 @@ def timed_warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
     still turns faster than :data:`ON_TARGET_RATE_DEG_S`, with the likely
     cause; a true pointing error more than :data:`TRUTH_FACTOR` times the
     computer's own (taken as at least the sequencer's settle threshold, the
-    bound its judgement "settled" claims); journal entries lost.
+    bound its judgement "settled" claims); a calibration made on a star other
+    than the reference star (:func:`wrong_star_calibrations`); journal
+    entries lost.
 
     Parameters
     ----------
@@ -201,6 +255,8 @@ def timed_warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
                        f"{true:.1f} arcsec, {true / bound:.0f} times what the computer "
                        f"judged ({own:.1f} arcsec, settle threshold "
                        f"{settle_threshold_arcsec:g} arcsec)")
+    for t_s, text in wrong_star_calibrations(summary, journal):
+        out.append(t_s, text)
     if journal.lost:
         out.append(summary.get("mission_time_s", 0.0),
                    f"the journal lost {journal.lost} entries the frame loop could not hold")

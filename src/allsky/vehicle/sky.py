@@ -221,21 +221,32 @@ def sun_motion(date_utc: datetime):
     return s0, (s1 - s0) / HOUR_S
 
 
+#: Names the catalog gives a second time for a star it already lists (the same place and
+#: magnitude), each with the name kept: one star, one name. Any of them still finds the star.
+VARIANT_NAMES = {"Adara": "Adhara", "Agena": "Hadar", "Albereo": "Albireo",
+                 "Alcaid": "Alkaid", "Etamin": "Eltanin", "Formalhaut": "Fomalhaut",
+                 "Gienah Corvi": "Gienah", "Sirrah": "Alpheratz"}
+
+
 def star_names() -> tuple[str, ...]:
-    """Names of all the catalog stars.
+    """Names of all the catalog stars, one per star.
 
     Returns
     -------
     tuple of str
         Sorted. The catalog lists a few stars twice under variant names
-        (e.g. Adara/Adhara, Alcaid/Alkaid).
+        (:data:`VARIANT_NAMES`: Fomalhaut/Formalhaut, Hadar/Agena,
+        Adhara/Adara...); each is named once here, and :func:`star` finds it
+        under either name.
     """
-    return tuple(sorted(_catalog()))
+    return tuple(sorted(n for n in _catalog() if n not in VARIANT_NAMES))
 
 
 @functools.cache
 def _canonical(name: str) -> str:
     """The catalog spelling of a star name (case-insensitive, spaces trimmed).
+
+    A variant name (:data:`VARIANT_NAMES`) gives the name kept for its star.
 
     Raises
     ------
@@ -243,7 +254,7 @@ def _canonical(name: str) -> str:
         If no catalog star has that name; the message (``args[0]``) names it
         and up to 3 nearest catalog names.
     """
-    by_lower = {n.lower(): n for n in _catalog()}
+    by_lower = {n.lower(): VARIANT_NAMES.get(n, n) for n in _catalog()}
     key = name.strip().lower()
     if key not in by_lower:
         near = difflib.get_close_matches(key, list(by_lower), n=3, cutoff=0.5)
@@ -405,7 +416,7 @@ def catalog(date_utc: datetime | None = None, magnitude_window=None,
     for name in star_names():
         s = star(name, date_utc)
         key = (round(s.ra_deg, 6), round(s.dec_deg, 6), s.magnitude)
-        if key in seen:  # Adara/Adhara, Alcaid/Alkaid: one star
+        if key in seen:  # one star under two names (VARIANT_NAMES has them all)
             continue
         seen.add(key)
         inside = (None if magnitude_window is None else

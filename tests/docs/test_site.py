@@ -51,6 +51,19 @@ def test_every_document_is_in_the_site():
         assert f"\n{name}\n" in tutorials and f"{{download}}`{name}.ipynb`" in tutorials
 
 
+def test_the_api_reference_is_in_the_top_bar():
+    """The theme's top bar shows the first header_links_before_dropdown toctree entries."""
+    shown = int(re.search(r'"header_links_before_dropdown": (\d+)',
+                          (DOCS / "conf.py").read_text()).group(1))
+    entries = []
+    for block in re.findall(r"```\{toctree\}\n(.*?)```", (DOCS / "index.md").read_text(),
+                            re.DOTALL):
+        entries += [ln.strip() for ln in block.splitlines()
+                    if ln.strip() and not ln.startswith(":")]
+    assert "api/index" in entries[:shown], entries[:shown]
+    assert (DOCS / "api" / "index.md").read_text().startswith("# API reference\n")
+
+
 def test_the_api_reference_lists_every_package_and_foundation_module():
     from allsky.layers import LAYERS, SRC
 

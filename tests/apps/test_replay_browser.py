@@ -810,3 +810,68 @@ def test_axe_finds_no_serious_violation(browser, missions, name):
         bad = [v for v in found if v["impact"] in ("serious", "critical")]
         assert bad == [], bad
     js(driver, "document.getElementById('help').close()")
+
+
+BOX_LINES = """return Array.from(document.querySelectorAll(`[data-box="${arguments[0]}"] text`))
+    .map((e) => e.textContent);"""
+
+
+def _deg_s(text):
+    """The signed rates [deg/s] a box's value lines show ("1   +0.000°/s")."""
+    import re
+
+    return [float(x) for x in re.findall(r"([+\u2212-]?\d+\.\d+)\u00b0/s",
+                                          text.replace("\u2212", "-"))]
+
+
+def test_the_gyro_box_reads_the_gyros_and_the_vehicle_strip_the_truth(other):
+    """The dead pitch gyro: box 1 shows its output, 0; the vehicle strip the true tumble.
+
+    Each box is held to the telemetry column it claims (gyro_* for box 1, rate_* for the
+    vehicle 100); in Mode 6-2 of gyro-failure-to-target the two differ by 19 deg/s.
+    """
+    driver, table, summary, _ = other("gyro_failure")
+    t = table[:, INDEX["time"]]
+    onset = next(e["t_s"] for e in summary["events"] if e["kind"] == "fault" and e["active"])
+    declared = next(r["end_s"] for r in summary["modes"] if r["mode"] == "6-2")
+    times = list(np.linspace(onset + 1.0, declared, 6)) + [float(t[len(t) // 4])]
+    sides = js(driver, "return Array.from(document.querySelectorAll('[data-box]'))"
+                       ".map((g) => [g.dataset.box, g.dataset.side]);")
+    assert dict(sides)["100"] == "truth" and dict(sides)["1"] == "belief"
+    assert {s for _, s in sides} == {"belief", "truth"}
+    tumbled = False
+    for when in times:
+        state = js(driver, "return window.allsky.seek(arguments[0])", float(when))
+        r = row_of(t, state["row_t_s"])
+        gyro_deg_s = [table[r, INDEX[f"gyro_{a}"]] / 3600.0 for a in AXES]
+        true_deg_s = [math.degrees(table[r, INDEX[f"rate_{c}"]]) for c in "xyz"]
+        box1 = _deg_s(" ".join(js(driver, BOX_LINES, "1")))
+        strip = [float(x) for x in " ".join(js(driver, BOX_LINES, "100")).replace(
+            "\u2212", "-").split("true body rates")[1].split("\u00b0/s")[0].split()]
+        assert box1 == pytest.approx(gyro_deg_s, abs=2e-3), when
+        assert strip == pytest.approx(true_deg_s, abs=2e-3), when
+        assert [state["gyro_output_deg_s"][a] for a in AXES] == pytest.approx(gyro_deg_s,
+                                                                               abs=1e-4)
+        if when > onset:
+            assert box1[1] == 0.0  # the dead gyro says nothing
+        tumbled |= abs(strip[1]) > 10.0
+    assert tumbled  # while the vehicle pitches at over 10 deg/s
+
+
+def test_a_warned_completion_is_amber_with_the_first_warning(other):
+    """gyro-failure-to-target completes as the sequencer judged: amber, never green."""
+    driver, table, summary, _ = other("gyro_failure")
+    first = summary["warnings"][0]
+    state, hidden, text, badge, now = js(driver, ENDING, float(table[-1, INDEX["time"]]))
+    assert state["status"] == "complete" and not hidden and badge == "complete"
+    ending = js(driver, "const e = document.getElementById('ending'); return [e.className, "
+                        "getComputedStyle(e).borderTopColor, document.getElementById("
+                        "'status-badge').textContent, document.getElementById('mode-badge')"
+                        ".dataset.tone, document.getElementById('mode-badge').style.background];")
+    assert ending[0] == "judged" and ending[1] == "rgb(154, 103, 0)"
+    assert ending[2] == "COMPLETE, AS JUDGED" and ending[3] == "amber"
+    assert ending[4] == "rgb(154, 103, 0)"
+    assert "as the sequencer judged" in text and first in text and first in now
+    assert js(driver, "return document.querySelectorAll('#strip-marks .end-mark.judged')"
+                      ".length") == 1
+    assert "complete, as the sequencer judged" in js(driver, "return document.title")

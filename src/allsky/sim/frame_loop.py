@@ -358,7 +358,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                 and s.frame[0] % p.telemetry_every == 0:
             body_vector(wheels_p.axes, s.wheel_h, wheel_hb)  # at the row's time
         record_telemetry(tlm, tlm_rows, p.telemetry_every, ck, s, leg.mode_code, fine, trk,
-                         volts, wheel_hb, wheel_hdot, s.wheel_unload[0])
+                         gyro, volts, wheel_hb, wheel_hdot, s.wheel_unload[0])
         note_frame(s.journal, s.journal_n, s.journal_seen, frame, star, star_in_use, trk[1],
                    s.overflow, s.tracker_lock)
         if clip_every_frame or frame_in_leg == done:

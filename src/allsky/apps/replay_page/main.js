@@ -61,12 +61,15 @@ const APP = (function () {
     const badge = $("mode-badge");
     if (s.mode !== lastMode || status !== lastStatus || stale) {
       $("mode-name").textContent = modeLabel(s.mode);
-      const bgc = status === "aborted" ? "#b71c1c" : status === "complete" ? "#1b5e20"
-        : modeColour(s.mode);
+      const amber = status === "complete" && judgedAmber();
+      const bgc = status === "aborted" ? "#b71c1c" : amber ? AMBER
+        : status === "complete" ? "#1b5e20" : modeColour(s.mode);
       badge.style.background = bgc; badge.style.color = textOn(bgc);
       $("status-badge").textContent = status === "aborted" ? "ABORTED"
-        : status === "complete" ? "COMPLETE" : "";
+        : amber ? "COMPLETE, AS JUDGED" : status === "complete" ? "COMPLETE" : "";
+      badge.title = amber ? `complete, as the sequencer judged: \u26a0 ${D.ending.judged.first_warning}` : "";
       badge.dataset.status = status || "";
+      badge.dataset.tone = status === "flying" ? "" : (amber ? "amber" : status || "");
       $("mode-title").textContent = m.title.charAt(0).toUpperCase() + m.title.slice(1);
       $("mode-sentence").textContent = m.sentence;
       $("mode-look").textContent = m.look ? `Look: ${m.look}` : "";
@@ -79,20 +82,30 @@ const APP = (function () {
     if (s.mode === "1") now += " (the Mode 1 sun-acquisition controller, not drawn in the patent's "
       + "diagram, drives the control amplifiers)";
     if (status === "aborted") now = `Aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}`;
-    if (status === "complete") now = "The sequencer has ended the mission: complete.";
+    if (status === "complete") now = judgedAmber()
+      ? `The sequencer has ended the mission: complete, as it judged. \u26a0 ${D.ending.judged.first_warning}`
+      : "The sequencer has ended the mission: complete.";
     if ($("mode-now").textContent !== now) $("mode-now").textContent = now;
+  }
+
+  // A mission the sequencer completed while the summary warns: amber, never green.
+  const AMBER = "#9a6700";
+  function judgedAmber() {
+    return !!(D.ending && D.ending.judged && D.ending.judged.tone === "amber");
   }
 
   // The ending: a banner once the mission has ended (complete or aborted).
   function ending(status) {
     const el = $("ending");
     if (status === lastStatus && !stale) return;
+    const amber = status === "complete" && judgedAmber();
     if (lastStatus && status !== lastStatus && status !== "flying") announce(status === "aborted"
-      ? `Mission aborted: ${D.ending.reason}` : "Mission complete");
+      ? `Mission aborted: ${D.ending.reason}` : amber
+        ? `Mission complete, as the sequencer judged: ${D.ending.judged.first_warning}` : "Mission complete");
     lastStatus = status;
     el.hidden = status === "flying";
     $("mode-look").hidden = status !== "flying";
-    el.className = status || "unknown";
+    el.className = amber ? "judged" : status || "unknown";
     el.dataset.status = status || "";
     if (status === "flying") return;
     const e = D.ending;
@@ -104,13 +117,20 @@ const APP = (function () {
     const err = e.true_error_arcsec === null || e.true_error_arcsec === undefined ? ""
       : ` \u00b7 true error ${fmtSep(e.true_error_arcsec)}`;
     const head = document.createElement("b");
-    if (status === "complete") head.textContent = `Mission complete on ${e.target}`;
+    if (amber) head.textContent = `Mission complete on ${e.target}, as the sequencer judged`;
+    else if (status === "complete") head.textContent = `Mission complete on ${e.target}`;
     else if (status === "aborted") head.textContent = `Mission ABORTED in ${modeLabel(e.mode)} at ${e.t_s.toFixed(1)} s`;
     else head.textContent = `Mission ended: ${e.status}`;
     const body = document.createElement("span");
     body.textContent = (status === "aborted" ? `: ${e.reason}` : "") + err
       + (status === "aborted" && e.target ? ` from ${e.target}` : "") + used;
     el.replaceChildren(head, body);
+    if (amber) {
+      const first = document.createElement("div");
+      first.className = "first-warning";
+      first.textContent = `\u26a0 ${e.judged.first_warning}`;
+      el.appendChild(first);
+    }
     if (D.warnings.length) {
       const wn = document.createElement("div");
       wn.textContent = `\u26a0 ${D.warnings.length} warning${D.warnings.length > 1 ? "s" : ""} of the summary: `
@@ -303,9 +323,11 @@ const APP = (function () {
     }
     if (D.ending && (D.ending.status === "aborted" || D.ending.status === "complete")) {
       const d = document.createElement("div");
-      d.className = `end-mark ${D.ending.status}`; d.style.left = pos(D.ending.t_s);
-      d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}` : "mission complete";
-      d.textContent = D.ending.status === "aborted" ? "\u2716" : "\u2714";
+      const amber = D.ending.status === "complete" && judgedAmber();
+      d.className = `end-mark ${amber ? "judged" : D.ending.status}`; d.style.left = pos(D.ending.t_s);
+      d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}`
+        : amber ? `complete, as the sequencer judged: ${D.ending.judged.first_warning}` : "mission complete";
+      d.textContent = D.ending.status === "aborted" ? "\u2716" : amber ? "\u26a0" : "\u2714";
       edge(d, D.ending.t_s);
       marks.appendChild(d);
     }
@@ -447,6 +469,8 @@ const APP = (function () {
       row_t_s: T_MS[i] / 1000, target: TARGETS[targetAt(T_MS[i] / 1000)].name,
       status: statusAt(t), true_error_arcsec: s.trueErr,
       body_rate_deg_s: { roll: s.rateDeg[0], pitch: s.rateDeg[1], yaw: s.rateDeg[2] },
+      gyro_output_deg_s: Number.isNaN(s.gyroDeg[0]) ? null
+        : { roll: s.gyroDeg[0], pitch: s.gyroDeg[1], yaw: s.gyroDeg[2] },
       tracker_star: starInSlit(t), faults_active: faultsAt(t).map((f) => f.kind) };
   }
 
@@ -461,8 +485,9 @@ window.allsky = {
    *  else leaves the time as it is); returns state(). */
   seek: APP.seek,
   /** {t_s, mode, switches {S1..S19}, selector, counters_pulses {14, 16, 18}, row_t_s, target,
-   *  status, true_error_arcsec, body_rate_deg_s {roll, pitch, yaw}, tracker_star,
-   *  faults_active} at the time shown; S7/S8 are selectors, always true (their contact is
+   *  status, true_error_arcsec, body_rate_deg_s {roll, pitch, yaw} (the truth),
+   *  gyro_output_deg_s {roll, pitch, yaw} (what the gyros say; null when not recorded),
+   *  tracker_star, faults_active} at the time shown; S7/S8 are selectors, always true (their contact is
    *  ``selector``). */
   state: APP.state,
   /** Play at ``speed`` times real time (default: the speed selected). */

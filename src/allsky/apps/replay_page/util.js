@@ -224,6 +224,8 @@ function rowState(i) {
     i: i, t_s: T_MS[i] / 1000, mode: modeName(runValue(C.runs.mode, i)), mask: mask,
     selector: +C.selector[i], q: qn,
     rate: [cont("rate_x", i), cont("rate_y", i), cont("rate_z", i)],
+    // The gyros' outputs [arcsec/s], what counters 14/16/18 integrate (NaN: not recorded).
+    gyro: [cont("gyro_roll", i), cont("gyro_pitch", i), cont("gyro_yaw", i)],
     sun: [cont("sun_pitch", i), cont("sun_yaw", i)],
     sunPresent: runValue(C.runs.sun_present, i) > 0.5,
     trk: [cont("tracker_yaw", i), cont("tracker_pitch", i)],
@@ -249,6 +251,7 @@ function rowState(i) {
   s.pps = [0, 1, 2].map((a) => (dt > 0 ? (s.counters[a] - [EXACT.counter14, EXACT.counter16,
     EXACT.counter18][a][j]) / dt : 0));
   s.rateDeg = s.rate.map((r) => r / RAD);
+  s.gyroDeg = s.gyro.map((r) => r / 3600);
   // The truth: +x to the target being flown (the recorded column; the attitude otherwise).
   const c = dcm(s.q), x = toInertial(c, [1, 0, 0]);
   s.xToTargetArcsec = angleBetween(x, TARGETS[s.target].vec) * ARCSEC_PER_RAD;

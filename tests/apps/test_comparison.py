@@ -30,8 +30,7 @@ def test_the_repr_is_the_terminal_headline_table(comparison):
     # the figures of the terminal's table, line for line
     text = format_compare(c._headline_result).splitlines()
     assert text[0] == title and html.escape(title) in page
-    assert [(ln[2:36].strip(), ln[36:70].strip(), ln[70:].strip()) for ln in text[3:3 + len(rows)]] \
-        == shown
+    assert text[3:3 + len(rows)] == [f"  {name:<34}{a:>34}{b:>34}" for name, a, b in rows]
     assert all(html.escape(n) in page for n in notes)
     assert "8 rows, one per seed and method (legacy, dither)" in page
 

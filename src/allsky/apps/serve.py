@@ -808,7 +808,9 @@ def run_from_cli(cfg, args) -> int:
     summary = m.summary()
     if drawn:
         summary["dispersions"] = drawn
-    print(format_report(summary, tracker_star(cfg)))
+    from allsky.apps.report import report_width
+
+    print(format_report(summary, tracker_star(cfg), scenario=about, width=report_width()))
     outputs = []
     if args.json:
         outputs.append((f"JSON summary {args.json}", lambda: write_atomic(

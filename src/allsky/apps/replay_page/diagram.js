@@ -76,7 +76,7 @@ const DIAGRAM = (function () {
     const g = svgEl("g", { "data-box": n, "data-side": side }, svg);
     const title = svgEl("title", {}, g);
     const wheelBox = WHEELS && n === "39";
-    title.textContent = `${SIDE_WORDS[side]}: ${wheelBox ? D.diagram.plain_wheels : b.plain}`;
+    title.textContent = `${wheelBox ? D.diagram.plain_wheels : b.plain} (${SIDE_WORDS[side]})`;
     const rect = svgEl("rect", { x: X(x), y: Y(y + h), width: w * S, height: h * S, rx: 6,
       fill: b.shaded ? "#fff7e6" : "#ffffff", stroke: "#2b3040", "stroke-width": 2 }, g);
     // The side of truth and belief the box shows: a stripe down its left edge.
@@ -90,7 +90,7 @@ const DIAGRAM = (function () {
     if (n === "100") {
       const t = svgEl("text", { x: X(x) + 12, y: top + F + 6, "font-size": F,
         "font-weight": 700 }, g);
-      t.textContent = `${b.label} ${b.numerals.join(", ")} (truth)`;
+      t.textContent = `${b.label} ${b.numerals.join(", ")}`;
       const room = (t.textContent.length + 1) * F * 0.62;
       texts[n] = [svgEl("text", { x: X(x) + 12 + room, y: top + F + 6, "font-size": F,
         "font-family": "DejaVu Sans Mono, monospace" }, g)];
@@ -234,7 +234,7 @@ const DIAGRAM = (function () {
       v["39"] = per("39", (a) => `${s.valves[a] ? (s.valves[a] > 0 ? "+fire" : "\u2212fire") : "off"}`, 5);
     }
     const extra = WHEELS && s.unloading ? " \u00b7 unloading" : "";
-    v["100"] = [`true body rates ${s.rateDeg.map((r) => fmtRate(r)).join(" ")} \u00b0/s (roll pitch yaw)`
+    v["100"] = [`true body rates (r p y) ${s.rateDeg.map((r) => fmtRate(r)).join(" ")} \u00b0/s`
       + ` \u00b7 propellant ${s.propellant.toFixed(3)}/${cfg.propellant_kg.toFixed(1)} kg${extra}`];
     return v;
   }

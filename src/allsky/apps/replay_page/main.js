@@ -88,6 +88,38 @@ const APP = (function () {
     if ($("mode-now").textContent !== now) $("mode-now").textContent = now;
   }
 
+  // The header keeps one height through the flight: the tallest any mode's texts make it
+  // (its title, sentence, what to look for, the longest "waiting for" of the mode), so that
+  // no panel moves at a mode change. Measured again after a resize or a new journal.
+  let headerStale = true;
+  function holdHeaderHeight() {
+    const row = $("mode-row"), ids = ["mode-title", "mode-sentence", "mode-now", "mode-look"];
+    const kept = ids.map((id) => $(id).textContent), look = $("mode-look").hidden;
+    row.style.minHeight = "";
+    $("mode-look").hidden = false;
+    let tallest = 0;
+    const flown = new Set(D.timeline.map((r) => r.mode));
+    for (const name in D.modes) {
+      if (flown.size && !flown.has(name)) continue;
+      const m = D.modes[name];
+      const nows = WAITING.filter((e) => e.mode === name).map((e) => `Now: waiting for ${e.waiting}`);
+      const now = nows.reduce((a, b) => (b.length > a.length ? b : a), "")
+        + (name === "1" ? " (the Mode 1 sun-acquisition controller, not drawn in the patent's "
+          + "diagram, drives the control amplifiers)" : "");
+      $("mode-title").textContent = m.title.charAt(0).toUpperCase() + m.title.slice(1);
+      $("mode-sentence").textContent = m.sentence;
+      $("mode-now").textContent = now;
+      $("mode-look").textContent = m.look ? `Look: ${m.look}` : "";
+      tallest = Math.max(tallest, row.getBoundingClientRect().height);
+    }
+    ids.forEach((id, k) => { $(id).textContent = kept[k]; });
+    $("mode-look").hidden = look;
+    row.style.minHeight = `${Math.ceil(tallest)}px`;
+    headerStale = false;
+  }
+  window.addEventListener("resize", () => { headerStale = true; });
+  ON_JOURNAL.push(() => { headerStale = true; });
+
   // A mission the sequencer completed while the summary warns: amber, never green.
   const AMBER = "#9a6700";
   function judgedAmber() {
@@ -388,6 +420,7 @@ const APP = (function () {
     const i = rowAt(t), s = rowState(i), status = statusAt(t);
     let a = performance.now();
     const lap = (name) => { const b = performance.now(); parts[name] = b - a; a = b; };
+    if (headerStale) holdHeaderHeight();
     header(s, status); ending(status); stale = false;
     registersLine(); truthLine(s); eventLog(); lap("text");
     DIAGRAM.update(s, t); lap("diagram");

@@ -387,6 +387,58 @@ function fillTextInside(ctx, text, x, y, w, h) {
   return [xx, yy, tw];
 }
 
+/** The labels of one drawing of a canvas, placed so that no two overlap.
+ *
+ *  ``want`` queues a label: its text, font and colour, the point it names (ax, ay) and
+ *  the place it prefers (baseline-left px, py); ``flush`` writes them by priority (lower
+ *  first), each at the first free one of its preferred place and places around its point,
+ *  farther and farther, inside [0, w] x [0, h]. A label no place is free for is not
+ *  written (``dropped`` counts them). ``reserve`` keeps a box [x0, y0, x1, y1] free. */
+function labelLayer(ctx, w, h) {
+  const boxes = [], queue = [];
+  let dropped = 0;
+  const free = (b) => boxes.every((o) => b[2] <= o[0] || b[0] >= o[2] || b[3] <= o[1] || b[1] >= o[3]);
+  function put(q) {
+    ctx.font = q.font;
+    const m = ctx.measureText(q.text), tw = m.width;
+    const asc = m.actualBoundingBoxAscent || 9, desc = m.actualBoundingBoxDescent || 3;
+    const lh = asc + desc;
+    const cands = [[q.px, q.py]];
+    for (let k = 1; k <= 5; k++) {
+      const d = 3 + 5 * k, v = (k - 1) * lh;
+      cands.push([q.ax + d, q.ay + asc / 2], [q.ax - d - tw, q.ay + asc / 2],
+        [q.ax - tw / 2, q.ay - d - desc - v], [q.ax - tw / 2, q.ay + d + asc + v],
+        [q.ax + d, q.ay - d - desc - v], [q.ax + d, q.ay + d + asc + v],
+        [q.ax - d - tw, q.ay - d - desc - v], [q.ax - d - tw, q.ay + d + asc + v]);
+    }
+    for (const [cx, cy] of cands) {
+      const x = Math.max(1, Math.min(cx, q.w - tw - 1)), y = Math.max(asc + 1, Math.min(cy, q.h - desc - 1));
+      const b = [x - 1, y - asc - 1, x + tw + 1, y + desc + 1];
+      if (free(b)) {
+        ctx.fillStyle = q.colour; ctx.globalAlpha = q.alpha;
+        ctx.fillText(q.text, x, y);
+        ctx.globalAlpha = 1;
+        boxes.push(b);
+        return b;
+      }
+    }
+    dropped += 1;
+    return null;
+  }
+  return {
+    reserve: (b) => boxes.push(b),
+    want: (text, ax, ay, px, py, opts) => queue.push(Object.assign({ text: text, ax: ax, ay: ay,
+      px: px, py: py, font: font(12), colour: "#1d2330", priority: 5, alpha: 1, w: w, h: h },
+      opts || {}, { order: queue.length })),
+    flush: () => {
+      queue.sort((a, b) => a.priority - b.priority || a.order - b.order).forEach(put);
+      queue.length = 0;
+      return dropped;
+    },
+    boxes: () => boxes.map((b) => b.slice()),
+  };
+}
+
 const SVG_NS = "http://www.w3.org/2000/svg";
 function svgEl(tag, attrs, parent) {
   const el = document.createElementNS(SVG_NS, tag);

@@ -942,3 +942,31 @@ def test_the_header_keeps_its_height_through_the_modes(browser, flown, viewport)
         assert len({round(top, 1) for _, top in heights}) == 1, heights
     finally:
         set_viewport(driver, *VIEWPORT)
+
+
+def test_the_3d_view_and_the_sky_map_enlarge_in_place_at_720p(page, flown):
+    """At 1280x720 the views are small; v and m enlarge each over the page, Esc puts it back."""
+    from selenium.webdriver.common.keys import Keys
+
+    driver, _ = page
+    size = """const r = document.getElementById(arguments[0]).getBoundingClientRect();
+        return [r.width, r.height];"""
+    t = flown[0][:, INDEX["time"]]
+    js(driver, "window.allsky.seek(arguments[0])", float(t[len(t) // 2]))
+    small = {c: js(driver, size, c) for c in ("vehicle", "sky")}
+    body = driver.find_element("tag name", "body")
+    for key, canvas, panel in (("v", "vehicle", "vehicle-panel"), ("m", "sky", "sky-panel")):
+        body.send_keys(key)
+        big = js(driver, size, canvas)
+        assert big[0] >= 1100 and big[1] >= 500, (canvas, small[canvas], big)
+        assert js(driver, f"return document.getElementById('{panel}').classList"
+                          ".contains('enlarged')")
+        assert js(driver, f"return +document.getElementById('{canvas}').dataset"
+                          ".labelsDropped") == 0  # room for every label
+        body.send_keys(Keys.ESCAPE)
+        assert js(driver, size, canvas) == small[canvas]
+    button = driver.find_element("css selector", 'button.enlarge[data-panel="sky-panel"]')
+    button.click()
+    assert button.get_attribute("aria-pressed") == "true"
+    button.click()
+    assert js(driver, size, "sky") == small["sky"]

@@ -394,8 +394,30 @@ const APP = (function () {
     speed = opts[k]; speedSel.value = String(speed);
   }
 
+  // The 3-D view and the sky map, small at 1280x720, enlarge in place over the page.
+  function enlarge(id) {
+    for (const el of document.querySelectorAll(".panel.enlarged")) {
+      if (el.id !== id) el.classList.remove("enlarged");
+    }
+    const panel = id && document.getElementById(id);
+    if (panel) panel.classList.toggle("enlarged");
+    for (const b of document.querySelectorAll("button.enlarge")) {
+      const on = document.getElementById(b.dataset.panel).classList.contains("enlarged");
+      b.setAttribute("aria-pressed", on ? "true" : "false");
+      b.textContent = `${on ? "\u2921" : "\u2922"} ${b.dataset.panel === "sky-panel" ? "m" : "v"}`;
+
+    }
+    redraw();
+  }
+  for (const b of document.querySelectorAll("button.enlarge")) {
+    b.addEventListener("click", () => enlarge(b.dataset.panel));
+  }
+
   window.addEventListener("keydown", (e) => {
     if (help.open) return;  // the dialog has the keys (Escape closes it)
+    if (e.key === "Escape" && document.querySelector(".panel.enlarged")) {
+      e.preventDefault(); enlarge(null); return;
+    }
     const tag = e.target && e.target.tagName;
     if (tag === "SELECT" || (tag === "INPUT" && e.target.type !== "range")) return;
     if ((tag === "BUTTON" || tag === "INPUT") && (e.key === " " || e.key === "Enter")) return;
@@ -411,6 +433,7 @@ const APP = (function () {
       "Home": () => seek(T0), "End": () => seek(T1),
       "+": () => stepSpeed(1), "=": () => stepSpeed(1), "-": () => stepSpeed(-1),
       "?": openHelp,
+      "v": () => enlarge("vehicle-panel"), "m": () => enlarge("sky-panel"),
     }[e.key];
     if (handled) { e.preventDefault(); handled(); }
   });

@@ -450,6 +450,10 @@ const APP = (function () {
     VEHICLE.draw(s, t); lap("vehicle");
     SKY.draw(s, t, modeStartRow(i)); lap("sky");
     TRACES.draw(s, t); lap("traces");
+    if (LIVE) {  // the footer reviews the recording: named, its play hidden while following
+      $("controls-name").hidden = false;
+      if (playBtn.hidden !== follow) playBtn.hidden = follow;
+    }
     if (+scrub.value !== t) scrub.value = t;
     const vt = `${t.toFixed(1)} s, ${modeLabel(s.mode)}${status === "flying" || !status ? "" : `, ${status}`}`;
     if (scrub.getAttribute("aria-valuetext") !== vt) scrub.setAttribute("aria-valuetext", vt);

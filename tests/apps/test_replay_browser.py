@@ -742,7 +742,7 @@ def test_text_is_legible_and_nothing_is_clipped(browser, missions, flown, viewpo
         assert doc[0] <= doc[1]  # no sideways scrolling of the page (the diagram scrolls alone)
     one_column = js(driver, """const r = (id) => document.getElementById(id).getBoundingClientRect();
         return [r('diagram-panel').left, r('traces-panel').left, r('events-panel').left];""")
-    if width < 1000:
+    if width < 1172:
         assert max(one_column) - min(one_column) < 1  # one scrolling column
     else:
         assert one_column[1] > one_column[0] + 500
@@ -970,3 +970,19 @@ def test_the_3d_view_and_the_sky_map_enlarge_in_place_at_720p(page, flown):
     assert button.get_attribute("aria-pressed") == "true"
     button.click()
     assert js(driver, size, "sky") == small["sky"]
+
+
+@pytest.mark.parametrize("width", [1123, 1171, 1172])
+def test_the_page_fits_a_notebook_frame(page, width):
+    """A notebook's inline frame (about 1123 px): nothing cut on the right at any width."""
+    driver, path = page
+    set_viewport(driver, width, 860)
+    try:
+        open_page(driver, path)
+        sizes = js(driver, "return [document.documentElement.scrollWidth, window.innerWidth]")
+        assert sizes[0] <= sizes[1], sizes
+        columns = js(driver, """const r = (id) => document.getElementById(id).getBoundingClientRect();
+            return [r('diagram-panel').left, r('traces-panel').left];""")
+        assert (columns[1] > columns[0] + 500) == (width >= 1172)
+    finally:
+        set_viewport(driver, *VIEWPORT)

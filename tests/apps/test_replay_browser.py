@@ -986,3 +986,17 @@ def test_the_page_fits_a_notebook_frame(page, width):
         assert (columns[1] > columns[0] + 500) == (width >= 1172)
     finally:
         set_viewport(driver, *VIEWPORT)
+
+
+def test_words_never_written_read_not_calibrated(other):
+    """mariner4-dust-glints aborts in Mode 5: its yaw words are not calibrated, not errors."""
+    driver, _, summary, _ = other("dust")
+    assert summary["status"] == "aborted" and summary["modes"][-1]["mode"] == "5"
+    cells = js(driver, """window.allsky.seek(1e9); return Array.from(document.querySelectorAll(
+        '#registers-line tr:first-child td.word')).map((c) => [c.textContent, c.title]);""")
+    shown = {text.split()[0].lstrip("\u26a0"): (text, title) for text, title in cells}
+    for word in ("SFy", "y\u2192p", "y\u2192r"):
+        assert shown[word][0] == f"{word} not cal.", shown[word]
+        assert "not calibrated (Mode 5 aborted)" in shown[word][1]
+    for word in ("SFr", "r\u2192p", "r\u2192y"):
+        assert "not cal." not in shown[word][0] and "not calibrated" not in shown[word][1]

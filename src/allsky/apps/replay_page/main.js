@@ -205,8 +205,16 @@ const APP = (function () {
     cell(r2, truth ? "true" : "", "head");
     let flagged = 0;
     const as = (x) => `${fmt(x * ARCSEC_PER_RAD, 1)}\u2033`;
+    // A word no calibration has written holds the power-on value: not a measurement, so not
+    // shown as one beside the truth ("not calibrated", and why).
+    const aborted = D.ending && D.ending.status === "aborted" && t >= D.ending.t_s - 1e-9;
+    const why = aborted ? `Mode ${D.ending.mode} aborted` : "not written yet";
     for (const [k, label, long, cc] of WORDS) {
-      const val = w[k], c1 = cell(r1, `${label} ${cc ? as(val) : val.toFixed(6)}`, "word", long);
+      const val = w[k], never = w.source === "journal" ? (w.written || []).indexOf(k) < 0
+        : w.source === "start";
+      const c1 = never ? cell(r1, `${label} not cal.`, "word not-calibrated",
+        `${long}: not calibrated (${why}); the register holds its power-on value ${cc ? as(val) : val.toFixed(6)}`)
+        : cell(r1, `${label} ${cc ? as(val) : val.toFixed(6)}`, "word", long);
       if (truth && k in truth.words) {
         const tv = truth.words[k];
         const off = written && (w.written || []).indexOf(k) >= 0 && Math.abs(val - tv) > truth.flag_above;

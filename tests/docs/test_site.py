@@ -180,3 +180,25 @@ def test_the_first_tutorial_plays_its_replay_inline_offline(saved_states):
         assert errors == []
     finally:
         driver.quit()
+
+
+@pytest.mark.parametrize("query, first", [("fly", "allsky.fly"), ("compare", "allsky.compare"),
+                                          ("Flight", "allsky.Flight")])
+def test_the_site_search_gives_the_public_name_first(query, first):
+    """The search page, offline in chromium: the public name before the modules' pages."""
+    site = _site()
+    driver = new_driver()
+    try:
+        driver.get((site / "search.html").as_uri() + f"?q={query}")
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        links = []
+        while time.monotonic() < deadline:
+            links = driver.execute_script(
+                "return Array.from(document.querySelectorAll('#search-results li a'))"
+                ".map((a) => a.textContent.trim());")
+            if links:
+                break
+            time.sleep(0.2)
+        assert links and links[0] == first, links[:5]
+    finally:
+        driver.quit()

@@ -74,11 +74,11 @@ class InterruptedWarning(UserWarning):
 
 
 class StrictError(RuntimeError):
-    """A mission :func:`fly` flew with ``strict=True`` whose summary has a warning, or that
-    did not complete.
+    """A mission flown with ``strict=True`` that warned, aborted or did not finish.
 
-    The message gives the judgement and the first warning
-    (:func:`allsky.apps.verdict.strict_failure`); nothing flown is lost.
+    :func:`fly` raises it; ``message`` gives the judgement and the first
+    warning (:func:`allsky.apps.verdict.strict_failure`), and ``flight``, the
+    :class:`Flight`, keeps everything flown.
 
     Attributes
     ----------

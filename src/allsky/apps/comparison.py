@@ -1,4 +1,4 @@
-"""The result of :func:`allsky.compare`: its rows as a DataFrame, shown as the headline table.
+"""The result of :func:`allsky.compare`: its rows, shown as the headline table.
 
 In a notebook a comparison shows itself as ``allsky compare`` prints it: the
 side-by-side table of the two methods (:func:`allsky.apps.compare.headline`)
@@ -39,14 +39,14 @@ class Comparison(pd.DataFrame):
 
     @classmethod
     def of(cls, rows: pd.DataFrame, result: dict) -> "Comparison":
-        """A Comparison of the DataFrame ``rows`` and the study's ``result`` (its statistics)."""
+        """A Comparison of the DataFrame ``rows`` and the study's statistics ``result``."""
         out = cls(rows)
         out.attrs.update(rows.attrs)
         out._headline_result = result
         return out
 
     def headline(self) -> tuple:
-        """``(title, rows, notes)`` of the headline table (:func:`allsky.apps.compare.headline`)."""
+        """The headline table: ``(title, rows, notes)``, as ``allsky compare`` prints it."""
         return headline(self._headline_result)
 
     def _repr_html_(self) -> str:

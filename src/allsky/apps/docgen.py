@@ -368,7 +368,7 @@ def ground_commands_reference() -> str:
 
 
 def scenario_cards_reference() -> str:
-    """The packaged scenarios' cards (``allsky scenarios NAME`` prints one), as markdown."""
+    """The packaged scenarios' cards, as markdown (``allsky scenarios NAME``: one)."""
     from allsky.apps.faults import scenario_cards
 
     return "".join(f"### `{name}` \u2014 {c['title']}\n\n{c['text']}\n\n"

@@ -166,7 +166,10 @@ def scenario_cards() -> dict:
 
 
 def format_card(name, title, text, width=100) -> str:
-    """A card as the terminal shows it: its heading, each paragraph folded to ``width``."""
+    """Card ``name`` as the terminal shows it, each paragraph folded to ``width``.
+
+    ``title`` is its heading's, ``text`` its paragraphs (markdown).
+    """
     import re
     import textwrap
 
@@ -179,7 +182,7 @@ def format_card(name, title, text, width=100) -> str:
 
 
 def scenarios_from_cli(cfg, args) -> int:
-    """``allsky scenarios [NAME] [--json PATH]``: list the packaged scenarios, or show one.
+    """``allsky scenarios [NAME] [--json PATH]``: the scenarios, or one's card.
 
     With NAME, the scenario's card: what happened, with its sources, what the
     scenario flies and what it leaves out (a scenario without a card: the

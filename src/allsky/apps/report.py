@@ -29,7 +29,10 @@ MIN_WIDTH = 72
 
 
 def report_width(stream=None) -> int:
-    """The report's width on ``stream`` (default stdout): :data:`WIDTH`, or a narrower terminal's."""
+    """The report's width on ``stream`` (default stdout) [columns].
+
+    :data:`WIDTH`, or a narrower terminal's, never under :data:`MIN_WIDTH`.
+    """
     import os
 
     stream = sys.stdout if stream is None else stream
@@ -41,7 +44,7 @@ def report_width(stream=None) -> int:
 
 
 def angle_text(arcsec, spec=".1f") -> str:
-    """An angle [arcsec] in words: arcsec, and degrees beside them past 1 deg."""
+    """Angle ``arcsec`` [arcsec] formatted by ``spec``, with degrees past 1 deg."""
     text = f"{format(arcsec, spec)} arcsec"
     if abs(arcsec) >= 3600.0:
         text += f" ({arcsec / 3600.0:.3f} deg)"

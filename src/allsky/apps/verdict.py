@@ -38,7 +38,9 @@ WORD_OF = {**{("scale_factor", a): f"sf_{a}" for a in SCALE_FACTOR_AXES},
 
 
 def judge(summary) -> dict:
-    """The judgement of mission ``summary`` (:meth:`Mission.summary`) every display shows.
+    """The judgement of mission ``summary`` that every display shows.
+
+    ``summary`` is :meth:`allsky.sim.mission.Mission.summary`'s.
 
     Returns
     -------
@@ -64,9 +66,10 @@ def judge(summary) -> dict:
 
 
 def strict_failure(summary) -> str | None:
-    """Why ``--strict`` (:func:`allsky.fly` ``strict=True``) fails ``summary``; None: it passes.
+    """Why ``--strict`` fails mission ``summary``, or None: it passes.
 
-    Any warning fails it, and so does an abort or a flight stopped before its end.
+    As :func:`allsky.fly` with ``strict=True``: any warning fails it, and so
+    does an abort or a flight stopped before its end.
     """
     j = judge(summary)
     if j["tone"] == "ok":
@@ -89,7 +92,7 @@ def _why_unwritten(summary) -> str:
 
 
 def unwritten(summary) -> dict:
-    """The calibration entries no mode wrote, each with the words a display shows.
+    """The calibration entries of mission ``summary`` no mode wrote, in words.
 
     A word of register 23 is written when the journal has its ``register``
     entry (``register`` 23, ``word`` ``sf_roll`` ...); a drift when its drift

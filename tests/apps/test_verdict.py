@@ -188,3 +188,22 @@ def test_an_unknown_scenario_name_is_one_error_line(capsys):
     assert "voyager1-wrong-star" in err[0]
     assert cli.main(["scenarios", "a", "b"]) == 2
     assert capsys.readouterr().err.startswith("allsky: error: unrecognized arguments: b;")
+
+
+def test_the_first_line_is_amber_on_a_terminal_only(runs, monkeypatch):
+    from allsky.apps.report import coloured
+
+    _, report, summary, _ = runs("gyro-failure-to-target")
+
+    class Terminal:
+        def isatty(self):
+            return True
+
+    monkeypatch.delenv("NO_COLOR", raising=False)
+    text = coloured(report, summary, Terminal())
+    assert text.startswith("\033[33mallsky mission: complete, as the sequencer judged")
+    assert text.splitlines()[0].endswith("\033[0m") and text.splitlines()[1:] == \
+        report.splitlines()[1:]
+    assert coloured(report, summary) == report  # not a terminal: plain text
+    monkeypatch.setenv("NO_COLOR", "1")
+    assert coloured(report, summary, Terminal()) == report

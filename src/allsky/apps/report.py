@@ -55,6 +55,12 @@ class _Row(str):
     """A table row: kept whole whatever the width (a table's columns do not fold)."""
 
 
+class _Hanging(str):
+    """A table row whose last column folds, continued under that column (``indent``)."""
+
+    indent = 0
+
+
 def _wrap(lines, width) -> list:
     """Each line longer than ``width`` folded at spaces, continued two columns in.
 
@@ -69,9 +75,10 @@ def _wrap(lines, width) -> list:
             continue
         lead = len(line) - len(line.lstrip(" "))
         mark = "  " if line.lstrip(" ").startswith("! ") else ""
-        out += textwrap.wrap(line, width, initial_indent="", subsequent_indent=" "
-                             * (lead + 2) + mark, break_on_hyphens=False,
-                             drop_whitespace=True) or [line]
+        hang = line.indent if isinstance(line, _Hanging) and line.indent < width - 20 \
+            else lead + 2 + len(mark)
+        out += textwrap.wrap(line, width, initial_indent="", subsequent_indent=" " * hang,
+                             break_on_hyphens=False, drop_whitespace=True) or [line]
     return out
 
 
@@ -127,8 +134,10 @@ def format_report(summary: dict, tracker_star=None, scenario=None, width=WIDTH) 
     lines += _faults_lines(summary)
     lines += ["", "Mode timeline", f"  {'mode':<5}{'start s':>9}{'end s':>9}{'dur s':>8}  exit"]
     for r in summary["modes"]:
-        lines.append(f"  {r['mode']:<5}{r['start_s']:>9.1f}{r['end_s']:>9.1f}"
-                     f"{r['end_s'] - r['start_s']:>8.1f}  {r['exit']}")
+        row = _Hanging(f"  {r['mode']:<5}{r['start_s']:>9.1f}{r['end_s']:>9.1f}"
+                       f"{r['end_s'] - r['start_s']:>8.1f}  {r['exit']}")
+        row.indent = 35  # under the exit column
+        lines.append(row)
     now = _mode_in_progress(summary)
     if now is not None:
         lines.append(f"  {now['mode']:<5}{now['t_s']:>9.1f}{'-':>9}{'-':>8}  in progress")
@@ -165,6 +174,33 @@ def format_report(summary: dict, tracker_star=None, scenario=None, width=WIDTH) 
     if flagged:
         lines.append(f"Counter overflow flagged: {', '.join(flagged)}")
     return "\n".join(_wrap(lines, width))
+
+
+#: ANSI colours of the judgement on a terminal, by tone (:func:`allsky.apps.verdict.judge`).
+ANSI = {"ok": "\033[32m", "amber": "\033[33m", "failed": "\033[31m", "open": ""}
+
+
+def coloured(report, summary, stream=None) -> str:
+    """``report`` with its first line in the judgement's colour on a terminal.
+
+    Green complete, amber "complete, as the sequencer judged", red aborted:
+    only when ``stream`` (default stdout) is a terminal and ``NO_COLOR`` is
+    unset; ``summary`` is the mission's.
+    """
+    import os
+
+    from allsky.apps.verdict import judge
+
+    stream = sys.stdout if stream is None else stream
+    try:
+        tty = stream.isatty()
+    except (AttributeError, ValueError):
+        tty = False
+    code = ANSI[judge(summary)["tone"]]
+    if not tty or os.environ.get("NO_COLOR") or not code:
+        return report
+    first, _, rest = report.partition("\n")
+    return f"{code}{first}\033[0m" + ("\n" + rest if rest else "")
 
 
 def _faults_lines(summary) -> list:
@@ -475,7 +511,8 @@ def run_from_cli(cfg, args) -> int:
     from allsky.apps.replay import describe_scenario
 
     about = describe_scenario(getattr(args, "scenario", None), getattr(args, "overrides", ()))
-    say(format_report(summary, tracker_star(cfg), scenario=about, width=report_width()))
+    say(coloured(format_report(summary, tracker_star(cfg), scenario=about, width=report_width()),
+                 summary))
     outputs = []
     if to_stdout:
         print(json.dumps(summary, indent=2))

@@ -227,3 +227,20 @@ def test_the_live_page_names_its_two_clocks_and_fits_720p(driver, tmp_path):
         assert not driver.execute_script("return document.getElementById('btn-play').hidden")
     finally:
         s.kill()
+
+
+def test_a_warned_completion_is_amber_on_the_live_page(driver, tmp_path):
+    """gyro-failure-to-target flown live: the badge is COMPLETE, AS JUDGED, never COMPLETE."""
+    s = Session("gyro-failure-to-target", "--speed", "1000", "--pause-when-alone",
+                "--json", str(tmp_path / "s.json"))
+    try:
+        driver.get(s.url)
+        wait_for(driver, READY)
+        wait_for(driver, "return window.allsky.session().status === 'complete'")
+        badge = wait_for(driver, "const b = document.getElementById('live-badge'); "
+                                 "return b.textContent === 'COMPLETE, AS JUDGED' && "
+                                 "[b.className, b.title];")
+        assert "judged" in badge[0] and "Mode 6-2 declared the vehicle on Sirius" in badge[1]
+        wait_for(driver, "return document.getElementById('ending').className === 'judged'")
+    finally:
+        s.kill()

@@ -93,7 +93,7 @@
     if (entries) journal.push(...entries);
     if (page) booted.setJournal(Object.assign({}, page));
     if (columns) booted.appendColumns(columns);
-    if (page) faultList(page);
+    if (page) { faultList(page); if (session) status(); }  // the badge reads the ending
   }
 
   // Commands applied whose entries have not yet reached the page's journal.

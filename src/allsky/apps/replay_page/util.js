@@ -206,7 +206,12 @@ function faultsAt(t) {
 function statusAt(t) {
   const e = D.ending;
   if (!e) return t >= T1 - 1e-9 ? null : "flying";
-  if ((e.status === "complete" || e.status === "aborted") && t >= e.t_s - 1e-9) return e.status;
+  if (e.status !== "complete" && e.status !== "aborted") return "flying";
+  if (t >= e.t_s - 1e-9) return e.status;
+  // An ending between the last row and the next the recorder would have written (a live
+  // flight ends on a frame, its rows come every few): the record ends with the mission.
+  const last = N > 1 ? (T_MS[N - 1] - T_MS[N - 2]) / 1000 : 0;
+  if (t >= T1 - 1e-9 && e.t_s - T1 < last - 1e-9) return e.status;
   return "flying";
 }
 

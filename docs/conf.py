@@ -104,7 +104,7 @@ html_theme_options = {
 }
 html_show_sourcelink = False
 # Search: the public names (allsky.fly, allsky.Flight ...) before the modules' own pages.
-html_search_scorer = "_ext/search_scorer.js"
+html_search_scorer = str(DOCS / "_ext" / "search_scorer.js")
 html_copy_source = False
 
 

@@ -103,6 +103,8 @@ html_theme_options = {
     "footer_end": ["sphinx-version"],
 }
 html_show_sourcelink = False
+# Search: the public names (allsky.fly, allsky.Flight ...) before the modules' own pages.
+html_search_scorer = str(DOCS / "_ext" / "search_scorer.js")
 html_copy_source = False
 
 

@@ -3,6 +3,7 @@
 from allsky.apps.api import Flight as Flight
 from allsky.apps.api import InterruptedWarning as InterruptedWarning
 from allsky.apps.api import Replay as Replay
+from allsky.apps.api import StrictError as StrictError
 from allsky.apps.api import compare as compare
 from allsky.apps.api import fly as fly
 from allsky.apps.api import montecarlo as montecarlo
@@ -29,6 +30,7 @@ __all__ = [
     "ModeRecord",
     "Replay",
     "Scenario",
+    "StrictError",
     "__version__",
     "compare",
     "fly",

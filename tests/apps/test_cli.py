@@ -6,6 +6,7 @@ are in test_cli_config.py.)"""
 import json
 
 from allsky.apps.cli import main
+from allsky.sim.recorder import FORMAT
 
 
 def test_bad_override_exit_2(capsys):
@@ -40,7 +41,7 @@ def test_run_writes_json_and_telemetry(tmp_path, capsys):
     assert [e["mode"] for e in s["events"] if e["kind"] == "mode_start"] == [
         m["mode"] for m in s["modes"]]
     first, header = tl.read_text().splitlines()[:2]
-    assert first.startswith("# allsky telemetry format 2; rows ")
+    assert first.startswith(f"# allsky telemetry format {FORMAT}; rows ")
     assert header.startswith("time [s],mode [-],q_w")
 
 

@@ -32,3 +32,14 @@ def test_the_replay_log_gives_each_its_row(entry, reason):
     (row,) = events.page_log([entry])
     assert row["kind"] == entry["kind"] and row["reason"] == reason
     assert row["text"] == events.event_text(entry)
+
+
+@pytest.mark.parametrize("word", ["roll_into_pitch", "yaw_into_roll"])
+def test_register_23_cross_coupling_is_in_arcsec_as_every_table_gives_it(word):
+    """The register holds radians; the journal's line gives arcsec, the tables' unit."""
+    e = {"kind": "register", "register": "23", "word": word, "value": 0.0008669753086419754,
+         "unit": "-"}
+    assert events.event_text(e) == f"register 23 {word} = +178.83 arcsec"  # 8.67e-4 rad
+    sf = {"kind": "register", "register": "23", "word": "sf_roll", "value": 0.9985065,
+          "unit": "-"}
+    assert events.event_text(sf) == "register 23 sf_roll = 0.9985065"

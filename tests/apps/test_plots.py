@@ -356,7 +356,7 @@ def test_plot_command_refuses_a_file_missing_a_column(tmp_path, capsys, files):
     (tmp_path / "cut.csv").write_text(first + "\n" + "\n".join(cut) + "\n")
     assert main(["plot", str(tmp_path / "cut.csv")]) == 2
     err = capsys.readouterr().err
-    assert "missing column 'jet_on_yaw [s]' of telemetry format 2" in err
+    assert "missing column 'gyro_yaw [arcsec/s]' of telemetry format 3" in err
 
 
 def test_plot_command_refuses_a_summary_that_is_not_one(tmp_path, capsys, files):

@@ -201,3 +201,46 @@ def test_the_live_page_can_reach_nothing_but_its_session(driver, tmp_path):
         assert blocked.startswith(("connect-src ws://127.0.0.1:9", "threw"))
     finally:
         with_session.kill()
+
+
+def test_the_live_page_names_its_two_clocks_and_fits_720p(driver, tmp_path):
+    """The session's clock and the recording's are named; the footer's play is hidden while
+    the page follows live; a hint says to pause first; nothing overflows 1280x720."""
+    s = Session("--speed", "50", "--pause-when-alone", "--json", str(tmp_path / "s.json"))
+    try:
+        driver.get(s.url)
+        wait_for(driver, READY)
+        wait_for(driver, "return window.allsky.session().t_s > 20")
+        names = driver.execute_script(
+            "return Array.from(document.querySelectorAll('.clock-name'))"
+            ".filter((e) => e.offsetParent !== null).map((e) => e.textContent.trim());")
+        assert names == ["live session", "review the recording"]
+        assert driver.execute_script("return window.allsky.isFollowing()") is True
+        assert driver.execute_script("return document.getElementById('btn-play').hidden")
+        hint = driver.execute_script("return document.getElementById('g-pause-hint').textContent")
+        assert "pause the live session first" in " ".join(hint.split())
+        size = driver.execute_script("return [document.documentElement.scrollHeight, "
+                                     "window.innerHeight, document.documentElement.scrollWidth, "
+                                     "window.innerWidth]")
+        assert size[0] <= size[1] and size[2] <= size[3], size
+        driver.execute_script("window.allsky.seek(5)")  # reviewing: the footer's play is back
+        assert not driver.execute_script("return document.getElementById('btn-play').hidden")
+    finally:
+        s.kill()
+
+
+def test_a_warned_completion_is_amber_on_the_live_page(driver, tmp_path):
+    """gyro-failure-to-target flown live: the badge is COMPLETE, AS JUDGED, never COMPLETE."""
+    s = Session("gyro-failure-to-target", "--speed", "1000", "--pause-when-alone",
+                "--json", str(tmp_path / "s.json"))
+    try:
+        driver.get(s.url)
+        wait_for(driver, READY)
+        wait_for(driver, "return window.allsky.session().status === 'complete'")
+        badge = wait_for(driver, "const b = document.getElementById('live-badge'); "
+                                 "return b.textContent === 'COMPLETE, AS JUDGED' && "
+                                 "[b.className, b.title];")
+        assert "judged" in badge[0] and "Mode 6-2 declared the vehicle on Sirius" in badge[1]
+        wait_for(driver, "return document.getElementById('ending').className === 'judged'")
+    finally:
+        s.kill()

@@ -15,6 +15,7 @@ import pytest
 from allsky import units
 from allsky.apps import cli, states, step
 from allsky.sim.mission import Mission
+from allsky.sim.recorder import FORMAT
 
 #: Switches closed at the end of each mode (SPEC section 4's switch actions).
 CLOSED_AT_END = {
@@ -176,7 +177,7 @@ def test_interactive_session_in_a_terminal(tmp_path):
     child.close()
     assert child.exitstatus == 0
     rows = tlm.read_text().splitlines()
-    assert rows[0].startswith("# allsky telemetry format 2; rows ")
+    assert rows[0].startswith(f"# allsky telemetry format {FORMAT}; rows ")
     assert rows[1].startswith("time [s],mode [-]")
     last_t = float(rows[-1].split(",")[0])
     assert 100.0 < last_t < 600.0  # the flight so far: Modes 1 and 2 only

@@ -51,6 +51,19 @@ def test_every_document_is_in_the_site():
         assert f"\n{name}\n" in tutorials and f"{{download}}`{name}.ipynb`" in tutorials
 
 
+def test_the_api_reference_is_in_the_top_bar():
+    """The theme's top bar shows the first header_links_before_dropdown toctree entries."""
+    shown = int(re.search(r'"header_links_before_dropdown": (\d+)',
+                          (DOCS / "conf.py").read_text()).group(1))
+    entries = []
+    for block in re.findall(r"```\{toctree\}\n(.*?)```", (DOCS / "index.md").read_text(),
+                            re.DOTALL):
+        entries += [ln.strip() for ln in block.splitlines()
+                    if ln.strip() and not ln.startswith(":")]
+    assert "api/index" in entries[:shown], entries[:shown]
+    assert (DOCS / "api" / "index.md").read_text().startswith("# API reference\n")
+
+
 def test_the_api_reference_lists_every_package_and_foundation_module():
     from allsky.layers import LAYERS, SRC
 
@@ -165,5 +178,27 @@ def test_the_first_tutorial_plays_its_replay_inline_offline(saved_states):
         errors = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"
                   and "invalid theme mode" not in e["message"]]
         assert errors == []
+    finally:
+        driver.quit()
+
+
+@pytest.mark.parametrize("query, first", [("fly", "allsky.fly"), ("compare", "allsky.compare"),
+                                          ("Flight", "allsky.Flight")])
+def test_the_site_search_gives_the_public_name_first(query, first):
+    """The search page, offline in chromium: the public name before the modules' pages."""
+    site = _site()
+    driver = new_driver()
+    try:
+        driver.get((site / "search.html").as_uri() + f"?q={query}")
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        links = []
+        while time.monotonic() < deadline:
+            links = driver.execute_script(
+                "return Array.from(document.querySelectorAll('#search-results li a'))"
+                ".map((a) => a.textContent.trim());")
+            if links:
+                break
+            time.sleep(0.2)
+        assert links and links[0] == first, links[:5]
     finally:
         driver.quit()

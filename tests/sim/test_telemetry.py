@@ -65,7 +65,8 @@ def test_the_recorder_writes_every_value_under_its_name():
     s.target_inertial[:] = sky.radec_to_unit(30.0, -40.0)
     s.jet_on_s[:] = [1.25, 2.5, 3.75]
     hb, ub = np.array([0.5, -0.25, 0.125]), np.array([0.01, 0.02, -0.03])
-    args = (clock.clock(0.625), s, 6.2, fine, trk, volts, hb, ub, 1)  # frame 20: 12.5 s
+    gyro = np.array([7.5, 0.0, -2.25])  # the gyros' outputs [arcsec/s]: a dead pitch gyro
+    args = (clock.clock(0.625), s, 6.2, fine, trk, gyro, volts, hb, ub, 1)  # frame 20: 12.5 s
     recorder.record_telemetry(tlm, rows, 7, *args)  # frame 20: not a 7th
     assert rows[0] == 0
     recorder.record_telemetry(tlm, rows, 10, *args)
@@ -88,6 +89,7 @@ def test_the_recorder_writes_every_value_under_its_name():
         "wheel_h_x": 0.5, "wheel_h_y": -0.25, "wheel_h_z": 0.125,
         "wheel_torque_x": 0.01, "wheel_torque_y": 0.02, "wheel_torque_z": -0.03,
         "unloading": 1, "jet_on_roll": 1.25, "jet_on_pitch": 2.5, "jet_on_yaw": 3.75,
+        "gyro_roll": 7.5, "gyro_pitch": 0.0, "gyro_yaw": -2.25,
     }
     true_error = row.pop("true_error")
     assert row == expect
@@ -378,7 +380,7 @@ def test_a_csv_row_of_the_wrong_width_is_refused(tmp_path, table):
     path = telemetry_files.write(tmp_path / "t.csv", table[:4])
     path.write_text(path.read_text() + "1.0,2.0\n")
     with pytest.raises(telemetry_files.TelemetryError, match=r"row 5 \(line 7\): 2 fields, the "
-                                                             "header has 51"):
+                                                             f"header has {recorder.N_TLM}"):
         telemetry_files.read(path)
 
 

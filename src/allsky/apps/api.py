@@ -45,7 +45,8 @@ if TYPE_CHECKING:  # names for the annotations; imported lazily at run time
     from allsky.config import Scenario
     from allsky.sim.mission import Mission
 
-__all__ = ["FIGURES", "Flight", "InterruptedWarning", "Replay", "compare", "comparison_rows",
+__all__ = ["FIGURES", "Flight", "InterruptedWarning", "Replay", "StrictError", "compare",
+           "comparison_rows",
            "events_frame", "flight_html", "fly", "in_jupyter", "montecarlo", "telemetry_frame",
            "units_of"]
 
@@ -70,6 +71,27 @@ TELEMETRY_FORMATS = ("parquet", "csv")
 
 class InterruptedWarning(UserWarning):
     """Work stopped by the kernel's interrupt (Ctrl-C); the result is the part done."""
+
+
+class StrictError(RuntimeError):
+    """A mission flown with ``strict=True`` that warned, aborted or did not finish.
+
+    :func:`fly` raises it; ``message`` gives the judgement and the first
+    warning (:func:`allsky.apps.verdict.strict_failure`), and ``flight``, the
+    :class:`Flight`, keeps everything flown.
+
+    Attributes
+    ----------
+    flight : Flight
+        The mission flown, all of it.
+    warnings : list of str
+        The summary's warnings.
+    """
+
+    def __init__(self, message: str, flight: Flight) -> None:
+        super().__init__(message)
+        self.flight = flight
+        self.warnings = list(flight.summary.get("warnings") or [])
 
 
 # ---------------------------------------------------------------------------
@@ -269,6 +291,14 @@ class Flight:
         The scenario asked for.
     interrupted : bool
         Stopped before the end by an interrupt.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> f = allsky.fly("gyro-failure-to-target")
+    >>> f                          # complete, as the sequencer judged: amber, first warning
+    >>> f.telemetry[["gyro_pitch", "rate_y"]].iloc[-1]   # what the gyro says, the truth
+    >>> f.replay()                 # the replay page, inline
     """
 
     def __init__(self, mission: Mission, scenario: Scenario | None = None,
@@ -508,11 +538,16 @@ class Flight:
 
     # -- how it shows itself --------------------------------------------------
     def __repr__(self) -> str:
+        from allsky.apps.verdict import judge
+
         s = self._summary
         where = s["end"]["target"] if s.get("end") else s["target"].get("star", "target")
         if s["status"] == "complete":
-            what = (f"complete: {where}, true pointing error "
+            j = judge(s)
+            what = (f"{j['label']}: {where}, true pointing error "
                     f"{s['end']['true_pointing_error_arcsec']:.1f} arcsec")
+            if j["first_warning"]:
+                what += f"; warning: {j['first_warning']}"
         elif s["status"] == "aborted":
             what = f"aborted: {s['abort_reason']}"
         else:
@@ -549,7 +584,7 @@ def _show_inline() -> None:
 
 def fly(scenario: str | os.PathLike | Scenario | Mapping | None = None, *,
         set: Mapping | None = None, disperse: str | os.PathLike | None = None, plan: str = "legacy",
-        telemetry: bool = True, progress: bool | None = None) -> Flight:
+        telemetry: bool = True, progress: bool | None = None, strict: bool = False) -> Flight:
     """Fly one mission, as ``allsky run`` does, and return the :class:`Flight`.
 
     Parameters
@@ -573,6 +608,10 @@ def fly(scenario: str | os.PathLike | Scenario | Mapping | None = None, *,
     progress : bool, optional
         Show a progress bar (None: in Jupyter with ipywidgets, or on a
         terminal).
+    strict : bool
+        Raise :class:`StrictError` unless the mission completed without a
+        warning, as ``allsky run --strict`` exits 1: for scripts, where a
+        mission "complete, as the sequencer judged" must not pass.
 
     Returns
     -------
@@ -585,6 +624,9 @@ def fly(scenario: str | os.PathLike | Scenario | Mapping | None = None, *,
     allsky.config.ConfigError
         A scenario that cannot be read, an unknown key or a value that
         breaks its rule (the message names the key, the value and the rule).
+    StrictError
+        With ``strict``: a warning in the summary, an abort, or a flight not
+        finished; its ``flight`` attribute holds the mission flown.
 
     Examples
     --------
@@ -615,7 +657,14 @@ def fly(scenario: str | os.PathLike | Scenario | Mapping | None = None, *,
     if flown.interrupted:
         _interrupted(f"mission stopped at {where_stopped(flown.mission)}; the Flight holds "
                      "the part flown")
-    return Flight(flown.mission, asked, flown.summary, flown.interrupted)
+    flight = Flight(flown.mission, asked, flown.summary, flown.interrupted)
+    if strict:
+        from allsky.apps.verdict import strict_failure
+
+        why = strict_failure(flown.summary)
+        if why is not None:
+            raise StrictError(why, flight)
+    return flight
 
 
 # ---------------------------------------------------------------------------
@@ -755,6 +804,9 @@ def compare(runs: int = 1, methods: Iterable[str] = ("legacy", "dither"),
             progress: bool | None = None) -> pandas.DataFrame:
     """Fly the calibration comparison as ``allsky compare``: a row per seed and method.
 
+    In a notebook the result shows itself as the terminal's headline table
+    (:class:`allsky.apps.comparison.Comparison`); it is the DataFrame of the rows.
+
     Each seed flies the same vehicle with each method
     (:func:`allsky.studies.compare.compare`; docs/comparison.md).
 
@@ -779,8 +831,9 @@ def compare(runs: int = 1, methods: Iterable[str] = ("legacy", "dither"),
 
     Returns
     -------
-    pandas.DataFrame
-        One row per seed and method (:func:`comparison_rows`): ``seed``,
+    allsky.apps.comparison.Comparison
+        A pandas DataFrame that Jupyter shows as the headline table of
+        ``allsky compare``; its rows: one per seed and method (:func:`comparison_rows`): ``seed``,
         ``method``, ``status``, the calibration's errors, time, excursion,
         propellant and pointing errors, units in the names and in
         ``attrs["units"]``. ``attrs["comparison"]`` holds the rest of what
@@ -792,6 +845,12 @@ def compare(runs: int = 1, methods: Iterable[str] = ("legacy", "dither"),
     ------
     KeyboardInterrupt
         Interrupted before the first seed finished.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> c = allsky.compare(runs=4)   # in Jupyter: the headline table of allsky compare
+    >>> c.groupby("method")["scale_factor_error_ppm.roll"].std()
     """
     from allsky.apps.output import cap_workers
     from allsky.studies import compare as study
@@ -823,10 +882,13 @@ def compare(runs: int = 1, methods: Iterable[str] = ("legacy", "dither"),
     finally:
         if bar is not None:
             bar.close()
+    from allsky.apps.comparison import Comparison
+
     frame = _frame(comparison_rows(result))
     frame.attrs["comparison"] = study.label_percentiles(
         {k: v for k, v in result.items() if k != "rows"})
     frame.attrs["interrupted"] = bool(result.get("interrupted"))
+    frame = Comparison.of(frame, {k: v for k, v in result.items() if k != "rows"})
     if result.get("interrupted"):
         _interrupted(f"after {result['runs']} of {result['runs_requested']} seeds; the "
                      "table holds those")
@@ -892,6 +954,12 @@ def montecarlo(runs: int, scenario: str | os.PathLike | Scenario | Mapping | Non
     allsky.studies.montecarlo.CampaignError
         Seeds past the largest, a directory holding another campaign, a
         Dask scheduler that cannot be reached or is lost.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> runs = allsky.montecarlo(20, disperse="docs/examples/gyro_and_sky_dispersions.toml")
+    >>> runs["status"].value_counts()
     """
     from allsky.apps import campaign
     from allsky.apps.output import cap_workers, check_output, write_atomic
@@ -949,7 +1017,6 @@ _CSS = ("font-family: system-ui, sans-serif; font-size: 13px; line-height: 1.35;
         "max-width: 980px")
 _TABLE = "border-collapse: collapse; margin: 4px 0 8px 0; font-size: 12px"
 _CELL = "padding: 1px 8px; text-align: right; border-bottom: 1px solid #ddd"
-_STATUS_COLOUR = {"complete": "#1a7f37", "aborted": "#cf222e", "running": "#9a6700"}
 #: Mode strip colours, by mode (the replay's and the figures' order of modes).
 _MODE_COLOURS = ("#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#b07aa1", "#76b7b2",
                  "#edc948", "#9c755f", "#bab0ac", "#ff9da7")
@@ -1019,21 +1086,26 @@ def flight_html(summary: Mapping, interrupted: bool = False) -> str:
     str
         HTML, with inline styles only.
     """
+    from allsky.apps.verdict import COLOURS, judge, unwritten
     from allsky.sim.results import calibration_errors
     from allsky.units import RAD2ARCSEC
     from allsky.vocabulary import AXES, SCALE_FACTOR_AXES
 
     s = summary
     status = s["status"]
+    j = judge(s)
     shown = "not finished" + (" (interrupted)" if interrupted else "") if \
-        status == "running" else status
-    colour = _STATUS_COLOUR.get(status, "#333")
+        status == "running" else j["label"]
+    colour = COLOURS[j["tone"]]
     tgt = s["target"]
     name = tgt.get("star") or f"RA {tgt['ra_deg']:.3f} deg, Dec {tgt['dec_deg']:+.3f} deg"
     parts = [f'<div class="allsky-flight" style="{_CSS}">',
              (f'<div><b>allsky mission: <span style="color: {colour}">{_esc(shown)}</span>'
               f"</b> &mdash; target {_esc(name)}, seed {s['seed']}, "
               f"{s['mission_time_s']:.1f} s, propellant {s['propellant_kg']:.3f} kg</div>")]
+    if j["tone"] == "amber":
+        parts.append(f'<div class="allsky-judged" style="color: {colour}">&#9888; '
+                     f'{_esc(j["first_warning"])}</div>')
     if s.get("abort_reason"):
         parts.append(f'<div style="color: #cf222e">abort reason: {_esc(s["abort_reason"])}'
                      "</div>")
@@ -1053,17 +1125,25 @@ def flight_html(summary: Mapping, interrupted: bool = False) -> str:
         err = calibration_errors(cal, truth)
         applied = cal.get("drift_applied_deg_h", cal["drift_deg_h"])
         clipped = s.get("drift_dac_clipped") or {}
-        crows = [[f"drift {a} [deg/h]", _num(cal["drift_deg_h"][a], "+.4f"),
-                  _num(applied[a], "+.4f") + (" <b>clipped</b>" if clipped.get(a) else ""),
-                  _num(truth["drift_deg_h"][a], "+.4f"), _num(err["drift_deg_h"][a], "+.4f")]
+        never = unwritten(s)
+
+        def row(entry, label, stored, applied_text, true, error):
+            if entry in never:  # the power-on word: no measurement to hold to the truth
+                return [label, f"<i>{_esc(never[entry])}</i>", "", true, ""]
+            return [label, stored, applied_text, true, error]
+
+        crows = [row(("drift_deg_h", a), f"drift {a} [deg/h]", _num(cal["drift_deg_h"][a], "+.4f"),
+                     _num(applied[a], "+.4f") + (" <b>clipped</b>" if clipped.get(a) else ""),
+                     _num(truth["drift_deg_h"][a], "+.4f"), _num(err["drift_deg_h"][a], "+.4f"))
                  for a in AXES]
-        crows += [[f"scale factor {a} (error [ppm])", _num(cal["scale_factor"][a], ".7f"), "",
-                   _num(truth["scale_factor"][a], ".7f"),
-                   _num(err["scale_factor_ppm"][a], "+.1f")] for a in SCALE_FACTOR_AXES]
-        crows += [[f"{k.replace('_', ' ')} [arcsec]",
-                   _num(cal["cross_coupling"][k] * RAD2ARCSEC, "+.2f"), "",
-                   _num(truth["cross_coupling"][k] * RAD2ARCSEC, "+.2f"),
-                   _num(err["cross_coupling_arcsec"][k], "+.2f")]
+        crows += [row(("scale_factor", a), f"scale factor {a} (error [ppm])",
+                      _num(cal["scale_factor"][a], ".7f"), "",
+                      _num(truth["scale_factor"][a], ".7f"),
+                      _num(err["scale_factor_ppm"][a], "+.1f")) for a in SCALE_FACTOR_AXES]
+        crows += [row(("cross_coupling", k), f"{k.replace('_', ' ')} [arcsec]",
+                      _num(cal["cross_coupling"][k] * RAD2ARCSEC, "+.2f"), "",
+                      _num(truth["cross_coupling"][k] * RAD2ARCSEC, "+.2f"),
+                      _num(err["cross_coupling_arcsec"][k], "+.2f"))
                   for k in truth["cross_coupling"]]
         applied_note = "" if s.get("calibration_applied", True) else \
             " &mdash; <b>not applied</b> (calibration.apply = false)"

@@ -3,7 +3,7 @@
 Commands::
 
     allsky run [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--telemetry PATH] [--plots DIR]
-               [--html PATH] [--commands FILE]
+               [--html PATH] [--commands FILE] [--strict]
     allsky serve [SCENARIO] [--set KEY=VALUE ...] [--host HOST] [--port PORT] [--speed X]
                  [--no-browser] [--save-commands FILE] [--allow-remote] [--pause-when-alone]
                  [--json PATH] [--telemetry PATH] [--html PATH]
@@ -12,7 +12,7 @@ Commands::
     allsky analyze [SCENARIO] [--set KEY=VALUE ...] [--json PATH] [--plot PNG]
                    [--envelope [--wheel-torque N_M] [--wheel-momentum N_M_S] [--wheel-beta DEG]]
     allsky faults [SCENARIO] [--kinds KIND,...] [--modes MODE,...] [--json PATH] [--workers N]
-    allsky scenarios [--json PATH]
+    allsky scenarios [NAME] [--json PATH]
     allsky config show [SCENARIO] [--set KEY=VALUE ...]
     allsky config check FILE [--set KEY=VALUE ...]
     allsky warm-up
@@ -20,7 +20,8 @@ Commands::
                       [--batch N] [--out DIR] [--resume] [--set KEY=VALUE ...] [--json PATH]
                       [--quiet]
 
-Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted;
+Exit codes (:data:`EXIT_CODES`): 0 success; 1 a mission that ended aborted (with
+``run --strict``, or whose summary has a warning);
 2 a usage, input or output error, or a lost Dask cluster, reported as one
 line ``allsky: error: ...`` on stderr; 3 an internal error, reported as one
 line with a crash report file holding the traceback; 130 interrupted
@@ -46,7 +47,7 @@ from allsky import __version__
 #: The exit codes of every command.
 EXIT_CODES = {
     0: "success",
-    1: "a mission ended aborted",
+    1: "a mission ended aborted (with run --strict: or with any warning)",
     2: "usage, input or output error (one line 'allsky: error: ...'), or the Dask cluster lost",
     3: "internal error (one line, the traceback in a crash report file), or a case of "
        "allsky faults that raised (the matrix still written)",
@@ -86,7 +87,8 @@ class _Parser(argparse.ArgumentParser):
     """argparse with errors as one line ``allsky: error: ...`` and exit code 2."""
 
     def error(self, message):
-        self.exit(EXIT_USAGE, f"allsky: error: {self.prog}: {message}; usage: {self.prog} "
+        where = "" if self.prog == "allsky" else f"{self.prog}: "  # once "allsky: error:"
+        self.exit(EXIT_USAGE, f"allsky: error: {where}{message}; usage: {self.prog} "
                               "--help\n")
 
 
@@ -144,6 +146,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--html", metavar="PATH",
                      help="write the mission replay: one self-contained HTML page, offline "
                           "(docs/replay.md)")
+    run.add_argument("--strict", action="store_true",
+                     help="exit 1 when the summary has any warning (a mission the sequencer "
+                          "judged complete included), with the first on stderr; for scripts")
     _ground_control(sub, scenario_args, run)
 
     step = sub.add_parser(
@@ -425,12 +430,18 @@ def _parser() -> argparse.ArgumentParser:
         "scenarios", help="list the packaged scenarios (allsky run NAME flies one)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="The scenarios packaged with allsky, among them the historical "
-                    "anomalies of docs/faults.md; 'allsky run NAME' flies one.",
+                    "anomalies of docs/faults.md; 'allsky run NAME' flies one, 'allsky "
+                    "scenarios NAME' prints its card (what happened, the sources, what the "
+                    "scenario flies and what it leaves out).",
         epilog="examples:\n"
                "  allsky scenarios\n"
+               "  allsky scenarios voyager1-wrong-star\n"
                "  allsky run mariner4-star-hopping")
+    scen.add_argument("name", nargs="?", metavar="NAME",
+                      help="a packaged scenario: print its card instead of the list")
     scen.add_argument("--json", metavar="PATH",
-                      help="write the list as JSON ('-': to stdout, instead of the table)")
+                      help="write the list (with NAME: the card) as JSON ('-': to stdout, "
+                           "instead of the table)")
     warm = sub.add_parser(
         "warm-up", help="compile the frame loop once, so that no later command waits for it",
         formatter_class=argparse.RawDescriptionHelpFormatter,

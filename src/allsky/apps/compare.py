@@ -27,10 +27,13 @@ def _fmt(v, spec=".1f"):
     return "-" if v is None else f"{v:{spec}}"
 
 
-def format_compare(result) -> str:
-    """Side-by-side table of a comparison.
+def headline(result) -> tuple:
+    """The comparison's headline table, as data: ``(title, rows, notes)``.
 
-    ``result`` is :func:`allsky.studies.compare.compare`'s.
+    ``result`` is :func:`allsky.studies.compare.compare`'s. ``rows`` are
+    ``(figure, legacy, dither)`` texts, ``notes`` the lines under the table;
+    :func:`format_compare` prints them, :class:`allsky.apps.comparison.Comparison`
+    shows them as HTML.
     """
     leg, dit = result["legacy"], result["dither"]
     pred = result["predicted_scale_factor_sigma_ppm"]
@@ -41,10 +44,10 @@ def format_compare(result) -> str:
             f" seeds {result['seeds'][0]}-{result['seeds'][1]})")
     if result.get("interrupted"):
         head += f"; interrupted after {n} of {result['runs_requested']} pairs"
-    rows = [head, "", f"  {'figure':<34}{'legacy (Modes 4-5)':>34}{'dither':>34}"]
+    rows, notes = [], []
 
     def line(name, a, b, spec=".1f"):
-        rows.append(f"  {name:<34}{_fmt(a, spec):>34}{_fmt(b, spec):>34}")
+        rows.append((name, _fmt(a, spec), _fmt(b, spec)))
 
     for ax in AXES:
         line(f"scale-factor error {ax} [ppm]", leg.get("scale_factor_error_ppm", {}).get(ax),
@@ -74,20 +77,33 @@ def format_compare(result) -> str:
          dit.get("pointing_error_tracker_architecture_arcsec"))
     if "tracking_ratio" in dit:
         for ax, v in dit["tracking_ratio"].items():
-            rows.append(f"  dither tracking {ax}: optical amplitude / commanded = "
+            notes.append(f"  dither tracking {ax}: optical amplitude / commanded = "
                         f"{_fmt(v, '.4f')}")
     chk = result.get("dither_torque_check")
     if chk:
         peak = ", ".join(f"{v:.2g}" for v in chk["torque_peak_n_m"])
-        rows.append(f"  dither feed-forward torque, peak [N m] (roll, pitch, yaw): {peak}")
-        rows.append(f"    margin in the wheels' torque envelope {chk['wheels']['margin']:.3g}, "
+        notes.append(f"  dither feed-forward torque, peak [N m] (roll, pitch, yaw): {peak}")
+        notes.append(f"    margin in the wheels' torque envelope {chk['wheels']['margin']:.3g}, "
                     f"in the jets' {chk['jets']['margin']:.3g}")
     if n > 1:
         for method in ("legacy", "dither"):
             r = result[method]
             if r.get("complete", 0) < n:
-                rows.append(f"  {method}: {n - r.get('complete', 0)} of {n} missions aborted")
-    return "\n".join(rows)
+                notes.append(f"  {method}: {n - r.get('complete', 0)} of {n} missions aborted")
+    return head, rows, [n.strip() for n in notes]
+
+
+def format_compare(result) -> str:
+    """Side-by-side table of a comparison (:func:`headline`, as text).
+
+    ``result`` is :func:`allsky.studies.compare.compare`'s.
+    """
+    head, rows, notes = headline(result)
+    out = [head, "", f"  {'figure':<34}{'legacy (Modes 4-5)':>34}{'dither':>34}"]
+    out += [f"  {name:<34}{a:>34}{b:>34}" for name, a, b in rows]
+    indent = {"margin": "    "}
+    out += [f"{indent.get(n.split()[0], '  ')}{n}" for n in notes]
+    return "\n".join(out)
 
 
 #: [arcsec] One full turn, the angle the legacy modes count (SPEC section 4).

@@ -378,13 +378,22 @@ def ground_commands_reference() -> str:
     return "\n".join(lines) + "\n"
 
 
+def scenario_cards_reference() -> str:
+    """The packaged scenarios' cards, as markdown (``allsky scenarios NAME``: one)."""
+    from allsky.apps.faults import scenario_cards
+
+    return "".join(f"### `{name}` \u2014 {c['title']}\n\n{c['text']}\n\n"
+                   for name, c in scenario_cards().items()).rstrip("\n") + "\n"
+
+
 PAGES = {"configuration.md": config_reference, "cli.md": cli_reference,
          "blocks.md": blocks_reference}
 #: Generated sections inside hand-written pages: page -> {section name: generator}.
 SECTIONS = {"theory_of_operation.md": {"modes": mode_reference, "wiring": wiring_reference},
             "architecture.md": {"layers": architecture.layers_table},
             "journal.md": {"kinds": journal_reference, "saturations": saturations_reference},
-            "ground_control.md": {"commands": ground_commands_reference}}
+            "ground_control.md": {"commands": ground_commands_reference},
+            "faults.md": {"scenario_cards": scenario_cards_reference}}
 
 
 def fill_sections(text: str, sections: dict) -> str:

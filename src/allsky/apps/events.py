@@ -17,6 +17,8 @@ from allsky.computer import word_registers as wr
 from allsky.hardware.wiring import BY_NUMBER
 from allsky.sequencer import modes
 from allsky.sim import board
+from allsky.units import RAD2ARCSEC
+from allsky.vocabulary import CROSS_COUPLING_KEYS
 
 #: Where to look on the page while a mode flies (presentation text, by mode name).
 LOOK_FOR = {
@@ -75,6 +77,9 @@ def switch_words(close, open_) -> str:
 
 
 def _value(e) -> str:
+    if e["register"] == "23" and e["word"] in CROSS_COUPLING_KEYS:
+        # [rad] in the register; in arcsec, the unit of every table that shows it
+        return f"{e['value'] * RAD2ARCSEC:+.2f} arcsec"
     if e["unit"] == "-":
         return f"{e['value']:.7g}"
     pulses = f" ({e['pulses']:+d} pulses)" if "pulses" in e else ""

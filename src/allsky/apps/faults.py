@@ -146,18 +146,61 @@ def format_scenarios(entries) -> str:
     ``entries`` are ``{"name", "path", "title"}`` per scenario.
     """
     width = max(len(e["name"]) for e in entries)
-    lines = ["Packaged scenarios (allsky run NAME):"]
+    lines = ["Packaged scenarios (allsky run NAME; allsky scenarios NAME: its card):"]
     lines += [f"  {e['name']:<{width}}  {e['title']}" for e in entries]
     return "\n".join(lines)
 
 
-def scenarios_from_cli(cfg, args) -> int:
-    """``allsky scenarios [--json PATH]``: list the packaged scenarios.
+#: The packaged scenarios' cards (docs/faults.md, "Historical anomalies", shows them all).
+CARDS_FILE = "cards.md"
 
-    ``cfg`` is None (the command loads no scenario) and ``args`` the parsed
-    command line (:mod:`allsky.apps.cli`); returns the exit status.
+
+def scenario_cards() -> dict:
+    """The cards of the packaged scenarios: name -> ``{"title", "text"}``.
+
+    Each card (``src/allsky/scenarios/cards.md``) is a heading
+    ``### `NAME` — title`` and paragraphs: what happened, with its sources;
+    what the scenario flies; what it leaves out.
+    """
+    from allsky.config.schema import DEFAULT_SCENARIO_PATH
+
+    text = (DEFAULT_SCENARIO_PATH.parent / CARDS_FILE).read_text(encoding="utf-8")
+    cards = {}
+    for chunk in text.split("\n### ")[1:]:
+        head, _, body = chunk.partition("\n")
+        name, _, title = head.partition(" \u2014 ")
+        cards[name.strip("` ")] = {"title": title.strip(), "text": body.strip()}
+    return cards
+
+
+def format_card(name, title, text, width=100) -> str:
+    """Card ``name`` as the terminal shows it, each paragraph folded to ``width``.
+
+    ``title`` is its heading's, ``text`` its paragraphs (markdown).
+    """
+    import re
+    import textwrap
+
+    lines = [f"{name} \u2014 {title}" if title else name, ""]
+    for para in text.split("\n\n"):
+        plain = re.sub(r"\*\*(.+?)\*\*", r"\1", " ".join(para.split()))
+        plain = plain.replace("`", "")
+        lines += textwrap.wrap(plain, width, break_on_hyphens=False) + [""]
+    return "\n".join(lines).rstrip("\n")
+
+
+def scenarios_from_cli(cfg, args) -> int:
+    """``allsky scenarios [NAME] [--json PATH]``: the scenarios, or one's card.
+
+    With NAME, the scenario's card: what happened, with its sources, what the
+    scenario flies and what it leaves out (a scenario without a card: the
+    story of its file's comment). ``cfg`` is None (the command loads no
+    scenario) and ``args`` the parsed command line (:mod:`allsky.apps.cli`);
+    returns the exit status.
     """
     from allsky.apps.output import check_output, write_atomic
+    from allsky.apps.report import report_width
+    from allsky.config import ConfigError
     from allsky.config.faults import packaged_scenarios
 
     check_output("--json", args.json)
@@ -165,6 +208,28 @@ def scenarios_from_cli(cfg, args) -> int:
     for e in packaged_scenarios():  # the title: the file's first comment line
         with open(e["path"], encoding="utf-8") as f:
             entries.append({**e, "title": f.readline().lstrip("# ").strip()})
+    name = getattr(args, "name", None)
+    if name is not None:
+        known = {e["name"]: e for e in entries}
+        if name not in known:
+            raise ConfigError(None, rule=f"scenario {name!r}: not a packaged scenario (one of "
+                                         f"{', '.join(known)})")
+        card = scenario_cards().get(name)
+        if card is None:
+            from allsky.apps.replay import describe_scenario
+
+            about = describe_scenario(name)
+            card = {"title": about["title"],
+                    "text": about["description"] or "No historical card: not a flight's story."}
+        entry = {**known[name], "card_title": card["title"], "card": card["text"]}
+        if args.json:
+            body = json.dumps(entry, indent=2) + "\n"
+            if args.json == "-":
+                sys.stdout.write(body)
+                return 0
+            write_atomic(args.json, body, option="--json")
+        print(format_card(name, card["title"], card["text"], report_width()))
+        return 0
     if args.json:
         body = json.dumps(entries, indent=2) + "\n"
         if args.json == "-":

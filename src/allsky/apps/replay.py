@@ -335,8 +335,12 @@ def _ending(summary, journal, t_end_s) -> dict:
     interrupted flight reports), ``t_s`` when it took effect (the abort's
     journal time, or the end of the flight), ``reason`` the abort's, and the
     truth at the end (the summary's ``end``): target, true pointing error,
-    body rates, propellant used and left.
+    body rates, propellant used and left; ``judged`` is how every display
+    words it (:func:`allsky.apps.verdict.judge`: a mission complete with
+    warnings is "complete, as the sequencer judged", in amber).
     """
+    from allsky.apps.verdict import judge
+
     if not summary:
         return None
     end = summary.get("end") or {}
@@ -349,7 +353,8 @@ def _ending(summary, journal, t_end_s) -> dict:
             "true_error_arcsec": end.get("true_pointing_error_arcsec"),
             "body_rate_deg_s": end.get("body_rate_deg_s"),
             "propellant_kg": end.get("propellant_kg", summary.get("propellant_kg")),
-            "propellant_remaining_kg": end.get("propellant_remaining_kg")}
+            "propellant_remaining_kg": end.get("propellant_remaining_kg"),
+            "judged": judge(summary)}
 
 
 def _warnings(summary, cfg) -> list:
@@ -641,6 +646,8 @@ def page_title(data) -> str:
     m = data.get("mission") or {}
     ending = data.get("ending") or {}
     status = {"complete": "complete", "aborted": "ABORTED"}.get(ending.get("status"), "")
+    if status == "complete" and (ending.get("judged") or {}).get("tone") == "amber":
+        status = "complete, as the sequencer judged"
     date = (m.get("date_utc") or "")[:10]
     what = "allsky live" if data.get("live") else "allsky replay"
     parts = [f"{what}: {m.get('name') or 'mission'}"]

@@ -5,6 +5,7 @@ from typing import NamedTuple
 
 from allsky.apps import telemetry_files
 from allsky.apps.summaries import summary_text
+from allsky.apps.verdict import unwritten
 from allsky.sim.journal import DRIFT_DAC
 from allsky.sim.results import calibration_errors
 from allsky.units import RAD2ARCSEC
@@ -21,29 +22,122 @@ def _mode_in_progress(summary):
     return None
 
 
-def format_report(summary: dict, tracker_star=None) -> str:
+#: [columns] Widest line of the report (a narrower terminal narrows it, to :data:`MIN_WIDTH`).
+WIDTH = 100
+#: [columns] Narrowest the report is wrapped to.
+MIN_WIDTH = 72
+
+
+def report_width(stream=None) -> int:
+    """The report's width on ``stream`` (default stdout) [columns].
+
+    :data:`WIDTH`, or a narrower terminal's, never under :data:`MIN_WIDTH`.
+    """
+    import os
+
+    stream = sys.stdout if stream is None else stream
+    try:
+        columns = os.get_terminal_size(stream.fileno()).columns if stream.isatty() else WIDTH
+    except (AttributeError, OSError, ValueError):
+        columns = WIDTH
+    return max(MIN_WIDTH, min(WIDTH, columns))
+
+
+def angle_text(arcsec, spec=".1f") -> str:
+    """Angle ``arcsec`` [arcsec] formatted by ``spec``, with degrees past 1 deg."""
+    text = f"{format(arcsec, spec)} arcsec"
+    if abs(arcsec) >= 3600.0:
+        text += f" ({arcsec / 3600.0:.3f} deg)"
+    return text
+
+
+class _Row(str):
+    """A table row: kept whole whatever the width (a table's columns do not fold)."""
+
+
+class _Hanging(str):
+    """A table row whose last column folds, continued under that column (``indent``)."""
+
+    indent = 0
+
+
+def _wrap(lines, width) -> list:
+    """Each line longer than ``width`` folded at spaces, continued two columns in.
+
+    Table rows (:class:`_Row`) are kept whole: they are at most :data:`WIDTH` wide.
+    """
+    import textwrap
+
+    out = []
+    for line in lines:
+        if len(line) <= width or isinstance(line, _Row):
+            out.append(line)
+            continue
+        lead = len(line) - len(line.lstrip(" "))
+        mark = "  " if line.lstrip(" ").startswith("! ") else ""
+        hang = line.indent if isinstance(line, _Hanging) and line.indent < width - 20 \
+            else lead + 2 + len(mark)
+        out += textwrap.wrap(line, width, initial_indent="", subsequent_indent=" " * hang,
+                             break_on_hyphens=False, drop_whitespace=True) or [line]
+    return out
+
+
+def _header_lines(summary, scenario) -> list:
+    """The first line (the judgement, the scenario's name), the description, the first warning."""
+    from allsky.apps.verdict import judge
+
+    j = judge(summary)
+    status = j["label"]
+    if summary["status"] == "running":
+        status = "not finished (stopped before the end)"
+    name = (scenario or {}).get("name")
+    lines = [f"allsky mission: {status}" + (f"; scenario {name}" if name else "")]
+    about = (scenario or {}).get("title")  # the description: allsky scenarios NAME
+    if about:
+        lines.append(f"  {about}")
+    if summary["abort_reason"]:
+        lines.append(f"  abort reason: {summary['abort_reason']}")
+    if j["tone"] == "amber":
+        lines.append(f"  ! the first of {j['warnings']} warnings: {j['first_warning']}"
+                     if j["warnings"] > 1 else f"  ! {j['first_warning']}")
+    return lines
+
+
+def format_report(summary: dict, tracker_star=None, scenario=None, width=WIDTH) -> str:
     """A plain-text report of mission ``summary`` (:meth:`Mission.summary`).
 
     The machine's judgement (status, the mode timeline, the computer's
     calibration) and, beside it, what happened: the drift each DAC applies,
-    the truth at the end of the flight (``end``), and the ``warnings``.
-    ``tracker_star`` (:class:`allsky.vehicle.sky.Star`), when given, is named
-    as the planned reference star; one line says so when the tracker locked
-    another star.
+    the truth at the end of the flight (``end``), the faults flown, the
+    wheels, and the ``warnings``. The first line is the judgement
+    (:func:`allsky.apps.verdict.judge`: "complete, as the sequencer judged"
+    when the summary has warnings, the first of them below it) and the
+    scenario's name.
+
+    Parameters
+    ----------
+    summary : dict
+        The mission's summary.
+    tracker_star : allsky.vehicle.sky.Star, optional
+        The planned reference star, named; one line says so when the
+        tracker locked another star.
+    scenario : dict, optional
+        ``{"name", "title", "description"}``
+        (:func:`allsky.apps.replay.describe_scenario`), named at the top.
+    width : int
+        [columns] Lines are folded to this width.
     """
-    status = summary["status"]
-    if status == "running":
-        status = "not finished (stopped before the end)"
-    lines = [f"allsky mission: {status}"]
-    if summary["abort_reason"]:
-        lines.append(f"  abort reason: {summary['abort_reason']}")
+    lines = _header_lines(summary, scenario)
     warnings = summary.get("warnings") or []
     if warnings:
         lines += ["", f"Warnings ({len(warnings)})"] + [f"  ! {w}" for w in warnings]
+    lines += _faults_lines(summary)
     lines += ["", "Mode timeline", f"  {'mode':<5}{'start s':>9}{'end s':>9}{'dur s':>8}  exit"]
     for r in summary["modes"]:
-        lines.append(f"  {r['mode']:<5}{r['start_s']:>9.1f}{r['end_s']:>9.1f}"
-                     f"{r['end_s'] - r['start_s']:>8.1f}  {r['exit']}")
+        row = _Hanging(f"  {r['mode']:<5}{r['start_s']:>9.1f}{r['end_s']:>9.1f}"
+                       f"{r['end_s'] - r['start_s']:>8.1f}  {r['exit']}")
+        row.indent = 35  # under the exit column
+        lines.append(row)
     now = _mode_in_progress(summary)
     if now is not None:
         lines.append(f"  {now['mode']:<5}{now['t_s']:>9.1f}{'-':>9}{'-':>8}  in progress")
@@ -70,15 +164,92 @@ def format_report(summary: dict, tracker_star=None) -> str:
         drift = hold["drift_arcsec_per_min"]
         on = f" on {targets[-1]['name']}" if len(targets) > 1 else ""
         lines += ["", f"Hold on target{on} ({hold['hold_s']:.1f} s, gyros alone)",
-                  (f"  pointing error {hold['start_pointing_error_arcsec']:.1f} arcsec at the "
-                   f"start, {hold['end_pointing_error_arcsec']:.1f} arcsec at the end"),
+                  (f"  pointing error {angle_text(hold['start_pointing_error_arcsec'])} at "
+                   f"the start, {angle_text(hold['end_pointing_error_arcsec'])} at the end"),
                   "  drift [arcsec/min] " + ", ".join(f"{ax} {drift[ax]:+.3f}"
                                                       for ax in AXES)]
     lines += _end_lines(summary)
+    lines += _wheels_lines(summary)
     flagged = [k for k, v in summary["counter_overflow"].items() if v]
     if flagged:
         lines.append(f"Counter overflow flagged: {', '.join(flagged)}")
-    return "\n".join(lines)
+    return "\n".join(_wrap(lines, width))
+
+
+#: ANSI colours of the judgement on a terminal, by tone (:func:`allsky.apps.verdict.judge`).
+ANSI = {"ok": "\033[32m", "amber": "\033[33m", "failed": "\033[31m", "open": ""}
+
+
+def coloured(report, summary, stream=None) -> str:
+    """``report`` with its first line in the judgement's colour on a terminal.
+
+    Green complete, amber "complete, as the sequencer judged", red aborted:
+    only when ``stream`` (default stdout) is a terminal and ``NO_COLOR`` is
+    unset; ``summary`` is the mission's.
+    """
+    import os
+
+    from allsky.apps.verdict import judge
+
+    stream = sys.stdout if stream is None else stream
+    try:
+        tty = stream.isatty()
+    except (AttributeError, ValueError):
+        tty = False
+    code = ANSI[judge(summary)["tone"]]
+    if not tty or os.environ.get("NO_COLOR") or not code:
+        return report
+    first, _, rest = report.partition("\n")
+    return f"{code}{first}\033[0m" + ("\n" + rest if rest else "")
+
+
+def _faults_lines(summary) -> list:
+    """The faults flown: kind, onset, duration [s], acting at the end, in words."""
+    from allsky.config.faults import describe
+
+    faults = summary.get("faults") or []
+    if not faults:
+        return []
+    spans = {}
+    for e in summary.get("events") or ():
+        if e.get("kind") == "fault":
+            on, off = spans.setdefault(e["fault"], [None, None])
+            if e["active"] and on is None:
+                spans[e["fault"]][0] = e["t_s"]
+            elif not e["active"]:
+                spans[e["fault"]][1] = e["t_s"]
+    end_s = summary.get("mission_time_s")
+    lines = ["", f"Faults ({len(faults)})",
+             f"  {'#':>2} {'kind':<22}{'onset s':>9}{'dur s':>9}  {'at the end':<12}what"]
+    for i, f in enumerate(faults):
+        on, off = spans.get(i, [None, None])
+        on = f.get("onset_s") if on is None else on
+        if on is None:
+            onset, dur, state = "-", "-", "never began"
+        elif off is None:
+            onset, state = f"{on:.1f}", "acting"
+            dur = f"{end_s - on:.1f}" if end_s is not None else "-"
+        else:
+            onset, dur, state = f"{on:.1f}", f"{off - on:.1f}", "ended"
+        try:
+            what = describe(f)
+        except (KeyError, TypeError, ValueError):
+            what = ""
+        lines.append(f"  {i + 1:>2} {f['kind']:<22}{onset:>9}{dur:>9}  {state:<12}{what}")
+    return lines
+
+
+def _wheels_lines(summary) -> list:
+    """The reaction wheels: peak momentum against the limit, unloads, unloading propellant."""
+    w = summary.get("wheels")
+    if not w:
+        return []
+    unloads = sum(1 for e in summary.get("events") or ()
+                  if e.get("kind") == "saturation" and e.get("what") == "wheel_unloading"
+                  and e.get("active"))
+    return [(f"  wheels: peak momentum {100.0 * w['peak_momentum_fraction']:.1f} % of the "
+             f"limit, {unloads} unload{'s' * (unloads != 1)}, unloading propellant "
+             f"{w['unloading_propellant_kg']:.3f} kg")]
 
 
 def _calibration_lines(summary) -> list:
@@ -89,9 +260,13 @@ def _calibration_lines(summary) -> list:
     err = calibration_errors(cal, truth)
     applied = cal.get("drift_applied_deg_h", cal["drift_deg_h"])
     clipped = summary.get("drift_dac_clipped") or {}
+    never = unwritten(summary)
     lines = ["", "Calibration             counted      applied        truth  error (applied)"]
     for ax in AXES:
         m, a, t = cal["drift_deg_h"][ax], applied[ax], truth["drift_deg_h"][ax]
+        if ("drift_deg_h", ax) in never:
+            lines.append(f"  drift {ax:<6}[deg/h] {never['drift_deg_h', ax]:>23} {t:>12.4f}")
+            continue
         flag = "  CLIPPED" if clipped.get(ax) else ""
         lines.append(f"  drift {ax:<6}[deg/h] {m:>10.4f} {a:>12.4f} {t:>12.4f} "
                      f"{err['drift_deg_h'][ax]:>+12.4f}{flag}")
@@ -104,9 +279,16 @@ def _calibration_lines(summary) -> list:
     for ax in ("roll", "yaw"):
         m, t = cal["scale_factor"][ax], truth["scale_factor"][ax]
         e = err["scale_factor_ppm"][ax]
+        if ("scale_factor", ax) in never:
+            lines.append(f"  scale factor {ax:<4}    {never['scale_factor', ax]:<25}{t:>12.7f}")
+            continue
         lines.append(f"  scale factor {ax:<4}    {m:>12.7f} {t:>25.7f} {e:>+9.1f} ppm")
     for k, t in truth["cross_coupling"].items():
         m, e = cal["cross_coupling"][k], err["cross_coupling_arcsec"][k]
+        if ("cross_coupling", k) in never:
+            lines.append(f"  {k:<16}[arcsec] {never['cross_coupling', k]:<25}"
+                         f"{t * RAD2ARCSEC:>9.2f}")
+            continue
         lines.append(f"  {k:<16}[arcsec] {m * RAD2ARCSEC:>9.2f} {t * RAD2ARCSEC:>25.2f}"
                      f" {e:>+12.2f}")
     return lines
@@ -122,7 +304,7 @@ def _end_lines(summary) -> list:
     rates = end["body_rate_deg_s"]
     final = "final" if summary["status"] != "running" else "at the stop,"
     return ["", f"End (what really happened) at t = {end['t_s']:.1f} s, Mode {end['mode']}",
-            (f"  {final} true pointing error {end['true_pointing_error_arcsec']:.1f} arcsec "
+            (f"  {final} true pointing error {angle_text(end['true_pointing_error_arcsec'])} "
              f"to {end['target']}{applied}"),
             "  body rates [deg/s] " + ", ".join(f"{ax} {rates[ax]:+.5f}" for ax in AXES),
             (f"  propellant used {end['propellant_kg']:.3f} kg "
@@ -139,8 +321,8 @@ def _targets_lines(targets) -> list:
     lines = ["", (f"Targets ({len(targets)}): programmed angles; where Mode 6-2 declared each "
                   "on target, the true pointing error and the largest body rate; the true "
                   "error at the end of the hold"),
-             (f"  {head[0]:>2} {head[1]:<26}{head[2]:>10}{head[3]:>10}{head[4]:>10}"
-              f"{head[5]:>11}{head[6]:>11}{head[7]:>9}{head[8]:>9}")]
+             _Row(f"  {head[0]:>2} {head[1]:<24}{head[2]:>10}{head[3]:>10}{head[4]:>10}"
+                  f"{head[5]:>11}{head[6]:>11}{head[7]:>9}{head[8]:>9}")]
 
     def cell(v, spec, width):
         return f"{'-':>{width}}" if v is None else f"{format(v, spec):>{width}}"
@@ -148,12 +330,12 @@ def _targets_lines(targets) -> list:
     for i, t in enumerate(targets, 1):
         rates = t.get("body_rate_deg_s")
         rate = max(map(abs, rates.values())) if rates else None
-        lines.append(f"  {i:>2} {t['name'][:25]:<26}{cell(t['programmed_roll_deg'], '+.3f', 10)}"
+        lines.append(_Row(f"  {i:>2} {t['name'][:23]:<24}{cell(t['programmed_roll_deg'], '+.3f', 10)}"
                      f"{cell(t['programmed_yaw_deg'], '+.3f', 10)}"
                      f"{cell(t['pointing_error_arcsec'], '.1f', 10)}"
                      f"{cell(rate, '.4f', 11)}"
                      f"{cell(t['hold_end_pointing_error_arcsec'], '.1f', 11)}"
-                     f"{cell(t['start_s'], '.1f', 9)}{cell(t['end_s'], '.1f', 9)}")
+                     f"{cell(t['start_s'], '.1f', 9)}{cell(t['end_s'], '.1f', 9)}"))
     return lines
 
 
@@ -326,7 +508,11 @@ def run_from_cli(cfg, args) -> int:
 
     m, summary, interrupted = fly_drawn(cfg, drawn, fly=fly_it,
                                         telemetry=bool(tlm_path or plots_dir or html_path))
-    say(format_report(summary, tracker_star(cfg)))
+    from allsky.apps.replay import describe_scenario
+
+    about = describe_scenario(getattr(args, "scenario", None), getattr(args, "overrides", ()))
+    say(coloured(format_report(summary, tracker_star(cfg), scenario=about, width=report_width()),
+                 summary))
     outputs = []
     if to_stdout:
         print(summary_text(summary), end="")
@@ -337,12 +523,10 @@ def run_from_cli(cfg, args) -> int:
         outputs.append((f"telemetry {tlm_path}", lambda: telemetry_files.write(
             tlm_path, m.telemetry(), option="--telemetry")))
     if html_path and len(m.telemetry()):
-        from allsky.apps.replay import describe_scenario, write_replay
+        from allsky.apps.replay import write_replay
 
         outputs.append((f"replay {html_path}", lambda: write_replay(
-            html_path, m.telemetry(), summary, cfg, option="--html",
-            scenario=describe_scenario(getattr(args, "scenario", None),
-                                       getattr(args, "overrides", ())))))
+            html_path, m.telemetry(), summary, cfg, option="--html", scenario=about)))
     written, failed = write_outputs(outputs)
     for what in written:
         say(f"wrote {what}" + (" (the part flown)" if interrupted else ""))
@@ -366,5 +550,12 @@ def run_from_cli(cfg, args) -> int:
         for e in failed:
             print(f"allsky: error: {e}", file=sys.stderr)
         return 2
+    if getattr(args, "strict", False):
+        from allsky.apps.verdict import strict_failure
+
+        why = strict_failure(summary)
+        if why is not None:
+            print(f"allsky: --strict: {why}", file=sys.stderr)
+            return 1
     # 0 complete, or a saved session's flight ended where its `end` command stood; 1 aborted
     return 1 if summary["status"] == "aborted" else 0

@@ -332,10 +332,13 @@ class Flight:
         now = time.monotonic()
         page = None
         self._stale = self._stale or bool(events)
-        if force or (self._stale and now - self._page_at >= PAGE_EVERY_S) \
+        # A new status (the mission complete or aborted) goes with the page's state at once:
+        # the page's ending, badge and banner read it.
+        changed = m.status != getattr(self, "_page_status", None)
+        if force or changed or (self._stale and now - self._page_at >= PAGE_EVERY_S) \
                 or now - self._page_at > 2:
             page = self.page_state()
-            self._page_at, self._stale = now, False
+            self._page_at, self._stale, self._page_status = now, False, m.status
         self.publish({"rows": rows, "events": events, "session": self.session(), "page": page,
                       "final": self.done.is_set() or self.station.ended})
 
@@ -936,7 +939,9 @@ def run_from_cli(cfg, args) -> int:
     summary = m.summary()
     if drawn:
         summary["dispersions"] = drawn
-    print(format_report(summary, tracker_star(cfg)))
+    from allsky.apps.report import report_width
+
+    print(format_report(summary, tracker_star(cfg), scenario=about, width=report_width()))
     outputs = []
     if args.json:
         outputs.append((f"JSON summary {args.json}", lambda: write_atomic(

@@ -355,7 +355,13 @@ def run_from_cli(cfg, args) -> int:
                  else f"before Mode {m.plan[m.next_mode]}")
         print(f"Stepping ended at t = {m.now_s():.2f} s, {where}; "
               f"the report covers the flight so far.", file=out)
-    print(report.format_report(summary, report.tracker_star(m.cfg)), file=out)
+    about = None
+    if getattr(args, "from_state", None) is None:
+        from allsky.apps.replay import describe_scenario
+
+        about = describe_scenario(getattr(args, "scenario", None), getattr(args, "overrides", ()))
+    print(report.format_report(summary, report.tracker_star(m.cfg), scenario=about,
+                               width=report.report_width(out)), file=out)
     outputs = []
     body = json.dumps({"stops": stops, "summary": summary}, indent=2) + "\n"
     if to_stdout:

@@ -360,7 +360,7 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                 and s.frame[0] % p.telemetry_every == 0:
             body_vector(wheels_p.axes, s.wheel_h, wheel_hb)  # at the row's time
         record_telemetry(tlm, tlm_rows, p.telemetry_every, ck, s, leg.mode_code, fine, trk,
-                         volts, wheel_hb, wheel_hdot, s.wheel_unload[0])
+                         gyro, volts, wheel_hb, wheel_hdot, s.wheel_unload[0])
         note_frame(s.journal, s.journal_n, s.journal_seen, frame, star, star_in_use, trk[1],
                    s.overflow, s.tracker_lock)
         if clip_every_frame or frame_in_leg == done:
@@ -380,27 +380,27 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
                                                    settled, sun_gone, star_gone)
         if code != EXIT_NONE:
             s.leg_clock[CLOCK_SETTLE] = settled  # for a next leg that carries it on
-            _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, volts, wheel_hb, wheel_hdot)
+            _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot)
             return code, n_leg
         if s.frame[0] >= leg.pause_at_frame and n_leg < n_max:
-            _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, volts, wheel_hb, wheel_hdot)
+            _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot)
             s.leg_clock[CLOCK_SETTLE] = settled
             s.leg_clock[CLOCK_SUN_GONE] = sun_gone
             s.leg_clock[CLOCK_STAR_GONE] = star_gone
             s.leg_clock[CLOCK_FRAMES] = n_leg
             return EXIT_PAUSE, n_leg
     if n_max > done:  # the last frame flown ends the leg
-        _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, volts, wheel_hb, wheel_hdot)
+        _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot)
     return EXIT_TIMEOUT, max(n_max, done)
 
 
 @njit_stage
-def _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, volts, wheel_hb, wheel_hdot):
+def _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot):
     """The row of the frame the loop returns on (:func:`allsky.sim.recorder.record_last_row`)."""
     if wheels_p is not None and p.telemetry_every > 0:
         body_vector(wheels_p.axes, s.wheel_h, wheel_hb)  # at the row's time
-    record_last_row(tlm, p.telemetry_every, ck, s, leg.mode_code, fine, trk, volts, wheel_hb,
-                    wheel_hdot, s.wheel_unload[0])
+    record_last_row(tlm, p.telemetry_every, ck, s, leg.mode_code, fine, trk, gyro, volts,
+                    wheel_hb, wheel_hdot, s.wheel_unload[0])
 
 
 @njit_stage

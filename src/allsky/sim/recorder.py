@@ -148,17 +148,25 @@ COLUMNS = (
            None, 1e3),
     Column("jet_on_pitch", "s", "the same for modulator 35 and jets 40", REAL, None, 1e3),
     Column("jet_on_yaw", "s", "the same for modulator 36 and jets 41", REAL, None, 1e3),
+    Column("gyro_roll", "arcsec/s", "rate gyro 1 output, the roll rate it measures (a faulted "
+           "gyro's, as faulted): what converter 8 turns into pulses for counter 14, before drift "
+           "DAC 7 is taken off; the true rate is rate_x", REAL, None, 100.0),
+    Column("gyro_pitch", "arcsec/s", "rate gyro 2 output (converter 10, counter 16, drift "
+           "DAC 9)", REAL, None, 100.0),
+    Column("gyro_yaw", "arcsec/s", "rate gyro 3 output (converter 12, counter 18, drift DAC 11)",
+           REAL, None, 100.0),
 )
 #: Column name -> its index in a row.
 INDEX = {c.name: i for i, c in enumerate(COLUMNS)}
 #: Columns of a telemetry row.
 N_TLM = len(COLUMNS)
 #: The schema's number, written in every file (CSV header comment, Parquet metadata).
-FORMAT = 2
+FORMAT = 3
 #: Each format's columns, by number, frozen by its last column: a later format only appends
 #: columns, and a column appended without a new format fails the check below.
 FORMATS = {number: tuple(c.name for c in COLUMNS[:INDEX[last] + 1])
-           for number, last in ((1, "intermediate_pitch"), (2, "jet_on_yaw"))}
+           for number, last in ((1, "intermediate_pitch"), (2, "jet_on_yaw"),
+                                (3, "gyro_yaw"))}
 
 # Where the row writer puts each group of columns: their names, read from the schema.
 _TIME, _MODE, _Q_W, _RATE_X = INDEX["time"], INDEX["mode"], INDEX["q_w"], INDEX["rate_x"]
@@ -173,7 +181,7 @@ _CORRECTED_ROLL, _CORRECTED_YAW = INDEX["corrected_roll"], INDEX["corrected_yaw"
 _INTERMEDIATE_PITCH, _TRUE_ERROR = INDEX["intermediate_pitch"], INDEX["true_error"]
 _WHEEL_H, _WHEEL_TORQUE, _UNLOADING = INDEX["wheel_h_x"], INDEX["wheel_torque_x"], \
     INDEX["unloading"]
-_JET_ON = INDEX["jet_on_roll"]
+_JET_ON, _GYRO = INDEX["jet_on_roll"], INDEX["gyro_roll"]
 
 
 def _check_groups() -> None:
@@ -186,7 +194,8 @@ def _check_groups() -> None:
               ("error_roll", "error_pitch", "error_yaw"),
               ("wheel_h_x", "wheel_h_y", "wheel_h_z"),
               ("wheel_torque_x", "wheel_torque_y", "wheel_torque_z"),
-              ("jet_on_roll", "jet_on_pitch", "jet_on_yaw"))
+              ("jet_on_roll", "jet_on_pitch", "jet_on_yaw"),
+              ("gyro_roll", "gyro_pitch", "gyro_yaw"))
     for g in groups:
         if [INDEX[n] for n in g] != list(range(INDEX[g[0]], INDEX[g[0]] + len(g))):
             raise ValueError(f"telemetry columns {g} must be consecutive, in this order")
@@ -207,15 +216,16 @@ _SELECTOR = SELECTORS[0]
 
 
 @njit_stage
-def record_telemetry(tlm, tlm_rows, every_frames, ck, s, mode_code, fine, trk, volts, wheel_hb,
-                     wheel_u_body, unloading):
+def record_telemetry(tlm, tlm_rows, every_frames, ck, s, mode_code, fine, trk, gyro, volts,
+                     wheel_hb, wheel_u_body, unloading):
     """Write a row of :data:`COLUMNS` into ``tlm`` every ``every_frames`` frames.
 
     ``tlm_rows`` (1,) is the fill count of the preallocated ``tlm``
     (rows, N_TLM), whose last row is kept for :func:`record_last_row`; a full
     buffer or ``every_frames`` 0 records nothing.
     ``fine`` and ``trk`` are the sun sensor 104 and star tracker 105 outputs
-    [arcsec, arcsec, present], ``volts`` the control amplifiers 31-33 [V];
+    [arcsec, arcsec, present], ``gyro`` the gyros' outputs of the frame
+    [arcsec/s], ``volts`` the control amplifiers 31-33 [V];
     ``wheel_hb`` and ``wheel_u_body`` the wheels' momentum [N m s] and motor
     torque [N m] in body axes, ``unloading`` 1 while the jets unload them.
     ``s`` is the mission state (:class:`allsky.sim.state.State`) after the
@@ -224,30 +234,30 @@ def record_telemetry(tlm, tlm_rows, every_frames, ck, s, mode_code, fine, trk, v
     time is its frame's, computed.
     """
     if every_frames > 0 and s.frame[0] % every_frames == 0 and tlm_rows[0] < tlm.shape[0] - 1:
-        _write_row(tlm[tlm_rows[0]], ck, s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body,
-                   unloading)
+        _write_row(tlm[tlm_rows[0]], ck, s, mode_code, fine, trk, gyro, volts, wheel_hb,
+                   wheel_u_body, unloading)
         tlm_rows[0] += 1
 
 
 @njit_stage
-def record_last_row(tlm, every_frames, ck, s, mode_code, fine, trk, volts, wheel_hb,
+def record_last_row(tlm, every_frames, ck, s, mode_code, fine, trk, gyro, volts, wheel_hb,
                     wheel_u_body, unloading):
     """The row of the frame a slice of the loop ends on, into ``tlm``'s last row.
 
     That row is kept apart from the decimated ones (:func:`record_telemetry`
     leaves it free): the mission appends it to the telemetry when the flight
     ends off the telemetry's grid, so the record ends at its exact last frame.
-    ``every_frames``, ``ck``, ``s``, ``mode_code``, ``fine``, ``trk``,
+    ``every_frames``, ``ck``, ``s``, ``mode_code``, ``fine``, ``trk``, ``gyro``,
     ``volts``, ``wheel_hb``, ``wheel_u_body`` and ``unloading`` are those of
     :func:`record_telemetry`.
     """
     if every_frames > 0 and tlm.shape[0] > 0:
-        _write_row(tlm[tlm.shape[0] - 1], ck, s, mode_code, fine, trk, volts, wheel_hb,
+        _write_row(tlm[tlm.shape[0] - 1], ck, s, mode_code, fine, trk, gyro, volts, wheel_hb,
                    wheel_u_body, unloading)
 
 
 @njit_stage
-def _write_row(row, ck, s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body, unloading):
+def _write_row(row, ck, s, mode_code, fine, trk, gyro, volts, wheel_hb, wheel_u_body, unloading):
     """One row, through the columns' names."""
     row[_TIME] = frame_time(ck, s.frame[0])
     row[_MODE] = mode_code
@@ -269,6 +279,7 @@ def _write_row(row, ck, s, mode_code, fine, trk, volts, wheel_hb, wheel_u_body, 
         row[_WHEEL_H + i] = wheel_hb[i]
         row[_WHEEL_TORQUE + i] = wheel_u_body[i]
         row[_JET_ON + i] = s.jet_on_s[i]
+        row[_GYRO + i] = gyro[i]
     row[_PROPELLANT] = s.propellant_kg[0]
     m = 0
     for k in _ON_OFF:

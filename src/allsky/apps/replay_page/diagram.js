@@ -16,6 +16,12 @@ const DIAGRAM = (function () {
   const jetEls = [];
   const titles = [];  // [text, room]: squeezed to fit after the first layout
   let last = {};
+  // Every box shows one side: the vehicle strip the truth (the vehicle as it is), every other
+  // box the machine's belief (what its sensors say, its counters hold, it computes, commands).
+  const SIDE = (n) => (n === "100" ? "truth" : "belief");
+  const SIDE_COLOUR = { belief: "#2c4f86", truth: "#b8860b" };
+  const SIDE_WORDS = { belief: "belief (what the machine measures, holds or commands)",
+    truth: "truth (the vehicle as it really is)" };
 
   function build() {
     svg.setAttribute("viewBox", `0 0 ${(X1 - X0) * S} ${(Y1 - Y0) * S}`);
@@ -66,12 +72,16 @@ const DIAGRAM = (function () {
 
   function buildBox(n, b) {
     const [x, y, w, h] = b.box;
-    const g = svgEl("g", { "data-box": n }, svg);
+    const side = SIDE(n);
+    const g = svgEl("g", { "data-box": n, "data-side": side }, svg);
     const title = svgEl("title", {}, g);
     const wheelBox = WHEELS && n === "39";
-    title.textContent = wheelBox ? D.diagram.plain_wheels : b.plain;
+    title.textContent = `${wheelBox ? D.diagram.plain_wheels : b.plain} (${SIDE_WORDS[side]})`;
     const rect = svgEl("rect", { x: X(x), y: Y(y + h), width: w * S, height: h * S, rx: 6,
       fill: b.shaded ? "#fff7e6" : "#ffffff", stroke: "#2b3040", "stroke-width": 2 }, g);
+    // The side of truth and belief the box shows: a stripe down its left edge.
+    svgEl("rect", { x: X(x) + 1, y: Y(y + h) + 6, width: 7, height: h * S - 12,
+      fill: SIDE_COLOUR[side], class: `side-stripe ${side}` }, g);
     const mark = svgEl("text", { x: X(x) + 4, y: Y(y + h) + F, "font-size": F,
       "font-weight": 700, fill: FAULT_COLOUR, visibility: "hidden" }, g);
     mark.textContent = "\u26a0";
@@ -179,7 +189,9 @@ const DIAGRAM = (function () {
   function values(s, t) {
     const cfg = D.config;
     const v = {}, per = (n, f, w) => G.boxes[n].numerals.map((num, a) => line(num, f(a), w));
-    v["1"] = per("1", (a) => `${fmtRate(s.rateDeg[a])}\u00b0/s`);
+    // Belief: the gyros' outputs (a dead gyro reads zero); the true rates are the vehicle's.
+    v["1"] = per("1", (a) => (Number.isNaN(s.gyroDeg[a]) ? "not rec."
+      : `${fmtRate(s.gyroDeg[a])}\u00b0/s`));
     const cmd = [s.closed[16] ? "+cmd" : "", "", s.closed[17] ? "+cmd" : ""];
     v["4"] = per("4", (a) => `${s.closed[a + 1] ? "\u2212drift" : "gyro"}${cmd[a]}`, 9);
     v["8"] = per("8", (a) => `${fmtInt(s.pps[a])} p/s`, 9);
@@ -222,7 +234,7 @@ const DIAGRAM = (function () {
       v["39"] = per("39", (a) => `${s.valves[a] ? (s.valves[a] > 0 ? "+fire" : "\u2212fire") : "off"}`, 5);
     }
     const extra = WHEELS && s.unloading ? " \u00b7 unloading" : "";
-    v["100"] = [`body rates ${s.rateDeg.map((r) => fmtRate(r)).join(" ")} \u00b0/s (roll pitch yaw)`
+    v["100"] = [`true body rates (r p y) ${s.rateDeg.map((r) => fmtRate(r)).join(" ")} \u00b0/s`
       + ` \u00b7 propellant ${s.propellant.toFixed(3)}/${cfg.propellant_kg.toFixed(1)} kg${extra}`];
     return v;
   }

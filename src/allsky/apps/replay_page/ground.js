@@ -93,7 +93,7 @@
     if (entries) journal.push(...entries);
     if (page) booted.setJournal(Object.assign({}, page));
     if (columns) booted.appendColumns(columns);
-    if (page) faultList(page);
+    if (page) { faultList(page); if (session) status(); }  // the badge reads the ending
   }
 
   // Commands applied whose entries have not yet reached the page's journal.
@@ -134,9 +134,13 @@
   function status() {
     if (ended) { $("link-state").textContent = `t = ${(session.t_s || 0).toFixed(1)} s`; return; }
     const paused = session.paused;
+    const ending = booted && booted.data && booted.data.ending;
+    const judged = session.status === "complete" && ending && ending.judged
+      && ending.judged.tone === "amber";  // complete, with warnings: never a plain success
     $("live-badge").textContent = session.status === "running" ? (paused ? "PAUSED" : "LIVE")
-      : (session.status || "LIVE").toUpperCase();
-    $("live-badge").className = `badge${paused ? " paused" : ""}`;
+      : judged ? "COMPLETE, AS JUDGED" : (session.status || "LIVE").toUpperCase();
+    $("live-badge").className = `badge${paused ? " paused" : ""}${judged ? " judged" : ""}`;
+    $("live-badge").title = judged ? `complete, as the sequencer judged: \u26a0 ${ending.judged.first_warning}` : "";
     const mode = session.mode ? `, Mode ${session.mode}` : "";
     $("link-state").textContent = `t = ${(session.t_s || 0).toFixed(1)} s${mode} \u00b7 \u00d7${session.speed}`
       + ` \u00b7 ${clients} watching`;

@@ -61,12 +61,15 @@ const APP = (function () {
     const badge = $("mode-badge");
     if (s.mode !== lastMode || status !== lastStatus || stale) {
       $("mode-name").textContent = modeLabel(s.mode);
-      const bgc = status === "aborted" ? "#b71c1c" : status === "complete" ? "#1b5e20"
-        : modeColour(s.mode);
+      const amber = status === "complete" && judgedAmber();
+      const bgc = status === "aborted" ? "#b71c1c" : amber ? AMBER
+        : status === "complete" ? "#1b5e20" : modeColour(s.mode);
       badge.style.background = bgc; badge.style.color = textOn(bgc);
       $("status-badge").textContent = status === "aborted" ? "ABORTED"
-        : status === "complete" ? "COMPLETE" : "";
+        : amber ? "COMPLETE, AS JUDGED" : status === "complete" ? "COMPLETE" : "";
+      badge.title = amber ? `complete, as the sequencer judged: \u26a0 ${D.ending.judged.first_warning}` : "";
       badge.dataset.status = status || "";
+      badge.dataset.tone = status === "flying" ? "" : (amber ? "amber" : status || "");
       $("mode-title").textContent = m.title.charAt(0).toUpperCase() + m.title.slice(1);
       $("mode-sentence").textContent = m.sentence;
       $("mode-look").textContent = m.look ? `Look: ${m.look}` : "";
@@ -79,20 +82,62 @@ const APP = (function () {
     if (s.mode === "1") now += " (the Mode 1 sun-acquisition controller, not drawn in the patent's "
       + "diagram, drives the control amplifiers)";
     if (status === "aborted") now = `Aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}`;
-    if (status === "complete") now = "The sequencer has ended the mission: complete.";
+    if (status === "complete") now = judgedAmber()
+      ? `The sequencer has ended the mission: complete, as it judged. \u26a0 ${D.ending.judged.first_warning}`
+      : "The sequencer has ended the mission: complete.";
     if ($("mode-now").textContent !== now) $("mode-now").textContent = now;
+  }
+
+  // The header keeps one height through the flight: the tallest any mode's texts make it
+  // (its title, sentence, what to look for, the longest "waiting for" of the mode), so that
+  // no panel moves at a mode change. Measured again after a resize or a new journal.
+  let headerStale = true;
+  function holdHeaderHeight() {
+    const row = $("mode-row"), ids = ["mode-title", "mode-sentence", "mode-now", "mode-look"];
+    const kept = ids.map((id) => $(id).textContent), look = $("mode-look").hidden;
+    row.style.minHeight = "";
+    $("mode-look").hidden = false;
+    let tallest = 0;
+    const flown = new Set(D.timeline.map((r) => r.mode));
+    for (const name in D.modes) {
+      if (flown.size && !flown.has(name)) continue;
+      const m = D.modes[name];
+      const nows = WAITING.filter((e) => e.mode === name).map((e) => `Now: waiting for ${e.waiting}`);
+      const now = nows.reduce((a, b) => (b.length > a.length ? b : a), "")
+        + (name === "1" ? " (the Mode 1 sun-acquisition controller, not drawn in the patent's "
+          + "diagram, drives the control amplifiers)" : "");
+      $("mode-title").textContent = m.title.charAt(0).toUpperCase() + m.title.slice(1);
+      $("mode-sentence").textContent = m.sentence;
+      $("mode-now").textContent = now;
+      $("mode-look").textContent = m.look ? `Look: ${m.look}` : "";
+      tallest = Math.max(tallest, row.getBoundingClientRect().height);
+    }
+    ids.forEach((id, k) => { $(id).textContent = kept[k]; });
+    $("mode-look").hidden = look;
+    row.style.minHeight = `${Math.ceil(tallest)}px`;
+    headerStale = false;
+  }
+  window.addEventListener("resize", () => { headerStale = true; });
+  ON_JOURNAL.push(() => { headerStale = true; });
+
+  // A mission the sequencer completed while the summary warns: amber, never green.
+  const AMBER = "#9a6700";
+  function judgedAmber() {
+    return !!(D.ending && D.ending.judged && D.ending.judged.tone === "amber");
   }
 
   // The ending: a banner once the mission has ended (complete or aborted).
   function ending(status) {
     const el = $("ending");
     if (status === lastStatus && !stale) return;
+    const amber = status === "complete" && judgedAmber();
     if (lastStatus && status !== lastStatus && status !== "flying") announce(status === "aborted"
-      ? `Mission aborted: ${D.ending.reason}` : "Mission complete");
+      ? `Mission aborted: ${D.ending.reason}` : amber
+        ? `Mission complete, as the sequencer judged: ${D.ending.judged.first_warning}` : "Mission complete");
     lastStatus = status;
     el.hidden = status === "flying";
     $("mode-look").hidden = status !== "flying";
-    el.className = status || "unknown";
+    el.className = amber ? "judged" : status || "unknown";
     el.dataset.status = status || "";
     if (status === "flying") return;
     const e = D.ending;
@@ -104,13 +149,20 @@ const APP = (function () {
     const err = e.true_error_arcsec === null || e.true_error_arcsec === undefined ? ""
       : ` \u00b7 true error ${fmtSep(e.true_error_arcsec)}`;
     const head = document.createElement("b");
-    if (status === "complete") head.textContent = `Mission complete on ${e.target}`;
+    if (amber) head.textContent = `Mission complete on ${e.target}, as the sequencer judged`;
+    else if (status === "complete") head.textContent = `Mission complete on ${e.target}`;
     else if (status === "aborted") head.textContent = `Mission ABORTED in ${modeLabel(e.mode)} at ${e.t_s.toFixed(1)} s`;
     else head.textContent = `Mission ended: ${e.status}`;
     const body = document.createElement("span");
     body.textContent = (status === "aborted" ? `: ${e.reason}` : "") + err
       + (status === "aborted" && e.target ? ` from ${e.target}` : "") + used;
     el.replaceChildren(head, body);
+    if (amber) {
+      const first = document.createElement("div");
+      first.className = "first-warning";
+      first.textContent = `\u26a0 ${e.judged.first_warning}`;
+      el.appendChild(first);
+    }
     if (D.warnings.length) {
       const wn = document.createElement("div");
       wn.textContent = `\u26a0 ${D.warnings.length} warning${D.warnings.length > 1 ? "s" : ""} of the summary: `
@@ -153,8 +205,16 @@ const APP = (function () {
     cell(r2, truth ? "true" : "", "head");
     let flagged = 0;
     const as = (x) => `${fmt(x * ARCSEC_PER_RAD, 1)}\u2033`;
+    // A word no calibration has written holds the power-on value: not a measurement, so not
+    // shown as one beside the truth ("not calibrated", and why).
+    const aborted = D.ending && D.ending.status === "aborted" && t >= D.ending.t_s - 1e-9;
+    const why = aborted ? `Mode ${D.ending.mode} aborted` : "not written yet";
     for (const [k, label, long, cc] of WORDS) {
-      const val = w[k], c1 = cell(r1, `${label} ${cc ? as(val) : val.toFixed(6)}`, "word", long);
+      const val = w[k], never = w.source === "journal" ? (w.written || []).indexOf(k) < 0
+        : w.source === "start";
+      const c1 = never ? cell(r1, `${label} not cal.`, "word not-calibrated",
+        `${long}: not calibrated (${why}); the register holds its power-on value ${cc ? as(val) : val.toFixed(6)}`)
+        : cell(r1, `${label} ${cc ? as(val) : val.toFixed(6)}`, "word", long);
       if (truth && k in truth.words) {
         const tv = truth.words[k];
         const off = written && (w.written || []).indexOf(k) >= 0 && Math.abs(val - tv) > truth.flag_above;
@@ -303,9 +363,11 @@ const APP = (function () {
     }
     if (D.ending && (D.ending.status === "aborted" || D.ending.status === "complete")) {
       const d = document.createElement("div");
-      d.className = `end-mark ${D.ending.status}`; d.style.left = pos(D.ending.t_s);
-      d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}` : "mission complete";
-      d.textContent = D.ending.status === "aborted" ? "\u2716" : "\u2714";
+      const amber = D.ending.status === "complete" && judgedAmber();
+      d.className = `end-mark ${amber ? "judged" : D.ending.status}`; d.style.left = pos(D.ending.t_s);
+      d.title = D.ending.status === "aborted" ? `aborted at ${D.ending.t_s.toFixed(1)} s: ${D.ending.reason}`
+        : amber ? `complete, as the sequencer judged: ${D.ending.judged.first_warning}` : "mission complete";
+      d.textContent = D.ending.status === "aborted" ? "\u2716" : amber ? "\u26a0" : "\u2714";
       edge(d, D.ending.t_s);
       marks.appendChild(d);
     }
@@ -340,8 +402,30 @@ const APP = (function () {
     speed = opts[k]; speedSel.value = String(speed);
   }
 
+  // The 3-D view and the sky map, small at 1280x720, enlarge in place over the page.
+  function enlarge(id) {
+    for (const el of document.querySelectorAll(".panel.enlarged")) {
+      if (el.id !== id) el.classList.remove("enlarged");
+    }
+    const panel = id && document.getElementById(id);
+    if (panel) panel.classList.toggle("enlarged");
+    for (const b of document.querySelectorAll("button.enlarge")) {
+      const on = document.getElementById(b.dataset.panel).classList.contains("enlarged");
+      b.setAttribute("aria-pressed", on ? "true" : "false");
+      b.textContent = `${on ? "\u2921" : "\u2922"} ${b.dataset.panel === "sky-panel" ? "m" : "v"}`;
+
+    }
+    redraw();
+  }
+  for (const b of document.querySelectorAll("button.enlarge")) {
+    b.addEventListener("click", () => enlarge(b.dataset.panel));
+  }
+
   window.addEventListener("keydown", (e) => {
     if (help.open) return;  // the dialog has the keys (Escape closes it)
+    if (e.key === "Escape" && document.querySelector(".panel.enlarged")) {
+      e.preventDefault(); enlarge(null); return;
+    }
     const tag = e.target && e.target.tagName;
     if (tag === "SELECT" || (tag === "INPUT" && e.target.type !== "range")) return;
     if ((tag === "BUTTON" || tag === "INPUT") && (e.key === " " || e.key === "Enter")) return;
@@ -357,6 +441,7 @@ const APP = (function () {
       "Home": () => seek(T0), "End": () => seek(T1),
       "+": () => stepSpeed(1), "=": () => stepSpeed(1), "-": () => stepSpeed(-1),
       "?": openHelp,
+      "v": () => enlarge("vehicle-panel"), "m": () => enlarge("sky-panel"),
     }[e.key];
     if (handled) { e.preventDefault(); handled(); }
   });
@@ -366,12 +451,17 @@ const APP = (function () {
     const i = rowAt(t), s = rowState(i), status = statusAt(t);
     let a = performance.now();
     const lap = (name) => { const b = performance.now(); parts[name] = b - a; a = b; };
+    if (headerStale) holdHeaderHeight();
     header(s, status); ending(status); stale = false;
     registersLine(); truthLine(s); eventLog(); lap("text");
     DIAGRAM.update(s, t); lap("diagram");
     VEHICLE.draw(s, t); lap("vehicle");
     SKY.draw(s, t, modeStartRow(i)); lap("sky");
     TRACES.draw(s, t); lap("traces");
+    if (LIVE) {  // the footer reviews the recording: named, its play hidden while following
+      $("controls-name").hidden = false;
+      if (playBtn.hidden !== follow) playBtn.hidden = follow;
+    }
     if (+scrub.value !== t) scrub.value = t;
     const vt = `${t.toFixed(1)} s, ${modeLabel(s.mode)}${status === "flying" || !status ? "" : `, ${status}`}`;
     if (scrub.getAttribute("aria-valuetext") !== vt) scrub.setAttribute("aria-valuetext", vt);
@@ -447,6 +537,8 @@ const APP = (function () {
       row_t_s: T_MS[i] / 1000, target: TARGETS[targetAt(T_MS[i] / 1000)].name,
       status: statusAt(t), true_error_arcsec: s.trueErr,
       body_rate_deg_s: { roll: s.rateDeg[0], pitch: s.rateDeg[1], yaw: s.rateDeg[2] },
+      gyro_output_deg_s: Number.isNaN(s.gyroDeg[0]) ? null
+        : { roll: s.gyroDeg[0], pitch: s.gyroDeg[1], yaw: s.gyroDeg[2] },
       tracker_star: starInSlit(t), faults_active: faultsAt(t).map((f) => f.kind) };
   }
 
@@ -461,8 +553,9 @@ window.allsky = {
    *  else leaves the time as it is); returns state(). */
   seek: APP.seek,
   /** {t_s, mode, switches {S1..S19}, selector, counters_pulses {14, 16, 18}, row_t_s, target,
-   *  status, true_error_arcsec, body_rate_deg_s {roll, pitch, yaw}, tracker_star,
-   *  faults_active} at the time shown; S7/S8 are selectors, always true (their contact is
+   *  status, true_error_arcsec, body_rate_deg_s {roll, pitch, yaw} (the truth),
+   *  gyro_output_deg_s {roll, pitch, yaw} (what the gyros say; null when not recorded),
+   *  tracker_star, faults_active} at the time shown; S7/S8 are selectors, always true (their contact is
    *  ``selector``). */
   state: APP.state,
   /** Play at ``speed`` times real time (default: the speed selected). */

@@ -40,6 +40,12 @@ const SKY = (function () {
       ctx.beginPath(); ctx.moveTo(PAD, y); ctx.lineTo(w, y); ctx.stroke();
       fillTextInside(ctx, `${dec > 0 ? "+" : ""}${dec}\u00b0`, 1, y + 4, w, h);
     }
+    gridBoxes = [];
+    for (let dec = -60; dec <= 60; dec += 30) {  // the Dec labels' boxes, kept free of labels
+      const [, y] = xy(0, dec, w, h);
+      ctx.font = font(11);
+      gridBoxes.push([0, y - 10, PAD, y + 6]);
+    }
     for (const st of D.sky.stars) {
       const [x, y] = xy(st.ra, st.dec, w, h);
       const r = Math.max(0.8, 2.6 - 0.55 * st.mag);
@@ -47,15 +53,23 @@ const SKY = (function () {
       if (st.win) {
         ctx.strokeStyle = "#b48cff"; ctx.lineWidth = 1.5;
         ctx.beginPath(); ctx.arc(x, y, r + 3.5, 0, 7); ctx.stroke();
-        ctx.fillStyle = "#d5c2ff"; ctx.font = font(11);
-        fillTextInside(ctx, st.name, x + r + 5, y + 4, w, h - BOTTOM);
-      } else if (st.mag < 0.1 && w > 380) {
-        ctx.fillStyle = "#aab6d6"; ctx.font = font(11);
-        fillTextInside(ctx, st.name, x + r + 2, y + 4, w, h - BOTTOM);
       }
     }
     bgKey = key;
     return bg;
+  }
+  let gridBoxes = [];
+
+  // The catalog's names (stars in the tracker's window, and the brightest on a wide map):
+  // written with the drawing's other labels, after them, where there is room.
+  function starNames(L, w, h) {
+    for (const st of D.sky.stars) {
+      if (!st.win && !(st.mag < 0.1 && w > 380)) continue;
+      const [x, y] = xy(st.ra, st.dec, w, h);
+      const r = Math.max(0.8, 2.6 - 0.55 * st.mag);
+      L.want(st.name, x, y, x + r + (st.win ? 5 : 2), y + 4, { font: font(11),
+        colour: st.win ? "#d5c2ff" : "#aab6d6", priority: st.win ? 6 : 7, h: h - BOTTOM });
+    }
   }
 
   function polygon(ctx, pts, w, h, fill, stroke) {
@@ -88,7 +102,8 @@ const SKY = (function () {
     ctx.stroke();
   }
 
-  function marker(ctx, v, w, h, colour, label, r, fontSpec) {
+  let L = null;  // the drawing's labels (labelLayer)
+  function marker(ctx, v, w, h, colour, label, r, fontSpec, prio) {
     const [ra, dec] = radec(v);
     const [x, y] = xy(ra, dec, w, h);
     ctx.fillStyle = colour; ctx.strokeStyle = colour; ctx.lineWidth = 2;
@@ -101,12 +116,16 @@ const SKY = (function () {
     ctx.font = fontSpec || font(12, "bold");
     // Near the right edge the label goes to the left of the marker.
     const room = ctx.measureText(label).width;
-    fillTextInside(ctx, label, x + r + 4 + room > w ? x - r - 4 - room : x + r + 4, y - r, w, h - BOTTOM);
+    L.want(label, x, y, x + r + 4 + room > w ? x - r - 4 - room : x + r + 4, y - r,
+      { font: fontSpec || font(12, "bold"), colour: colour, priority: prio === undefined ? 2 : prio,
+        alpha: ctx.globalAlpha, h: h - BOTTOM });
   }
 
   function draw(s, t, modeStartRow) {
     const { ctx, w, h } = fitCanvas(canvas);
     ctx.drawImage(background(w, h), 0, 0, w, h);
+    L = labelLayer(ctx, w, h);
+    for (const b of gridBoxes) L.reserve(b);
     // The slit's swath since the mode began, then its footprint now.
     const i0 = modeStartRow, i1 = s.i;
     const step = Math.max(1, Math.ceil((i1 - i0) / 160));
@@ -119,20 +138,21 @@ const SKY = (function () {
     const c = dcm(s.q);
     polygon(ctx, SLIT.map((b) => toInertial(c, b)), w, h,
       s.starPresent ? "rgba(180,140,255,0.40)" : "rgba(180,140,255,0.22)", "#c9b0ff");
-    marker(ctx, sunAt(t), w, h, "#ffd23f", "Sun", 6);
+    marker(ctx, sunAt(t), w, h, "#ffd23f", "Sun", 6, undefined, 1);
     // Every target: the one being flown bold, the others faint.
     TARGETS.forEach((tgt, k) => {
       if (k === s.target) return;
       ctx.globalAlpha = 0.45;
-      marker(ctx, tgt.vec, w, h, "#ff9d92", `${k + 1} ${tgt.name}`, 3.5, font(11));
+      marker(ctx, tgt.vec, w, h, "#ff9d92", `${k + 1} ${tgt.name}`, 3.5, font(11), 4);
       ctx.globalAlpha = 1;
     });
     const cur = TARGETS[s.target];
     marker(ctx, cur.vec, w, h, "#ff6b5b", TARGETS.length > 1
-      ? `target ${s.target + 1}/${TARGETS.length} ${cur.name}` : `target ${cur.name}`, 5);
+      ? `target ${s.target + 1}/${TARGETS.length} ${cur.name}` : `target ${cur.name}`, 5, undefined, 0);
     const x = radec(c[0]), [px, py] = xy(x[0], x[1], w, h);
     ctx.fillStyle = "#7fd0ff"; ctx.beginPath(); ctx.arc(px, py, 3.5, 0, 7); ctx.fill();
-    ctx.font = font(12, "bold"); fillTextInside(ctx, "+x", px + 5, py + 13, w, h - BOTTOM);
+    L.want("+x", px, py, px + 5, py + 13, { font: font(12, "bold"), colour: "#7fd0ff", priority: 1,
+      h: h - BOTTOM });
     // The star in the slit (the journal's), ringed in white.
     const inSlit = starInSlit(t), sv = inSlit ? starVec(inSlit) : null;
     if (sv) {
@@ -140,6 +160,8 @@ const SKY = (function () {
       ctx.strokeStyle = "#ffffff"; ctx.lineWidth = 2;
       ctx.beginPath(); ctx.arc(sx, sy, 8, 0, 7); ctx.stroke();
     }
+    starNames(L, w, h);
+    canvas.dataset.labelsDropped = L.flush();
     canvas.setAttribute("aria-label", `Sky map at ${t.toFixed(1)} s: +x at RA ${x[0].toFixed(1)}\u00b0, `
       + `Dec ${x[1].toFixed(1)}\u00b0; target ${cur.name}; slit ${inSlit ? "on " + inSlit : "empty"}.`);
   }

@@ -206,7 +206,12 @@ function faultsAt(t) {
 function statusAt(t) {
   const e = D.ending;
   if (!e) return t >= T1 - 1e-9 ? null : "flying";
-  if ((e.status === "complete" || e.status === "aborted") && t >= e.t_s - 1e-9) return e.status;
+  if (e.status !== "complete" && e.status !== "aborted") return "flying";
+  if (t >= e.t_s - 1e-9) return e.status;
+  // An ending between the last row and the next the recorder would have written (a live
+  // flight ends on a frame, its rows come every few): the record ends with the mission.
+  const last = N > 1 ? (T_MS[N - 1] - T_MS[N - 2]) / 1000 : 0;
+  if (t >= T1 - 1e-9 && e.t_s - T1 < last - 1e-9) return e.status;
   return "flying";
 }
 
@@ -224,6 +229,8 @@ function rowState(i) {
     i: i, t_s: T_MS[i] / 1000, mode: modeName(runValue(C.runs.mode, i)), mask: mask,
     selector: +C.selector[i], q: qn,
     rate: [cont("rate_x", i), cont("rate_y", i), cont("rate_z", i)],
+    // The gyros' outputs [arcsec/s], what counters 14/16/18 integrate (NaN: not recorded).
+    gyro: [cont("gyro_roll", i), cont("gyro_pitch", i), cont("gyro_yaw", i)],
     sun: [cont("sun_pitch", i), cont("sun_yaw", i)],
     sunPresent: runValue(C.runs.sun_present, i) > 0.5,
     trk: [cont("tracker_yaw", i), cont("tracker_pitch", i)],
@@ -249,6 +256,7 @@ function rowState(i) {
   s.pps = [0, 1, 2].map((a) => (dt > 0 ? (s.counters[a] - [EXACT.counter14, EXACT.counter16,
     EXACT.counter18][a][j]) / dt : 0));
   s.rateDeg = s.rate.map((r) => r / RAD);
+  s.gyroDeg = s.gyro.map((r) => r / 3600);
   // The truth: +x to the target being flown (the recorded column; the attitude otherwise).
   const c = dcm(s.q), x = toInertial(c, [1, 0, 0]);
   s.xToTargetArcsec = angleBetween(x, TARGETS[s.target].vec) * ARCSEC_PER_RAD;
@@ -382,6 +390,58 @@ function fillTextInside(ctx, text, x, y, w, h) {
   const xx = Math.max(1, Math.min(x, w - tw - 1)), yy = Math.max(asc + 1, Math.min(y, h - desc - 1));
   ctx.fillText(text, xx, yy);
   return [xx, yy, tw];
+}
+
+/** The labels of one drawing of a canvas, placed so that no two overlap.
+ *
+ *  ``want`` queues a label: its text, font and colour, the point it names (ax, ay) and
+ *  the place it prefers (baseline-left px, py); ``flush`` writes them by priority (lower
+ *  first), each at the first free one of its preferred place and places around its point,
+ *  farther and farther, inside [0, w] x [0, h]. A label no place is free for is not
+ *  written (``dropped`` counts them). ``reserve`` keeps a box [x0, y0, x1, y1] free. */
+function labelLayer(ctx, w, h) {
+  const boxes = [], queue = [];
+  let dropped = 0;
+  const free = (b) => boxes.every((o) => b[2] <= o[0] || b[0] >= o[2] || b[3] <= o[1] || b[1] >= o[3]);
+  function put(q) {
+    ctx.font = q.font;
+    const m = ctx.measureText(q.text), tw = m.width;
+    const asc = m.actualBoundingBoxAscent || 9, desc = m.actualBoundingBoxDescent || 3;
+    const lh = asc + desc;
+    const cands = [[q.px, q.py]];
+    for (let k = 1; k <= 5; k++) {
+      const d = 3 + 5 * k, v = (k - 1) * lh;
+      cands.push([q.ax + d, q.ay + asc / 2], [q.ax - d - tw, q.ay + asc / 2],
+        [q.ax - tw / 2, q.ay - d - desc - v], [q.ax - tw / 2, q.ay + d + asc + v],
+        [q.ax + d, q.ay - d - desc - v], [q.ax + d, q.ay + d + asc + v],
+        [q.ax - d - tw, q.ay - d - desc - v], [q.ax - d - tw, q.ay + d + asc + v]);
+    }
+    for (const [cx, cy] of cands) {
+      const x = Math.max(1, Math.min(cx, q.w - tw - 1)), y = Math.max(asc + 1, Math.min(cy, q.h - desc - 1));
+      const b = [x - 1, y - asc - 1, x + tw + 1, y + desc + 1];
+      if (free(b)) {
+        ctx.fillStyle = q.colour; ctx.globalAlpha = q.alpha;
+        ctx.fillText(q.text, x, y);
+        ctx.globalAlpha = 1;
+        boxes.push(b);
+        return b;
+      }
+    }
+    dropped += 1;
+    return null;
+  }
+  return {
+    reserve: (b) => boxes.push(b),
+    want: (text, ax, ay, px, py, opts) => queue.push(Object.assign({ text: text, ax: ax, ay: ay,
+      px: px, py: py, font: font(12), colour: "#1d2330", priority: 5, alpha: 1, w: w, h: h },
+      opts || {}, { order: queue.length })),
+    flush: () => {
+      queue.sort((a, b) => a.priority - b.priority || a.order - b.order).forEach(put);
+      queue.length = 0;
+      return dropped;
+    },
+    boxes: () => boxes.map((b) => b.slice()),
+  };
 }
 
 const SVG_NS = "http://www.w3.org/2000/svg";

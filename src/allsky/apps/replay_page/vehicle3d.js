@@ -25,7 +25,7 @@ const VEHICLE = (function () {
     return [w / 2 + sc * x1, (h - 34) / 2 + 4 - sc * up, depth];
   }
 
-  function arrow(ctx, p, q, colour, width, label, w, h) {
+  function arrow(ctx, p, q, colour, width, label, w, h, prio) {
     ctx.strokeStyle = colour; ctx.fillStyle = colour; ctx.lineWidth = width;
     ctx.beginPath(); ctx.moveTo(p[0], p[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
     const ang = Math.atan2(q[1] - p[1], q[0] - p[0]);
@@ -33,12 +33,15 @@ const VEHICLE = (function () {
     ctx.lineTo(q[0] - 9 * Math.cos(ang - 0.4), q[1] - 9 * Math.sin(ang - 0.4));
     ctx.lineTo(q[0] - 9 * Math.cos(ang + 0.4), q[1] - 9 * Math.sin(ang + 0.4));
     ctx.fill();
-    if (label) { ctx.font = font(12, "600"); fillTextInside(ctx, label, q[0] + 4, q[1] - 4, w, h - 34); }
+    if (label) L.want(label, q[0], q[1], q[0] + 4, q[1] - 4, { font: font(12, "600"), colour: colour,
+      priority: prio === undefined ? 3 : prio, h: h - 34 });
   }
+  let L = null;  // the drawing's labels (labelLayer)
 
   function draw(s, t) {
     const { ctx, w, h } = fitCanvas(canvas);
     ctx.clearRect(0, 0, w, h);
+    L = labelLayer(ctx, w, h);
     const c = dcm(s.q);
     const P = (v, k) => project([v[0] * k, v[1] * k, v[2] * k], w, h);
     const o = P([0, 0, 0], 1);
@@ -47,16 +50,18 @@ const VEHICLE = (function () {
     const target = TARGETS[s.target];
     const inSlit = starInSlit(t);
     const slitVec = inSlit ? starVec(inSlit) : null;
-    const rays = [[sun, "#b07c00", "Sun", 8], [target.vec, "#c0392b", `target ${target.name}`, 5]];
-    if (slitVec) rays.push([slitVec, "#6c3fb5", `${inSlit} (in the slit)`, 5]);
-    if (REF_VEC && inSlit !== REFERENCE) rays.push([REF_VEC, "#8b7aa8", `${REFERENCE} (reference)`, 4]);
-    for (const [v, col, name, r] of rays) {
+    // [direction, colour, label, radius, label priority (lower: placed first)]
+    const rays = [[sun, "#b07c00", "Sun", 8, 1], [target.vec, "#c0392b", `target ${target.name}`, 5, 0]];
+    if (slitVec) rays.push([slitVec, "#6c3fb5", `${inSlit} (in the slit)`, 5, 1]);
+    if (REF_VEC && inSlit !== REFERENCE) rays.push([REF_VEC, "#8b7aa8", `${REFERENCE} (reference)`, 4, 4]);
+    for (const [v, col, name, r, prio] of rays) {
       const q = P(v, 1.3);
       ctx.setLineDash([5, 4]); ctx.strokeStyle = col; ctx.lineWidth = 1.5;
       ctx.beginPath(); ctx.moveTo(o[0], o[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
       ctx.setLineDash([]);
       ctx.fillStyle = col; ctx.beginPath(); ctx.arc(q[0], q[1], r, 0, 7);
-      ctx.fill(); ctx.font = font(12); fillTextInside(ctx, name, q[0] + 7, q[1] + 4, w, h - 34);
+      ctx.fill();
+      L.want(name, q[0], q[1], q[0] + 7, q[1] + 4, { colour: col, priority: prio, h: h - 34 });
     }
     // The tracker's slit field about +z, as a translucent pyramid.
     const slit = slitOutlineBody(2).map((b) => P(toInertial(c, b), 1.5));
@@ -87,15 +92,17 @@ const VEHICLE = (function () {
       if (!v) return;
       const p = P(toInertial(c, jetAt[a]), 1);
       ctx.fillStyle = "#ff8c1a"; ctx.beginPath(); ctx.arc(p[0], p[1], 7, 0, 7); ctx.fill();
-      ctx.fillStyle = "#7a3a00"; ctx.font = font(12, "bold");
-      fillTextInside(ctx, `${"rpy"[a]}${v > 0 ? "+" : "\u2212"}`, p[0] + 8, p[1] + 4, w, h - 34);
+      L.want(`${"rpy"[a]}${v > 0 ? "+" : "\u2212"}`, p[0], p[1], p[0] + 8, p[1] + 4,
+        { font: font(12, "bold"), colour: "#7a3a00", priority: 2, h: h - 34 });
     });
     // Body axes.
     const names = ["+x roll (sun 104)", "+y", "+z yaw (tracker 105)"];
     for (let a = 0; a < 3; a++) {
       const b = [0, 0, 0]; b[a] = 1;
-      arrow(ctx, o, P(toInertial(c, b), a === 0 ? 1.2 : 0.9), AXIS_COLOURS[a], 2.5, names[a], w, h);
+      arrow(ctx, o, P(toInertial(c, b), a === 0 ? 1.2 : 0.9), AXIS_COLOURS[a], 2.5, names[a], w, h,
+        a === 1 ? 4 : 2);
     }
+    canvas.dataset.labelsDropped = L.flush();
     // Readouts: +x to the Sun and to the target (the truth), exact near zero (atan2).
     const x = toInertial(c, [1, 0, 0]);
     const sunSep = angleBetween(x, sun) * ARCSEC_PER_RAD;
@@ -120,7 +127,7 @@ const VEHICLE = (function () {
     if (mag > 1e-9) {
       const tip = P(toInertial(c, [hv[0] / mag * k, hv[1] / mag * k, hv[2] / mag * k]), 1);
       arrow(ctx, P([0, 0, 0], 1), tip, s.unloading ? "#d35400" : "#0b6e4f", 3,
-        `wheels ${mag.toFixed(2)} N m s${s.unloading ? ", unloading" : ""}`, w, h);
+        `wheels ${mag.toFixed(2)} N m s${s.unloading ? ", unloading" : ""}`, w, h, 3);
     }
     // Each wheel as a small disc on its spin axis.
     for (const ax of D.vehicle.axes) {

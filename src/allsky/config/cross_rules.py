@@ -275,10 +275,27 @@ def _blowdown_pressures(v):
                           "pressure falls as the gas is used")
 
 
+def _orbit_elements(v):
+    """`orbit.kind` = "tle": `orbit.tle_line1` and `orbit.tle_line2` are an element set SGP4 flies."""
+    if v["orbit.kind"] != "tle":
+        return
+    from allsky.vehicle.orbit import parse_tle
+
+    l1, l2 = v["orbit.tle_line1"], v["orbit.tle_line2"]
+    if not l1 or not l2:
+        raise ConfigError("orbit.tle_line1" if not l1 else "orbit.tle_line2", "",
+                          'orbit.kind = "tle" needs both lines of the element set')
+    try:
+        parse_tle(l1, l2)
+    except ValueError as exc:
+        raise ConfigError("orbit.tle_line1", l1, f"not an element set SGP4 can fly: {exc}") \
+            from None
+
+
 #: Cross-key rules, in the order they are checked.
 CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
                _dither_sampling, _dither_record, _fft_whole_periods, _one_limit_per_wheel,
                _unload_hysteresis, _converters_follow_the_turns,
                _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
                _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window,
-               _blowdown_pressures)
+               _blowdown_pressures, _orbit_elements)

@@ -198,6 +198,12 @@ EVENT_KINDS = (
     EventKind("ground_command", 12, "`command` (its kind: one of the ground commands), the "
                                     "command's fields, `text` (in words); a `fault` command "
                                     "also `fault` (its index in `[[faults]]`)"),
+    EventKind("eclipse", 13, "`phase` (`penumbra`, `umbra` or `sunlit`: what the vehicle "
+                             "enters, in orbit), `active` (false once fully sunlit again), "
+                             "`sunlit_fraction` (of the Sun's disk, in the entry's frame)"),
+    EventKind("occultation", 14, "`body` (a star of the tracker's magnitude window, or "
+                                 "`target`), `active` (true when the Earth's disk begins to "
+                                 "hide it, false when it clears)"),
 )
 #: Journal kind name -> :class:`EventKind`.
 EVENT_KIND = {k.name: k for k in EVENT_KINDS}

@@ -42,7 +42,7 @@ from allsky.sim import faults as sim_faults
 from allsky.sim import frame_loop, journal, results
 from allsky.sim import state as sim_state
 from allsky.sim.telemetry import COLUMNS
-from allsky.vehicle import plant, quaternion, sky, wheels
+from allsky.vehicle import environment, orbit, plant, quaternion, sky, wheels
 from allsky.vocabulary import AXES
 
 EXIT_TEXT = {
@@ -129,6 +129,7 @@ def build_params(cfg) -> sim_state.Params:
         reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
         bool(st.bright_gate))
     el = cfg.electronics
+    track, step = orbit.track(cfg, ck, orbit.span_s(cfg))
     return sim_state.Params(
         frame_s=dt,
         clock=ck,
@@ -183,6 +184,7 @@ def build_params(cfg) -> sim_state.Params:
             cfg, tracker, [s.name for s in stars],
             lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc),
             lambda name: sky.star(name).magnitude),
+        orbit=environment.build(cfg, track, s0, sdot, step, tracker),
     )
 
 
@@ -692,10 +694,53 @@ class Mission:
         return rows
 
     def _drain_journal(self):
-        """Move what the frame loop journaled into the journal."""
+        """Move what the frame loop journaled into the journal (and the orbit's entries)."""
         s = self.state
+        before = len(self.journal.events)
         if s.journal_n[0] or s.journal_n[1]:
             self.journal.drain(s.journal, s.journal_n, self._mode, self._decoder)
+        if self.params.orbit.n > 0 and self._orbit_journal():
+            # the slice's entries in the order of time (the loop's, then the orbit's, stably)
+            ev = self.journal.events
+            ev[before:] = sorted(ev[before:], key=lambda e: e["t_s"])
+
+    def _orbit_journal(self) -> bool:
+        """Journal the eclipses and occultations of the frames flown since the last call.
+
+        They depend on the orbit and the date only, not on the attitude: they
+        are found from the orbit's samples, interpolated as the frame loop
+        interpolates them (:mod:`allsky.vehicle.environment`), frame by frame.
+        Returns whether any entry was written.
+        """
+        o = self.params.orbit
+        first, last = getattr(self, "_orbit_frame", 0), self.frame
+        if last <= first:
+            return False
+        self._orbit_frame = last
+        ck = self.params.clock
+        f = environment.sunlit_series(o, first, last)
+        phase = np.where(f >= 1.0, 0, np.where(f <= 0.0, 2, 1))
+        prev = getattr(self, "_orbit_phase", 0)
+        wrote = False
+        names = ("sunlit", "penumbra", "umbra")
+        for k in np.nonzero(np.diff(np.concatenate([[prev], phase])))[0]:
+            self.journal.note(clock.time_s(ck, first + int(k)), self._mode, "eclipse",
+                              phase=names[phase[k]], active=bool(phase[k] != 0),
+                              sunlit_fraction=float(f[k]))
+            wrote = True
+        self._orbit_phase = int(phase[-1])
+        bodies = [*tracker_star_names(self.cfg)[:o.stars_inertial.shape[0]], "target"]
+        dirs = np.ascontiguousarray(np.vstack([o.stars_inertial,
+                                               np.asarray(self.state.target_inertial)[None]]))
+        hidden = environment.occulted_series(o, dirs, first, last)
+        seen = getattr(self, "_orbit_hidden", np.zeros(len(bodies), dtype=bool))
+        steps = np.diff(np.vstack([seen[None, :], hidden]).astype(np.int8), axis=0)
+        for k, j in zip(*np.nonzero(steps)):
+            self.journal.note(clock.time_s(ck, first + int(k)), self._mode, "occultation",
+                              body=bodies[j], active=bool(steps[k, j] > 0))
+            wrote = True
+        self._orbit_hidden = hidden[-1].copy()
+        return wrote
 
     # -- running ---------------------------------------------------------------
     @property

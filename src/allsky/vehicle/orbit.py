@@ -170,7 +170,7 @@ def parse_tle(line1: str, line2: str):
                              f"{digits % 10}")
     try:
         sat = Satrec.twoline2rv(l1, l2)
-    except Exception as exc:  # the parser's own words
+    except (ValueError, RuntimeError, IndexError) as exc:  # the parser's own words
         raise ValueError(f"not a two-line element set: {exc}") from None
     if sat.error:
         raise ValueError(f"SGP4 cannot initialise these elements (error {sat.error})")
@@ -205,18 +205,40 @@ def tle_track(line1, line2, date_utc: datetime, t_s) -> Track:
     return Track(t, r, v)
 
 
-def track(cfg, duration_s: float) -> Track | None:
+def span_s(cfg) -> float:
+    """[s] how long the orbit's samples cover: the longest mission, and an hour more.
+
+    The hour is room for what lengthens a mission past its modes' timeouts
+    (a recovery, ground commands); past the last sample the vehicle is held
+    where it was (the environment stops moving).
+    """
+    from allsky.config.cross_rules import longest_mission_s
+
+    flat = {f"{sec}.{k}": v for sec, table in cfg.as_dict().items() if isinstance(table, dict)
+            for k, v in table.items()}
+    flat.setdefault("target.sequence", None)
+    return longest_mission_s(flat) + 3600.0
+
+
+def track(cfg, ck, duration_s: float):
     """The scenario's orbit sampled every ``orbit.sample_s`` over ``duration_s`` [s].
 
-    None for ``kind = "none"``. The samples cover ``[0, duration_s]`` and
-    one interval more.
+    The interval is taken up to a whole number of frames of the clock ``ck``
+    (:func:`allsky.clock.frames_for`), so that sample ``k`` is at the start
+    of frame ``k * step``. Returns ``(Track, step_frames)``, or ``(None, 1)``
+    for ``kind = "none"``. The samples cover ``[0, duration_s]`` and one
+    interval more.
     """
+    from allsky import clock
+
     o = cfg.orbit
     if o.kind == "none":
-        return None
-    n = int(math.ceil(duration_s / o.sample_s)) + 2
-    t = np.arange(n, dtype=float) * float(o.sample_s)
+        return None, 1
+    step = max(1, clock.frames_for(ck, o.sample_s))
+    interval = clock.time_s(ck, step)
+    n = math.ceil(duration_s / interval) + 2
+    t = np.array([clock.time_s(ck, k * step) for k in range(n)])
     if o.kind == "circular":
         return circular_track(o.altitude_km, o.inclination_deg, o.raan_deg,
-                              o.arg_latitude_deg, t, o.j2)
-    return tle_track(o.tle_line1, o.tle_line2, cfg.mission.date_utc, t)
+                              o.arg_latitude_deg, t, o.j2), step
+    return tle_track(o.tle_line1, o.tle_line2, cfg.mission.date_utc, t), step

@@ -1130,10 +1130,46 @@ class Mission:
         out["targets"] = records
         if self.cfg.actuators.kind == "wheels":
             out["wheels"] = self.wheel_summary()
+        if self.params.orbit.n > 0:
+            out["orbit"] = self.orbit_summary()
         out["warnings"] = results.warnings(out, self.journal, fault_config.describe,
                                            self.params.sequencer.settle_threshold_arcsec)
         out["events"] = [dict(e) for e in self.journal.events]
         return out
+
+    def orbit_summary(self) -> dict:
+        """The orbit's part of the summary (a mission in orbit only).
+
+        ``sunlit_fraction`` of the Sun's disk at the end; ``sunlit_margin_s``,
+        the time from the end of the flight to the next orbit sunset (the
+        onset of the penumbra; 0 in the shadow, None past the orbit's
+        samples); ``eclipsed_s`` and ``occulted``, the time spent in the
+        shadow and the bodies the Earth hid while flying; ``torques``, each
+        environment torque's ``peak_n_m`` and ``impulse_n_m_s`` (its
+        magnitude integrated over the flight), or None where it is off.
+        """
+        o = self.params.orbit
+        ck = self.params.clock
+        end = self.frame
+        horizon = (o.n - 1) * o.step_frames
+        ahead = environment.sunlit_series(o, end, max(end, horizon))
+        dark = np.nonzero(ahead < 1.0)[0]
+        margin = None if dark.size == 0 else clock.time_s(ck, int(dark[0]))
+        flown = environment.sunlit_series(o, 0, end)
+        keys = {"gravity_gradient": self.cfg.orbit.gravity_gradient,
+                "aerodynamic": self.cfg.orbit.aerodynamic,
+                "solar_pressure": self.cfg.orbit.solar_pressure}
+        torques = {name: ({"peak_n_m": float(o.peak[environment.PEAK, i]),
+                           "impulse_n_m_s": float(o.peak[environment.IMPULSE, i])}
+                          if on else None) for i, (name, on) in enumerate(keys.items())}
+        occulted = sorted({e["body"] for e in self.journal.of_kind("occultation")
+                           if e["active"]})
+        return {"kind": self.cfg.orbit.kind,
+                "sunlit_fraction": float(ahead[0]) if ahead.size else None,
+                "sunlit_margin_s": margin,
+                "eclipsed_s": clock.time_s(ck, int(np.count_nonzero(flown < 1.0))),
+                "occulted": occulted,
+                "torques": torques}
 
     def wheel_summary(self) -> dict:
         """The reaction wheels at the end: momenta, the largest fraction of a limit held."""

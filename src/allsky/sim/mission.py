@@ -21,6 +21,7 @@ from allsky import clock, units, xmath
 from allsky.computer import targeting
 from allsky.computer import word_registers as wr
 from allsky.config import faults as fault_config
+from allsky.config.cross_rules import longest_mission_s
 from allsky.hardware import (
     control_amp,
     gyro,
@@ -113,6 +114,19 @@ class ModeRecord(NamedTuple):
     exit: str
 
 
+def orbit_span_s(cfg) -> float:
+    """[s] how long the orbit's samples cover: the longest mission, and an hour more.
+
+    The hour is room for what lengthens a mission past its modes' timeouts
+    (a recovery, ground commands); past the last sample the vehicle is held
+    where it was (the environment stops moving).
+    """
+    flat = {f"{sec}.{k}": v for sec, table in cfg.as_dict().items() if isinstance(table, dict)
+            for k, v in table.items()}
+    flat.setdefault("target.sequence", None)
+    return longest_mission_s(flat) + 3600.0
+
+
 def build_params(cfg) -> sim_state.Params:
     """Frame-loop parameters from a validated scenario ``cfg``."""
     ck = clock.clock(cfg.mission.frame_s)
@@ -129,7 +143,7 @@ def build_params(cfg) -> sim_state.Params:
         reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
         bool(st.bright_gate))
     el = cfg.electronics
-    track, step = orbit.track(cfg, ck, orbit.span_s(cfg))
+    track, step = orbit.track(cfg, ck, orbit_span_s(cfg))
     return sim_state.Params(
         frame_s=dt,
         clock=ck,

@@ -205,21 +205,6 @@ def tle_track(line1, line2, date_utc: datetime, t_s) -> Track:
     return Track(t, r, v)
 
 
-def span_s(cfg) -> float:
-    """[s] how long the orbit's samples cover: the longest mission, and an hour more.
-
-    The hour is room for what lengthens a mission past its modes' timeouts
-    (a recovery, ground commands); past the last sample the vehicle is held
-    where it was (the environment stops moving).
-    """
-    from allsky.config.cross_rules import longest_mission_s
-
-    flat = {f"{sec}.{k}": v for sec, table in cfg.as_dict().items() if isinstance(table, dict)
-            for k, v in table.items()}
-    flat.setdefault("target.sequence", None)
-    return longest_mission_s(flat) + 3600.0
-
-
 def track(cfg, ck, duration_s: float):
     """The scenario's orbit sampled every ``orbit.sample_s`` over ``duration_s`` [s].
 

@@ -89,7 +89,15 @@ from allsky.sim.faults import (
 )
 from allsky.sim.journal import SEEN_WHEEL, note_clip, note_faults, note_frame, note_wheels
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_telemetry  # noqa: F401
-from allsky.vehicle.environment import dim_sun, env_torque, occult_stars, sun_at
+from allsky.vehicle.environment import (
+    dim_sun,
+    env_torque,
+    held,
+    next_place,
+    occult_stars,
+    start_place,
+    sun_at,
+)
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
 from allsky.vehicle.wheels import (
@@ -325,14 +333,19 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
     # takes longest and does not depend on it), where it costs no latency of its own.
     if orbit is None:
         sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, s.frame[0]), sun_i)
-    else:  # the Sun seen from the vehicle
-        sun_at(orbit, s.frame[0], sun_i)
     sunlit = 1.0
+    k_orbit, j_orbit, w_orbit, kh, wh = 0, 0, 0.0, 0, 0.0
+    if orbit is not None:  # the Sun seen from the vehicle; the frame between samples
+        k_orbit, j_orbit = start_place(orbit, s.frame[0])
+        w_orbit = j_orbit / orbit.step_frames
+        kh, wh = held(orbit, k_orbit, w_orbit)
+        sun_at(orbit, kh, wh, sun_i)
     for frame_in_leg in range(done, n_max):
         frame = s.frame[0]  # the mission's clock: the frame flown now
         tracker_p = p.tracker
         if orbit is not None:  # the stars behind the Earth hidden from the tracker
-            sunlit = occult_stars(orbit, frame)
+            kh, wh = held(orbit, k_orbit, w_orbit)
+            sunlit = occult_stars(orbit, kh, wh, frame_in_leg == done)
             tracker_p = orbit.tracker
         if faults is not None:
             tracker_p = fault_tracker(faults, p.tracker, fault_state, frame)
@@ -378,13 +391,15 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
             tank_ok = fault_actuate(faults, fault_state, frame, p.jets, dt, s.pwpf_out,
                                     s.propellant_kg, torque, tank_ok, feed)
         if orbit is not None:  # gravity gradient, drag, solar pressure
-            env_torque(orbit, frame, dt, s.x, p.plant.inertia_kg_m2, sun_b, torque)
+            env_torque(orbit, kh, wh, dt, s.x, p.plant.inertia_kg_m2, sun_b, torque)
         count_jet_time(s.pwpf_out, dt, s.jet_on_s)
         # The next frame's Sun
         if orbit is None:
             sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, frame + 1), sun_i)
-        else:
-            sun_at(orbit, frame + 1, sun_i)
+        else:  # the next frame's place between samples
+            k_orbit, j_orbit, w_orbit = next_place(orbit, k_orbit, j_orbit)
+            kh, wh = held(orbit, k_orbit, w_orbit)
+            sun_at(orbit, kh, wh, sun_i)
         if wheels_p is None:
             advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.frame, s.excursion_ref_q,
                     s.max_excursion_rad)

@@ -74,7 +74,13 @@ EARTH_COS = 3  #: [-] cosine of EARTH_RADIUS
 GG = 4  #: [1/s^2] 3 mu / r^3
 DRAG = 5  #: [N / (m/s)^2] 1/2 rho C_D A (0 with the aerodynamic torque off)
 SRP = 6  #: [N] P (1 au / d)^2 C_r A (0 with the solar pressure torque off)
-N_SCALARS = 7
+#: 1.0 where the Sun is whole at this sample and the next (the loop skips the shadow's
+#: computation between them), 0.0 elsewhere
+WHOLE = 7
+#: 1.0 where the Earth's disk begins or ends hiding a window star between this sample and
+#: the next (the loop tests the stars frame by frame only there), 0.0 elsewhere
+CHANGES = 8
+N_SCALARS = 9
 
 # Entries of OrbitParams.env, the frame's environment (written by at_frame and the loop).
 E_SUNLIT = 0  #: [-] visible fraction of the Sun's disk
@@ -171,6 +177,20 @@ def samples(track, sun0, sun_rate, sun_distance_m, atmosphere_height_m,
     return sun_i, nadir, wind, sc
 
 
+def _flags(sc, nadir, stars):
+    """Fill the WHOLE and CHANGES columns of ``sc`` from the samples' geometry."""
+    whole = sc[:, SEP] >= sc[:, EARTH_RADIUS] + sc[:, SUN_RADIUS]
+    sc[:-1, WHOLE] = (whole[:-1] & whole[1:]).astype(float)
+    if stars.shape[0]:
+        # a star's angle from the nadir changes by at most the orbit's rate times the step:
+        # flag an interval whose either end lies within that much of the limb, or whose ends
+        # differ
+        hidden = (stars @ nadir.T).T > sc[:, EARTH_COS][:, None]
+        differ = (hidden[:-1] != hidden[1:]).any(axis=1)
+        sc[:-1, CHANGES] = differ.astype(float)
+    sc[-1, WHOLE] = sc[-2, WHOLE] if sc.shape[0] > 1 else 0.0
+
+
 def build(cfg, track, sun0, sun_rate, step_frames, tracker) -> OrbitParams:
     """:class:`OrbitParams` of the scenario ``cfg`` for its ``track`` (None: no orbit).
 
@@ -187,6 +207,7 @@ def build(cfg, track, sun0, sun_rate, step_frames, tracker) -> OrbitParams:
     sun_i, nadir, wind, sc = samples(track, np.asarray(sun0, float), np.asarray(sun_rate, float),
                                      d_sun, o.atmosphere_height_km * 1000.0, cfg_orbit=o)
     stars = np.ascontiguousarray(tracker.stars_inertial.copy())
+    _flags(sc, nadir, stars)
     own = tracker._replace(stars_inertial=stars.copy())
     return OrbitParams(int(track.t_s.shape[0]), int(step_frames), np.ascontiguousarray(sun_i),
                        np.ascontiguousarray(nadir), np.ascontiguousarray(wind),
@@ -217,7 +238,7 @@ def visible_fraction(c, a_s, a_e):
 
 
 @njit_stage
-def _place(orbit, frame):
+def place(orbit, frame):
     """(sample k, weight w) of ``frame``: between samples k and k+1 (held past the last)."""
     step = orbit.step_frames
     k = frame // step
@@ -227,15 +248,45 @@ def _place(orbit, frame):
 
 
 @njit_stage
+def start_place(orbit, frame):
+    """``(k, j)``: ``frame`` is ``j`` frames after sample ``k`` (:func:`next_place` moves on)."""
+    k = frame // orbit.step_frames
+    return k, frame - k * orbit.step_frames
+
+
+@njit_stage
+def next_place(orbit, k, j):
+    """``(k, j, w)`` of the frame after the one ``(k, j)`` places; ``w`` its weight.
+
+    Past the last interval the last sample is held (``k = n - 2``, ``w = 1``).
+    """
+    j += 1
+    if j == orbit.step_frames:
+        j = 0
+        k += 1
+    if k >= orbit.n - 1:
+        return k, j, 1.0
+    return k, j, j / orbit.step_frames
+
+
+@njit_stage
+def held(orbit, k, w):
+    """``(k, w)`` held at the last interval past the samples."""
+    if k >= orbit.n - 1:
+        return orbit.n - 2, 1.0
+    return k, w
+
+
+@njit_stage
 def _lerp_unit(a, k, w, out):
     """Row ``k`` of ``a`` moved ``w`` of the way to row ``k + 1``, renormalised, into ``out``."""
     n = 0.0
     for i in range(3):
         out[i] = a[k, i] + w * (a[k + 1, i] - a[k, i])
         n += out[i] * out[i]
-    n = np.sqrt(n)
+    n = 1.0 / np.sqrt(n)
     for i in range(3):
-        out[i] /= n
+        out[i] *= n
 
 
 @njit_stage
@@ -246,8 +297,10 @@ def _lerp(a, k, w, j):
 @njit_stage
 def sunlit_at(orbit, frame):
     """Visible fraction of the Sun's disk at ``frame`` (interpolated geometry)."""
-    k, w = _place(orbit, frame)
+    k, w = place(orbit, frame)
     sc = orbit.scalars
+    if sc[k, WHOLE] != 0.0:  # as the frame loop: whole at both ends, whole between
+        return 1.0
     c = _lerp(sc, k, w, SEP)
     a_e = _lerp(sc, k, w, EARTH_RADIUS)
     a_s = _lerp(sc, k, w, SUN_RADIUS)
@@ -255,23 +308,41 @@ def sunlit_at(orbit, frame):
 
 
 @njit_stage
-def sun_at(orbit, frame, out):
-    """Unit vector from the vehicle to the Sun at ``frame``, inertial, into ``out``."""
-    k, w = _place(orbit, frame)
+def sun_at(orbit, k, w, out):
+    """Unit vector from the vehicle to the Sun, inertial, into ``out``.
+
+    ``k``, ``w`` place the frame between samples (:func:`place`).
+    """
     _lerp_unit(orbit.sun_i, k, w, out)
 
 
 @njit_stage
-def occult_stars(orbit, frame):
+def occult_stars(orbit, k, w, force):
     """Hide the Earth-occulted stars from the loop's tracker; returns the frame's fraction.
 
-    Writes the frame's nadir into ``orbit.work[0]`` and its visible fraction of
-    the Sun into ``orbit.env[E_SUNLIT]``.
+    ``k``, ``w`` place the frame between samples (:func:`place`). The stars
+    are tested at each sample, in each interval where one of them is hidden
+    or uncovered, and with ``force`` (a leg's first frame). Writes the
+    frame's nadir into ``orbit.work[0]`` and its visible fraction of the Sun
+    into ``orbit.env[E_SUNLIT]``.
     """
-    k, w = _place(orbit, frame)
     nadir = orbit.work[0]
     _lerp_unit(orbit.nadir_i, k, w, nadir)
-    cos_e = _lerp(orbit.scalars, k, w, EARTH_COS)
+    sc = orbit.scalars
+    if force or w == 0.0 or sc[k, CHANGES] != 0.0:  # a sample, or where a star changes
+        _occult(orbit, nadir, _lerp(sc, k, w, EARTH_COS))
+    if sc[k, WHOLE] != 0.0:
+        orbit.env[E_SUNLIT] = 1.0
+        return 1.0
+    f = visible_fraction(_lerp(sc, k, w, SEP), _lerp(sc, k, w, SUN_RADIUS),
+                         _lerp(sc, k, w, EARTH_RADIUS))
+    orbit.env[E_SUNLIT] = f
+    return f
+
+
+@njit_stage
+def _occult(orbit, nadir, cos_e):
+    """Zero the loop tracker's rows of the stars within the Earth's disk (``cos_e``)."""
     src = orbit.stars_inertial
     dst = orbit.tracker.stars_inertial
     for j in range(src.shape[0]):
@@ -284,9 +355,6 @@ def occult_stars(orbit, frame):
             dst[j, 0] = src[j, 0]
             dst[j, 1] = src[j, 1]
             dst[j, 2] = src[j, 2]
-    f = sunlit_at(orbit, frame)
-    orbit.env[E_SUNLIT] = f
-    return f
 
 
 @njit_stage
@@ -337,40 +405,42 @@ def gravity_gradient(gg, inertia, n_b, out):
 
 
 @njit_stage
-def env_torque(orbit, frame, dt_s, q, inertia, sun_b, torque):
+def env_torque(orbit, k, w, dt_s, q, inertia, sun_b, torque):
     """Add the environment's torques at ``frame`` to ``torque`` [N m] (body axes).
 
     ``q`` is the attitude quaternion (inertial to body), ``sun_b`` the unit
-    vector to the Sun in body axes. Call :func:`occult_stars` first in the
-    frame (it leaves the frame's nadir and visible fraction). The torques'
-    magnitudes go to ``orbit.env``, their peaks and impulses to ``orbit.peak``.
+    vector to the Sun in body axes; ``k``, ``w`` place the frame between
+    samples (:func:`place`). Call :func:`occult_stars` first in the frame (it
+    leaves the frame's nadir and visible fraction). The torques' magnitudes
+    go to ``orbit.env``, their peaks and impulses to ``orbit.peak``.
     """
-    k, w = _place(orbit, frame)
     sc = orbit.scalars
     nb = orbit.work[1]
     w_b = orbit.work[2]
     wind = orbit.work[3]
     w0, x, y, z = q[0], q[1], q[2], q[3]
-    v = orbit.work[0]  # the nadir occult_stars left
-    for row in range(2):
-        if row == 1:
-            for i in range(3):
-                wind[i] = orbit.wind_i[k, i] + w * (orbit.wind_i[k + 1, i] - orbit.wind_i[k, i])
-            v = wind
-        out = nb if row == 0 else w_b
-        a, b, c = v[0], v[1], v[2]
-        out[0] = (w0 * w0 + x * x - y * y - z * z) * a + 2.0 * (x * y + w0 * z) * b \
-            + 2.0 * (x * z - w0 * y) * c
-        out[1] = 2.0 * (x * y - w0 * z) * a + (w0 * w0 - x * x + y * y - z * z) * b \
-            + 2.0 * (y * z + w0 * x) * c
-        out[2] = 2.0 * (x * z + w0 * y) * a + 2.0 * (y * z - w0 * x) * b \
-            + (w0 * w0 - x * x - y * y + z * z) * c
+    # The body-from-inertial matrix (quaternion.dcm_body_from_inertial), once
+    m00, m01, m02 = w0 * w0 + x * x - y * y - z * z, 2.0 * (x * y + w0 * z), \
+        2.0 * (x * z - w0 * y)
+    m10, m11, m12 = 2.0 * (x * y - w0 * z), w0 * w0 - x * x + y * y - z * z, \
+        2.0 * (y * z + w0 * x)
+    m20, m21, m22 = 2.0 * (x * z + w0 * y), 2.0 * (y * z - w0 * x), \
+        w0 * w0 - x * x - y * y + z * z
     t_gg = 0.0
     if orbit.gravity_gradient:
+        v = orbit.work[0]  # the nadir occult_stars left
+        nb[0] = m00 * v[0] + m01 * v[1] + m02 * v[2]
+        nb[1] = m10 * v[0] + m11 * v[1] + m12 * v[2]
+        nb[2] = m20 * v[0] + m21 * v[1] + m22 * v[2]
         t_gg = gravity_gradient(_lerp(sc, k, w, GG), inertia, nb, torque)
     drag = _lerp(sc, k, w, DRAG)
     t_aero = 0.0
     if drag > 0.0:
+        for i in range(3):
+            wind[i] = orbit.wind_i[k, i] + w * (orbit.wind_i[k + 1, i] - orbit.wind_i[k, i])
+        w_b[0] = m00 * wind[0] + m01 * wind[1] + m02 * wind[2]
+        w_b[1] = m10 * wind[0] + m11 * wind[1] + m12 * wind[2]
+        w_b[2] = m20 * wind[0] + m21 * wind[1] + m22 * wind[2]
         speed = np.sqrt(w_b[0] * w_b[0] + w_b[1] * w_b[1] + w_b[2] * w_b[2])
         t_aero = _cross_add(orbit.pressure_offset_m, w_b, torque, -drag * speed)
     srp = _lerp(sc, k, w, SRP) * orbit.env[E_SUNLIT]
@@ -405,7 +475,7 @@ def occulted_series(orbit, directions, first, last):
     out = np.zeros((max(last - first, 0), m), dtype=np.bool_)
     nadir = np.empty(3)
     for f in range(first, last):
-        k, w = _place(orbit, f)
+        k, w = place(orbit, f)
         _lerp_unit(orbit.nadir_i, k, w, nadir)
         cos_e = _lerp(orbit.scalars, k, w, EARTH_COS)
         for j in range(m):

@@ -869,6 +869,9 @@ class Mission:
         for _ in range(2):
             t = t0 + abs(roll) / rate_deg_s + SETTLE_ALLOWANCE_S
             sun = self.params.sun0_inertial + self.params.sun_rate_inertial * t
+            if self.params.orbit.n > 0:  # the ground knows the orbit: the vehicle's Sun
+                sun = environment.sun_seen(self.params.orbit,
+                                           clock.frame_at(self.params.clock, t))
             roll, yaw = targeting.programmed_angles_deg(sun, star, target)
         self.programmed_roll_deg, self.programmed_yaw_deg = roll, yaw
         if self.cfg.sequencer.between_targets == "direct":

@@ -459,6 +459,19 @@ def env_torque(orbit, k, w, dt_s, q, inertia, sun_b, torque):
     pk[IMPULSE, 2] += t_srp * dt_s
 
 
+def sun_seen(orbit, frame) -> np.ndarray:
+    """Unit vector from the vehicle to the Sun at ``frame``, as the frame loop has it."""
+    out = np.empty(3)
+    _sun_at_frame(orbit, int(frame), out)
+    return out
+
+
+@njit
+def _sun_at_frame(orbit, frame, out):
+    k, w = place(orbit, frame)
+    _lerp_unit(orbit.sun_i, k, w, out)
+
+
 @njit_alloc
 def sunlit_series(orbit, first, last):
     """The visible fraction of the Sun at frames ``first`` .. ``last - 1``."""

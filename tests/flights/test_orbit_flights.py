@@ -13,7 +13,7 @@ from allsky.studies.window import ejection_window, period_s
 
 @pytest.fixture(scope="module")
 def sunset():
-    m = Mission(load_scenario("shuttle-free-flyer-sunset"), telemetry=False)
+    m = Mission(load_scenario("shuttle-free-flyer-sunset"), telemetry=True)
     return m, m.run()
 
 
@@ -49,6 +49,21 @@ def test_orbit_sunset_in_mode_5_aborts_for_the_reason_the_journal_names(sunset):
     assert ecl[1]["sunlit_fraction"] == 0.0
     assert any("orbit night" in w for w in s["warnings"])
     assert s["orbit"]["sunlit_fraction"] == 0.0 and s["orbit"]["sunlit_margin_s"] == 0.0
+
+
+def test_the_orbits_telemetry_follows_the_journal(sunset):
+    m, s = sunset
+    rows = m.orbit_telemetry()
+    assert rows.shape == (m.telemetry().shape[0], 5)
+    penumbra = next(e["t_s"] for e in s["events"] if e["kind"] == "eclipse")
+    dark = rows[rows[:, 2] == 1.0, 0]
+    assert dark[0] == pytest.approx(penumbra, abs=0.1 + 1e-9)
+    assert rows[rows[:, 0] < penumbra - 0.1, 1].min() == 1.0
+    ax, az = rows[:, 3], rows[:, 4]
+    assert ((ax >= 0) & (ax <= 180) & (az >= 0) & (az <= 180)).all()
+    # +x and +z are perpendicular: their angles from one direction obey the triangle rule
+    assert (np.abs(ax - az) <= 90 + 1e-9).all() and (ax + az >= 90 - 1e-9).all()
+    assert Mission(load_scenario(), telemetry=False).orbit_telemetry() is None
 
 
 def test_no_orbit_flies_nothing_of_the_orbit():

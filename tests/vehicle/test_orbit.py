@@ -120,5 +120,14 @@ def test_a_tle_with_a_bad_checksum_is_refused():
         load_scenario(overrides=['orbit.kind="tle"', f'orbit.tle_line1="{bad}"',
                                  f'orbit.tle_line2="{l2}"'])
     cfg = load_scenario(overrides=['orbit.kind="tle"', f'orbit.tle_line1="{l1}"',
-                                   f'orbit.tle_line2="{l2}"'])
+                                   f'orbit.tle_line2="{l2}"',
+                                   "mission.date_utc=2000-06-28T00:00:00Z"])
     assert cfg.orbit.kind == "tle"
+
+
+def test_a_mission_far_from_the_element_sets_epoch_is_refused():
+    (l1, l2, _), _ = _published_cases()  # satellite 5, epoch 2000-06-27
+    with pytest.raises(ConfigError) as e:
+        load_scenario(overrides=['orbit.kind="tle"', f'orbit.tle_line1="{l1}"',
+                                 f'orbit.tle_line2="{l2}"'])
+    assert e.value.key == "mission.date_utc" and "epoch" in str(e.value)

@@ -1038,6 +1038,19 @@ class Mission:
             return np.empty((0, len(COLUMNS)))
         return np.vstack(pieces)
 
+    def orbit_telemetry(self, start_row=0):
+        """The orbit's columns beside :meth:`telemetry`'s rows; None without an orbit.
+
+        Columns :data:`allsky.vehicle.environment.ORBIT_COLUMNS`: time [s],
+        the Sun's visible fraction, the eclipse flag, the Earth's angle from
+        +x and from the tracker's boresight [deg]
+        (:func:`allsky.vehicle.environment.orbit_telemetry`).
+        """
+        if self.params.orbit.n == 0:
+            return None
+        return environment.orbit_telemetry(self.params.orbit, self.params.clock,
+                                           self.telemetry(start_row))
+
     def pointing_error_arcsec(self) -> float:
         """True angle between the roll axis and the target being flown."""
         x_body = quaternion.dcm_body_from_inertial(self.state.x[0:4])[0]

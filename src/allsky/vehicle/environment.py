@@ -496,3 +496,50 @@ def occulted_series(orbit, directions, first, last):
                  + directions[j, 2] * nadir[2])
             out[f - first, j] = d > cos_e
     return out
+
+
+#: The columns of :func:`orbit_telemetry`, with their units.
+ORBIT_COLUMNS = (("time", "s"), ("sunlit_fraction", "-"), ("eclipse", "-"),
+                 ("earth_angle_x", "deg"), ("earth_angle_boresight", "deg"))
+
+
+@njit_alloc
+def _orbit_rows(orbit, frames, q, times):
+    out = np.empty((frames.shape[0], 5))
+    nadir = np.empty(3)
+    for i in range(frames.shape[0]):
+        f = frames[i]
+        k, w = place(orbit, f)
+        _lerp_unit(orbit.nadir_i, k, w, nadir)
+        w0, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        a, b, c = nadir[0], nadir[1], nadir[2]
+        nx = (w0 * w0 + x * x - y * y - z * z) * a + 2.0 * (x * y + w0 * z) * b \
+            + 2.0 * (x * z - w0 * y) * c
+        ny = 2.0 * (x * y - w0 * z) * a + (w0 * w0 - x * x + y * y - z * z) * b \
+            + 2.0 * (y * z + w0 * x) * c
+        nz = 2.0 * (x * z + w0 * y) * a + 2.0 * (y * z - w0 * x) * b \
+            + (w0 * w0 - x * x - y * y + z * z) * c
+        s = sunlit_at(orbit, f)
+        out[i, 0] = times[i]
+        out[i, 1] = s
+        out[i, 2] = 1.0 if s < 1.0 else 0.0
+        out[i, 3] = xmath.atan2(np.sqrt(ny * ny + nz * nz), nx) * (180.0 / math.pi)
+        out[i, 4] = xmath.atan2(np.sqrt(nx * nx + ny * ny), nz) * (180.0 / math.pi)
+    return out
+
+
+def orbit_telemetry(orbit, ck, table) -> np.ndarray:
+    """The orbit's columns (:data:`ORBIT_COLUMNS`) beside the rows of a telemetry ``table``.
+
+    For each row (its ``time`` and attitude quaternion, the first six
+    columns of :data:`allsky.sim.recorder.COLUMNS`): the visible fraction of
+    the Sun, the eclipse flag (1 while any of it is hidden), and the angle
+    [deg] of the Earth's centre from body +x (the sun sensor's axis) and from
+    +z (star tracker 105's boresight). ``ck`` is the mission's clock.
+    """
+    from allsky import clock
+
+    t = np.ascontiguousarray(table[:, 0], dtype=float)
+    frames = np.array([clock.frame_at(ck, float(x)) for x in t], dtype=np.int64)
+    q = np.ascontiguousarray(table[:, 2:6], dtype=float)
+    return _orbit_rows(orbit, frames, q, t)

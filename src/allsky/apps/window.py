@@ -12,7 +12,7 @@ from allsky.config import ConfigError
 
 
 def parse_orbit(text: str) -> dict:
-    """``--orbit ALT_KM,INC_DEG[,RAAN_DEG[,ARG_LATITUDE_DEG]]`` as ``[orbit]`` keys.
+    """``--orbit`` ``text`` (ALT_KM,INC_DEG[,RAAN_DEG[,U_DEG]]) as ``[orbit]`` keys.
 
     Raises
     ------
@@ -32,7 +32,7 @@ def parse_orbit(text: str) -> dict:
 
 
 def format_window(result, wall_s=None) -> str:
-    """The window as text: one line per candidate ejection time."""
+    """The window ``result`` as text, a line per ejection time (``wall_s`` [s] taken)."""
     rows = result["rows"]
     lines = [(f"Ejection window: {len(rows)} ejection times every {result['every_s']:g} s over "
              f"one orbit ({result['period_s']:.0f} s)"), "",
@@ -69,7 +69,7 @@ def format_window(result, wall_s=None) -> str:
 
 
 def write_figure(result, path) -> None:
-    """The window as a figure (PNG, SVG or PDF by ``path``'s suffix)."""
+    """The window ``result`` as a figure (PNG, SVG or PDF by ``path``'s suffix)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -96,7 +96,10 @@ def write_figure(result, path) -> None:
 
 
 def run_from_cli(cfg, args) -> int:
-    """``allsky window``: fly the candidates, print the table, write JSON and figure."""
+    """``allsky window``: fly the candidates, print the table, write JSON and figure.
+
+    ``cfg`` is the scenario the command line loaded, ``args`` the parsed command line.
+    """
     from tqdm import tqdm
 
     from allsky.apps.output import Interrupted, cap_workers, write_atomic

@@ -251,7 +251,9 @@ _A_DAY = "a mission lasts at most a day"
 
 
 def tle_line(key, v):
-    """A line of a two-line element set: a string (``""`` while ``orbit.kind`` is not "tle").
+    """A line of a two-line element set, or ``""`` while ``orbit.kind`` is not "tle".
+
+    ``v`` is the value of ``key`` as read from TOML.
 
     The lines are checked as an element set together (their form, checksums
     and SGP4's start) by the cross rule of ``orbit.kind``.

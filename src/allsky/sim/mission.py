@@ -115,7 +115,7 @@ class ModeRecord(NamedTuple):
 
 
 def orbit_span_s(cfg) -> float:
-    """[s] how long the orbit's samples cover: the longest mission, and an hour more.
+    """[s] how long ``cfg``'s orbit samples cover: the longest mission, an hour more.
 
     The hour is room for what lengthens a mission past its modes' timeouts
     (a recovery, ground commands); past the last sample the vehicle is held
@@ -1039,7 +1039,9 @@ class Mission:
         return np.vstack(pieces)
 
     def orbit_telemetry(self, start_row=0):
-        """The orbit's columns beside :meth:`telemetry`'s rows; None without an orbit.
+        """The orbit's columns beside :meth:`telemetry`'s rows (from ``start_row``).
+
+        None without an orbit.
 
         Columns :data:`allsky.vehicle.environment.ORBIT_COLUMNS`: time [s],
         the Sun's visible fraction, the eclipse flag, the Earth's angle from

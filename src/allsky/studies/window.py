@@ -1,4 +1,4 @@
-"""When to eject: the mission flown from each candidate ejection time over one orbit.
+"""When to eject: the mission flown from each ejection time over one orbit.
 
 :func:`ejection_window` moves the ejection on by ``every_s`` at a time over
 one orbital period: ``mission.date_utc`` moves on, and with it the vehicle
@@ -23,7 +23,7 @@ EVERY_S = 60.0
 
 
 def period_s(cfg) -> float:
-    """[s] the orbit's period: the argument of latitude's (circular) or 1440 min / n (TLE)."""
+    """[s] the period of ``cfg``'s orbit: its argument of latitude's, or 2 pi / n."""
     o = cfg.orbit
     if o.kind == "circular":
         _, _, du = orbit.circular_rates(o.altitude_km, o.inclination_deg, o.j2)
@@ -90,6 +90,9 @@ def _died(job, reason) -> dict:
 
 def ejection_window(cfg, every_s=EVERY_S, workers=1, on_progress=None) -> dict:
     """Fly ``cfg`` from each ejection time ``k * every_s`` over one orbital period.
+
+    ``every_s`` [s] apart, on ``workers`` processes; ``on_progress(done, total)``
+    (``on_progress``) after each.
 
     Returns ``{"period_s", "every_s", "rows"}`` (rows in time order, each
     :func:`fly_candidate`'s), with ``interrupted`` True after a Ctrl-C.

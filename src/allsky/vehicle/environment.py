@@ -113,7 +113,7 @@ class OrbitParams(NamedTuple):
 
 
 def no_orbit(tracker) -> OrbitParams:
-    """The :class:`OrbitParams` of ``kind = "none"`` (never read by the loop)."""
+    """The :class:`OrbitParams` of ``kind = "none"`` (``tracker``; never read)."""
     z3 = np.zeros((0, 3))
     return OrbitParams(0, 1, z3, z3.copy(), z3.copy(), np.zeros((0, N_SCALARS)), False,
                        np.zeros(3), np.zeros(3), z3.copy(), tracker, np.zeros(N_ENV),
@@ -144,7 +144,8 @@ def samples(track, sun0, sun_rate, sun_distance_m, atmosphere_height_m,
 
     ``sun0`` and ``sun_rate`` [1/s] are the mission's geocentric Sun on its
     line (``Params.sun0_inertial``, ``sun_rate_inertial``), ``sun_distance_m``
-    its distance. Returns ``(sun_i, nadir_i, wind_i, scalars)`` as
+    its distance, ``atmosphere_height_m`` [m] the height added to the Earth's
+    radius (``inertia_kg_m2`` is unused). Returns ``(sun_i, nadir_i, wind_i, scalars)`` as
     :class:`OrbitParams` holds them; with ``cfg_orbit`` (the ``[orbit]``
     section) the torques' factors are filled in, else they are zero.
     """
@@ -194,7 +195,8 @@ def _flags(sc, nadir, stars):
 def build(cfg, track, sun0, sun_rate, step_frames, tracker) -> OrbitParams:
     """:class:`OrbitParams` of the scenario ``cfg`` for its ``track`` (None: no orbit).
 
-    ``tracker`` is star tracker 105's parameters; the loop's copy of it gets
+    ``sun0``, ``sun_rate`` are the mission's Sun on its line, ``step_frames``
+    the frames between samples, ``tracker`` star tracker 105's parameters; the loop's copy of it gets
     its own star array, whose rows of occulted stars it zeroes.
     """
     if track is None:
@@ -219,7 +221,7 @@ def build(cfg, track, sun0, sun_rate, step_frames, tracker) -> OrbitParams:
 
 @njit
 def visible_fraction(c, a_s, a_e):
-    """Visible fraction of the Sun's disk (radius ``a_s``) behind the Earth's (``a_e``).
+    """Visible fraction of the Sun's disk (radius ``a_s``) beside the Earth's ``a_e``.
 
     ``c`` [rad] is the angle between their centres. Overlap of two plane
     circles (Montenbruck and Gill, eq. 3.87).
@@ -239,7 +241,10 @@ def visible_fraction(c, a_s, a_e):
 
 @njit_stage
 def place(orbit, frame):
-    """(sample k, weight w) of ``frame``: between samples k and k+1 (held past the last)."""
+    """``(k, w)`` of ``frame`` in ``orbit``: ``w`` of the way from sample k to k + 1.
+
+    Held at the last interval past the samples.
+    """
     step = orbit.step_frames
     k = frame // step
     if k >= orbit.n - 1:
@@ -249,14 +254,14 @@ def place(orbit, frame):
 
 @njit_stage
 def start_place(orbit, frame):
-    """``(k, j)``: ``frame`` is ``j`` frames after sample ``k`` (:func:`next_place` moves on)."""
+    """``(k, j)``: ``frame`` is ``j`` frames after sample ``k`` of ``orbit``."""
     k = frame // orbit.step_frames
     return k, frame - k * orbit.step_frames
 
 
 @njit_stage
 def next_place(orbit, k, j):
-    """``(k, j, w)`` of the frame after the one ``(k, j)`` places; ``w`` its weight.
+    """``(k, j, w)`` of the frame after the one ``k``, ``j`` place in ``orbit``.
 
     Past the last interval the last sample is held (``k = n - 2``, ``w = 1``).
     """
@@ -271,7 +276,7 @@ def next_place(orbit, k, j):
 
 @njit_stage
 def held(orbit, k, w):
-    """``(k, w)`` held at the last interval past the samples."""
+    """``k``, ``w`` held at the last interval past the samples of ``orbit``."""
     if k >= orbit.n - 1:
         return orbit.n - 2, 1.0
     return k, w
@@ -296,7 +301,7 @@ def _lerp(a, k, w, j):
 
 @njit_stage
 def sunlit_at(orbit, frame):
-    """Visible fraction of the Sun's disk at ``frame`` (interpolated geometry)."""
+    """Visible fraction of the Sun's disk at ``frame`` of ``orbit`` (interpolated)."""
     k, w = place(orbit, frame)
     sc = orbit.scalars
     if sc[k, WHOLE] != 0.0:  # as the frame loop: whole at both ends, whole between
@@ -311,16 +316,16 @@ def sunlit_at(orbit, frame):
 def sun_at(orbit, k, w, out):
     """Unit vector from the vehicle to the Sun, inertial, into ``out``.
 
-    ``k``, ``w`` place the frame between samples (:func:`place`).
+    ``orbit``'s samples; ``k``, ``w`` place the frame between samples (:func:`place`).
     """
     _lerp_unit(orbit.sun_i, k, w, out)
 
 
 @njit_stage
 def occult_stars(orbit, k, w, force):
-    """Hide the Earth-occulted stars from the loop's tracker; returns the frame's fraction.
+    """Hide the stars behind the Earth from the loop's tracker; the Sun's fraction.
 
-    ``k``, ``w`` place the frame between samples (:func:`place`). The stars
+    ``orbit``'s samples; ``k``, ``w`` place the frame between samples (:func:`place`). The stars
     are tested at each sample, in each interval where one of them is hidden
     or uncovered, and with ``force`` (a leg's first frame). Writes the
     frame's nadir into ``orbit.work[0]`` and its visible fraction of the Sun
@@ -359,7 +364,7 @@ def _occult(orbit, nadir, cos_e):
 
 @njit_stage
 def dim_sun(f, fine):
-    """Sun sensor 104's outputs ``fine`` with the visible fraction ``f`` of the Sun's disk.
+    """Sun sensor 104's outputs ``fine`` at the visible fraction ``f`` of the Sun.
 
     Its signal scales with the light: the pitch and yaw outputs by ``f``;
     in the umbra (``f`` = 0) it sees no Sun.
@@ -408,7 +413,8 @@ def gravity_gradient(gg, inertia, n_b, out):
 def env_torque(orbit, k, w, dt_s, q, inertia, sun_b, torque):
     """Add the environment's torques at ``frame`` to ``torque`` [N m] (body axes).
 
-    ``q`` is the attitude quaternion (inertial to body), ``sun_b`` the unit
+    ``orbit`` holds the samples, ``dt_s`` [s] is the frame, ``inertia`` the
+    (3, 3) tensor [kg m^2], ``q`` the attitude quaternion (inertial to body), ``sun_b`` the unit
     vector to the Sun in body axes; ``k``, ``w`` place the frame between
     samples (:func:`place`). Call :func:`occult_stars` first in the frame (it
     leaves the frame's nadir and visible fraction). The torques' magnitudes
@@ -460,7 +466,7 @@ def env_torque(orbit, k, w, dt_s, q, inertia, sun_b, torque):
 
 
 def sun_seen(orbit, frame) -> np.ndarray:
-    """Unit vector from the vehicle to the Sun at ``frame``, as the frame loop has it."""
+    """Unit vector, vehicle to Sun, at ``frame`` of ``orbit``, as the loop has it."""
     out = np.empty(3)
     _sun_at_frame(orbit, int(frame), out)
     return out
@@ -474,7 +480,7 @@ def _sun_at_frame(orbit, frame, out):
 
 @njit_alloc
 def sunlit_series(orbit, first, last):
-    """The visible fraction of the Sun at frames ``first`` .. ``last - 1``."""
+    """The Sun's visible fraction at frames ``first`` to ``last`` - 1 of ``orbit``."""
     out = np.empty(max(last - first, 0))
     for f in range(first, last):
         out[f - first] = sunlit_at(orbit, f)
@@ -483,7 +489,10 @@ def sunlit_series(orbit, first, last):
 
 @njit_alloc
 def occulted_series(orbit, directions, first, last):
-    """(frames, m) bool: each unit vector of ``directions`` (m, 3) behind the Earth's disk."""
+    """Each of ``directions`` (m, 3) behind the Earth's disk, (frames, m) bool.
+
+    At frames ``first`` to ``last`` - 1 of ``orbit``.
+    """
     m = directions.shape[0]
     out = np.zeros((max(last - first, 0), m), dtype=np.bool_)
     nadir = np.empty(3)
@@ -529,13 +538,14 @@ def _orbit_rows(orbit, frames, q, times):
 
 
 def orbit_telemetry(orbit, ck, table) -> np.ndarray:
-    """The orbit's columns (:data:`ORBIT_COLUMNS`) beside the rows of a telemetry ``table``.
+    """The orbit's columns (:data:`ORBIT_COLUMNS`) beside a telemetry ``table``.
 
     For each row (its ``time`` and attitude quaternion, the first six
     columns of :data:`allsky.sim.recorder.COLUMNS`): the visible fraction of
     the Sun, the eclipse flag (1 while any of it is hidden), and the angle
     [deg] of the Earth's centre from body +x (the sun sensor's axis) and from
-    +z (star tracker 105's boresight). ``ck`` is the mission's clock.
+    +z (star tracker 105's boresight). ``orbit`` holds the samples, ``ck`` is
+    the mission's clock.
     """
     from allsky import clock
 

@@ -1,4 +1,4 @@
-"""The vehicle's orbit: a circular orbit with J2, or a two-line element set through SGP4.
+"""The vehicle's orbit: a circular orbit with J2, or a two-line element set (SGP4).
 
 ``[orbit] kind`` chooses (:data:`KINDS`):
 
@@ -66,7 +66,10 @@ class Track(NamedTuple):
 
 
 def circular_rates(altitude_km: float, inclination_deg: float, j2: bool = True):
-    """Mean motion, node rate and argument-of-latitude rate [rad/s] of a circular orbit.
+    """Mean motion, node rate and argument-of-latitude rate [rad/s], circular orbit.
+
+    ``altitude_km`` [km] above the equatorial radius, ``inclination_deg`` [deg];
+    ``j2`` adds the secular J2 rates.
 
     Secular J2 rates for eccentricity 0 and semi-major axis ``a``::
 
@@ -94,6 +97,9 @@ def circular_rates(altitude_km: float, inclination_deg: float, j2: bool = True):
 def circular_track(altitude_km, inclination_deg, raan_deg, arg_latitude_deg, t_s,
                    j2=True) -> Track:
     """The vehicle on a circular orbit at mission times ``t_s`` [s] (array).
+
+    ``altitude_km``, ``inclination_deg``, ``raan_deg`` and ``arg_latitude_deg``
+    are the elements at time 0 [km, deg]; ``j2``: the secular J2 rates.
 
     The node and the argument of latitude move on at :func:`circular_rates`;
     the velocity includes the node's motion. See the module's text for the
@@ -125,9 +131,9 @@ def _julian_date_utc(d: datetime) -> tuple[float, float]:
 
 
 def precession_to_j2000(jd_tt: float) -> np.ndarray:
-    """Rotation from the mean equator and equinox of ``jd_tt`` (TT) to J2000 (IAU 1976).
+    """Rotation from the mean equator and equinox of ``jd_tt`` (TT) to J2000.
 
-    Lieske et al. (1977): ``zeta``, ``z``, ``theta`` as cubics in Julian
+    The IAU 1976 precession, Lieske et al. (1977): ``zeta``, ``z``, ``theta`` as cubics in Julian
     centuries from J2000.0. Returns the (3, 3) matrix ``P^T`` that takes
     mean-of-date coordinates to J2000.
     """
@@ -148,7 +154,7 @@ def precession_to_j2000(jd_tt: float) -> np.ndarray:
 
 
 def parse_tle(line1: str, line2: str):
-    """The ``sgp4`` satellite record of a two-line element set.
+    """The ``sgp4`` satellite record of a two-line element set ``line1``, ``line2``.
 
     Raises
     ------
@@ -178,7 +184,7 @@ def parse_tle(line1: str, line2: str):
 
 
 def tle_track(line1, line2, date_utc: datetime, t_s) -> Track:
-    """The vehicle of a two-line element set at ``date_utc`` + ``t_s`` [s], by SGP4.
+    """The vehicle of ``line1``, ``line2`` at ``date_utc`` + ``t_s`` [s], by SGP4.
 
     TEME to J2000 by :func:`precession_to_j2000` at the mission's date (the
     precession over a day, 0.14 arcsec, is left out).
@@ -206,7 +212,7 @@ def tle_track(line1, line2, date_utc: datetime, t_s) -> Track:
 
 
 def track(cfg, ck, duration_s: float):
-    """The scenario's orbit sampled every ``orbit.sample_s`` over ``duration_s`` [s].
+    """The orbit of ``cfg``, sampled every ``orbit.sample_s`` over ``duration_s`` [s].
 
     The interval is taken up to a whole number of frames of the clock ``ck``
     (:func:`allsky.clock.frames_for`), so that sample ``k`` is at the start

@@ -11,7 +11,7 @@ the minimum is the figure least disturbed by other work on the machine.
 flies the general loop (the one of the wheels and the faults) even where the
 patent's vehicle without faults has its own. ``--compare`` measures, in turns in
 this process, the default mission, the wheel vehicle, the default mission through
-the general loop and a fault scenario, and prints each one's time per frame over
+the general loop, a fault scenario and the mission in orbit, and prints each one's time per frame over
 the default mission's.
 """
 
@@ -24,6 +24,8 @@ from allsky.sim.mission import Mission
 
 #: The fault scenario of ``--compare``.
 FAULT_SCENARIO = "stuck-jet-roll-calibration"
+#: The mission in orbit of ``--compare`` (the orbit's loop, docs/orbit.md).
+ORBIT_SCENARIO = "shuttle-free-flyer"
 
 
 def mission_cpu_s(cfg, general=False) -> tuple:
@@ -41,11 +43,12 @@ def mission_cpu_s(cfg, general=False) -> tuple:
 
 
 def compare(runs):
-    """Per-frame CPU of the wheel vehicle, the general loop and a fault, over the default."""
+    """Per-frame CPU of the wheel vehicle, the general loop, a fault and an orbit, over the default."""
     cases = {"default (plain loop)": (load_scenario(), False),
              "wheel vehicle": (load_scenario(overrides=['actuators.kind="wheels"']), False),
              "default, general loop": (load_scenario(), True),
-             f"fault: {FAULT_SCENARIO}": (load_scenario(FAULT_SCENARIO), False)}
+             f"fault: {FAULT_SCENARIO}": (load_scenario(FAULT_SCENARIO), False),
+             f"in orbit: {ORBIT_SCENARIO}": (load_scenario(ORBIT_SCENARIO), False)}
     for cfg, general in cases.values():
         for _ in range(2):
             mission_cpu_s(cfg, general)

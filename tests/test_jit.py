@@ -66,7 +66,9 @@ STAGES = (frame_loop.sense, frame_loop.sum_and_count, frame_loop.compute, frame_
           frame_loop.acquire_sun, frame_loop.control, frame_loop.actuate,
           frame_loop.count_jet_time, frame_loop.advance, recorder.record_telemetry,
           recorder.record_dither, journal.note_frame, journal.note_clip, journal.note_wheels,
-          journal.note_faults, watch.watch)
+          journal.note_faults, watch.watch, frame_loop.occult_stars, frame_loop.dim_sun,
+          frame_loop.env_torque, frame_loop.sun_at, frame_loop.next_place, frame_loop.held,
+          frame_loop.start_place)
 
 
 @needs_jit

@@ -169,6 +169,7 @@ def test_linear_algebra_agrees_with_lapack():
 
 #: Modules that feed the flight, its summary and the comparison's results: no libm or BLAS.
 FLIGHT = ("hardware", "computer", "sequencer", "sim", "vehicle/sky.py", "vehicle/ephemeris.py",
+          "vehicle/orbit.py", "vehicle/environment.py",
           "vehicle/plant.py", "vehicle/quaternion.py", "gauss.py", "config/dispersions.py",
           "config/checkers.py", "config/schema.py", "studies/crlb.py", "studies/pointing.py",
           "studies/compare.py")

@@ -273,6 +273,13 @@ EVENT_KINDS = (
         F("fault", "", "a `fault` command's index in `[[faults]]`", False),
         F("object", "", "what a `step_on` command let go of (a star, `stray light`)", False)),
         more="and the command's own fields"),
+    EventKind("eclipse", 13, (
+        F("phase", "", "what the vehicle enters, in orbit: `penumbra`, `umbra` or `sunlit`"),
+        F("active", "", "false once fully sunlit again"),
+        F("sunlit_fraction", "", "of the Sun's disk, in the entry's frame"))),
+    EventKind("occultation", 14, (
+        F("body", "", "a star of the tracker's magnitude window, or `target`"),
+        F("active", "", "true when the Earth's disk begins to hide it, false when it clears"))),
 )
 del F
 #: Journal kind name -> :class:`EventKind`.

@@ -65,8 +65,10 @@ def test_default_loads_with_frozen_types():
 def test_every_default_key_has_its_unit_in_its_name():
     units = ("_s", "_deg", "_deg_h", "_ppm", "_arcsec", "_kg_m2", "_n", "_m", "_kg", "_v",
              "_pps", "_bits", "_frames", "_per_s", "_deg_s", "_rt_h", "_arcsec_s", "_utc", "_urad",
-             "_bar")
-    unitless = {"seed", "attitude", "magnitude_window", "counter_overflow", "star", "allocation",
+             "_bar", "_km", "_m2")
+    unitless = {"j2", "tle_line1", "tle_line2", "gravity_gradient", "aerodynamic",
+                "drag_coefficient", "solar_pressure", "srp_reflectivity",
+                "seed", "attitude", "magnitude_window", "counter_overflow", "star", "allocation",
                 "reference_star", "apply", "between_targets",
                 "filter_gain", "feedforward", "inertia_estimate_scale", "estimator", "detector",
                 "store_cross_coupling", "kind", "axes", "unload_fraction",

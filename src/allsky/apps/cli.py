@@ -426,6 +426,33 @@ def _parser() -> argparse.ArgumentParser:
     faults.add_argument("--json", metavar="PATH",
                         help="write the matrix as JSON ('-': to stdout, instead of the table)")
 
+    win = sub.add_parser(
+        "window", help="when to eject: the mission from each ejection time over one orbit",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Fly the mission from each candidate ejection time, every --every "
+                    "seconds over one orbital period, on all cores: the date and the "
+                    "vehicle's place in its orbit move on together. Print a table: the "
+                    "start, the outcome (complete, or the abort's reason), the sunlit "
+                    "margin at the end (to the next orbit sunset), whether the Earth hid the "
+                    "reference star or the target in flight, the pointing error and the "
+                    "propellant (docs/orbit.md).",
+        epilog="examples:\n"
+               "  allsky window shuttle-free-flyer\n"
+               "  allsky window --orbit 300,28.5 --every 120 --json window.json\n"
+               "  allsky window shuttle-free-flyer --figure window.png")
+    scenario_args(win)
+    win.add_argument("--orbit", metavar="ALT_KM,INC_DEG[,RAAN_DEG[,U_DEG]]",
+                     help="fly this circular orbit (altitude, inclination, node, argument of "
+                          "latitude at the scenario's date) in place of the scenario's")
+    win.add_argument("--every", type=float, default=60.0, metavar="S",
+                     help="seconds between candidate ejection times (default 60)")
+    win.add_argument("--workers", type=_positive_int, metavar="N",
+                     help="worker processes (default: one per core)")
+    win.add_argument("--json", metavar="PATH",
+                     help="write the rows as JSON ('-': to stdout, instead of the table)")
+    win.add_argument("--figure", metavar="PATH",
+                     help="write the figure (PNG, SVG or PDF by the suffix)")
+
     scen = sub.add_parser(
         "scenarios", help="list the packaged scenarios (allsky run NAME flies one)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -669,6 +696,8 @@ def _run(cfg, args) -> int:
         from allsky.apps.faults import run_from_cli
     elif args.command == "scenarios":
         from allsky.apps.faults import scenarios_from_cli as run_from_cli
+    elif args.command == "window":
+        from allsky.apps.window import run_from_cli
     elif args.command == "warm-up":
         from allsky.apps.warm import run_from_cli
     elif args.command == "serve":
@@ -808,6 +837,8 @@ FILES = {
                    ("out", "--out", "out", "campaign")),
     "stars": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file")),
     "faults": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file")),
+    "window": (("scenario", "SCENARIO", "in", "file"), ("json", "--json", "out", "file"),
+               ("figure", "--figure", "out", "file")),
     "scenarios": (("json", "--json", "out", "file"),),
     "config": (("scenario", "SCENARIO", "in", "file"),),
     "warm-up": (),
@@ -858,7 +889,7 @@ def check_paths(args):
 
 
 #: Commands that fly missions (and so load the compiled loop).
-FLYING = ("run", "step", "compare", "montecarlo", "faults", "warm-up")
+FLYING = ("run", "step", "compare", "montecarlo", "faults", "window", "warm-up")
 
 
 def build_note_once():

@@ -6,7 +6,7 @@ is the rule in words, as the configuration reference prints it.
 """
 
 import math
-from datetime import timedelta
+from datetime import datetime, timedelta
 
 from allsky.config.rules import (
     EPHEMERIS_END_UTC,
@@ -302,10 +302,40 @@ def _blowdown_pressures(v):
                           "pressure falls as the gas is used")
 
 
+#: [days] the farthest a mission may fly from its element set's epoch
+TLE_AGE_MAX_DAYS = 30.0
+
+
+def _orbit_elements(v):
+    """`orbit.kind` = "tle": `orbit.tle_line1` and `orbit.tle_line2` are an element set SGP4 flies."""
+    if v["orbit.kind"] != "tle":
+        return
+    from allsky.vehicle.orbit import parse_tle
+
+    l1, l2 = v["orbit.tle_line1"], v["orbit.tle_line2"]
+    if not l1 or not l2:
+        raise ConfigError("orbit.tle_line1" if not l1 else "orbit.tle_line2", "",
+                          'orbit.kind = "tle" needs both lines of the element set')
+    try:
+        sat = parse_tle(l1, l2)
+    except ValueError as exc:
+        raise ConfigError("orbit.tle_line1", l1, f"not an element set SGP4 can fly: {exc}") \
+            from None
+    date = v["mission.date_utc"]
+    epoch = datetime(2000, 1, 1, 12, tzinfo=date.tzinfo) + timedelta(
+        days=sat.jdsatepoch + sat.jdsatepochF - 2451545.0)
+    age_days = abs((date - epoch) / timedelta(days=1))
+    if age_days > TLE_AGE_MAX_DAYS:
+        raise ConfigError("mission.date_utc", date, f"is {age_days:.1f} days from the element "
+                          f"set's epoch {iso_utc(epoch)}; must be within {TLE_AGE_MAX_DAYS:g} "
+                          "days (SGP4's error grows by a few km a day)")
+
+
 #: Cross-key rules, in the order they are checked.
 CROSS_RULES = (_frame_fits_jet_minimum, _pwpf_hysteresis, _sun_presence_covers_linear_range,
                _dither_sampling, _dither_record, _fft_whole_periods, _one_limit_per_wheel,
                _unload_hysteresis, _converters_follow_the_turns,
                _mission_within_a_day, _frames_of_the_longest_mission, _telemetry_rows,
                _mission_ends_inside_the_ephemeris, _one_target_form, _reference_star_in_window,
-               _cone_check_passes_the_reference_star, _blowdown_pressures)
+               _cone_check_passes_the_reference_star, _blowdown_pressures,
+               _orbit_elements)

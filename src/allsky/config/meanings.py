@@ -16,7 +16,7 @@ UNIT_SUFFIXES = (
     ("_v_per_arcsec_s", "V/(arcsec/s)"), ("_v_per_arcsec", "V/arcsec"),
     ("_deg_h_rt_h", "deg/h/sqrt(h)"), ("_deg_rt_h", "deg/sqrt(h)"), ("_deg_h", "deg/h"),
     ("_deg_s", "deg/s"), ("_arcsec", "arcsec"), ("_urad", "urad"), ("_ppm", "ppm"),
-    ("_n_m_s", "N m s"), ("_n_m", "N m"), ("_kg_m2", "kg m^2"), ("_kg", "kg"), ("_deg", "deg"), ("_per_s", "1/s"), ("_pps", "pulse/s"),
+    ("_n_m_s", "N m s"), ("_n_m", "N m"), ("_kg_m2", "kg m^2"), ("_m2", "m^2"), ("_km", "km"), ("_kg", "kg"), ("_deg", "deg"), ("_per_s", "1/s"), ("_pps", "pulse/s"),
     ("_frames", "frames"), ("_bits", "bit"), ("_utc", "UTC"), ("_s", "s"), ("_n", "N"),
     ("_m", "m"), ("_v", "V"), ("_bar", "bar"),
 )

@@ -249,6 +249,25 @@ target_sequence.allowed = (f"an array of 1 to {TARGET_SEQUENCE_MAX} targets, eac
                            "of the PyEphem catalog or { ra_deg = [0, 360), dec_deg = [-90, 90] }")
 _A_DAY = "a mission lasts at most a day"
 
+
+def tle_line(key, v):
+    """A line of a two-line element set, or ``""`` while ``orbit.kind`` is not "tle".
+
+    ``v`` is the value of ``key`` as read from TOML.
+
+    The lines are checked as an element set together (their form, checksums
+    and SGP4's start) by the cross rule of ``orbit.kind``.
+    """
+    if not isinstance(v, str):
+        raise ConfigError(key, v, f"must be a string, not {type_name(v)}")
+    if len(v.rstrip()) not in (0, 69):
+        raise ConfigError(key, v, f"must have 69 characters (a line of a two-line element "
+                          f"set), not {len(v.rstrip())}")
+    return v.rstrip()
+
+
+tle_line.allowed = 'a line of a two-line element set (69 characters), or "" with no "tle"'
+
 #: One checker per key, in the order of the default file.
 RULES: dict[str, Callable] = {
     "mission.date_utc": utc_datetime,
@@ -333,6 +352,27 @@ RULES: dict[str, Callable] = {
     "sequencer.turn_check_ppm": number(in_closed(0, 500000, "half a turn: the nearest whole "
                                                  "number of turns is then the one meant; "
                                                  "0 = no check")),
+    "orbit.kind": one_of("none", "circular", "tle"),
+    "orbit.altitude_km": number(in_closed(150, 1000, "below 150 km a vehicle reenters within "
+                                          "a day; the atmosphere's table ends at 1000 km")),
+    "orbit.inclination_deg": number(in_closed(0, 180)),
+    "orbit.raan_deg": number(in_closed_open(0, 360)),
+    "orbit.arg_latitude_deg": number(in_closed_open(0, 360)),
+    "orbit.j2": boolean,
+    "orbit.tle_line1": tle_line,
+    "orbit.tle_line2": tle_line,
+    "orbit.sample_s": number(in_open_closed(0, 60, "the interpolation's error grows as its "
+                                            "square: 4 km at 60 s")),
+    "orbit.atmosphere_height_km": number(in_closed(0, 200)),
+    "orbit.gravity_gradient": boolean,
+    "orbit.aerodynamic": boolean,
+    "orbit.drag_area_m2": number(NON_NEGATIVE),
+    "orbit.drag_coefficient": number(NON_NEGATIVE),
+    "orbit.pressure_offset_m": vector(3, magnitude_at_most(10)),
+    "orbit.solar_pressure": boolean,
+    "orbit.srp_area_m2": number(NON_NEGATIVE),
+    "orbit.srp_reflectivity": number(in_closed(1, 2, "1 = black, 2 = mirror")),
+    "orbit.srp_offset_m": vector(3, magnitude_at_most(10)),
     "target.star": star_name,
     "target.ra_deg": _RA_DEG,
     "target.dec_deg": _DEC_DEG,

@@ -89,6 +89,15 @@ from allsky.sim.faults import (
 )
 from allsky.sim.journal import SEEN_WHEEL, note_clip, note_faults, note_frame, note_wheels
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_last_row, record_telemetry  # noqa: F401
+from allsky.vehicle.environment import (
+    dim_sun,
+    env_torque,
+    held,
+    next_place,
+    occult_stars,
+    start_place,
+    sun_at,
+)
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
 from allsky.vehicle.wheels import (
@@ -209,11 +218,15 @@ def _type_of(value):
 
 def entries() -> dict:
     """The frame loop's compiled entries by name: "plain", "any" (:func:`leg_entry`)."""
-    return {"plain": _run_leg_plain, "any": _run_leg_any}
+    return {"plain": _run_leg_plain, "any": _run_leg_any, "orbit": _run_leg_orbit,
+            "any_orbit": _run_leg_any_orbit}
 
 
 def leg_entry(p):
     """The compiled entry :func:`run_leg` flies a mission of parameters ``p`` with.
+
+    A mission in orbit (``p.orbit.n`` > 0) flies the entries that hand the
+    loop the orbit, so that the loop without one compiles without its code.
 
     The patent's vehicle without faults hands the loop None for the wheels
     and the faults: numba drops the branches that test them before typing
@@ -222,8 +235,8 @@ def leg_entry(p):
     code lengthens the first compile). Each entry compiles on first use.
     """
     if p.actuator == ACTUATOR_JETS and p.faults.n == 0:
-        return _run_leg_plain
-    return _run_leg_any
+        return _run_leg_orbit if p.orbit.n > 0 else _run_leg_plain
+    return _run_leg_any_orbit if p.orbit.n > 0 else _run_leg_any
 
 
 # The work arrays are allocated in the two entries (with numba's runtime), once per leg; the
@@ -234,7 +247,16 @@ def _run_leg_plain(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
                        np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
                        np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS), np.zeros(0), None,
-                       None)
+                       None, None)
+
+
+@njit_alloc
+def _run_leg_orbit(p, s, leg, tlm, tlm_rows, rec, rec_rows):
+    """:func:`run_leg` on the jets, without faults, in orbit."""
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
+                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
+                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS), np.zeros(0), None,
+                       None, p.orbit)
 
 
 @njit_alloc
@@ -243,18 +265,29 @@ def _run_leg_any(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
                        np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
                        np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS),
-                       np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults)
+                       np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults, None)
+
+
+@njit_alloc
+def _run_leg_any_orbit(p, s, leg, tlm, tlm_rows, rec, rec_rows):
+    """:func:`run_leg` on either actuator, with the scenario's faults, in orbit."""
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
+                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
+                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS),
+                       np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults, p.orbit)
 
 
 @njit_noalias
 def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
-                sig, wheel_u, wheels_p, faults):
+                sig, wheel_u, wheels_p, faults, orbit):
     """The frames of :func:`run_leg`.
 
     ``scratch`` (N_SCRATCH, 3), ``gates`` (N_GATES, 3), ``position_gain``
     (one per position route), ``sources`` (N_POSITION_SOURCES,) and ``sig``
     (N_SIGNALS,) are per-leg work arrays, and ``wheel_u`` the reaction wheels'
-    motor torques (one per wheel). Each stage is handed only the
+    motor torques (one per wheel); ``orbit`` the orbit's samples
+    (:class:`allsky.vehicle.environment.OrbitParams`), None far from any
+    body. Each stage is handed only the
     parameters and state arrays of its own blocks. No array written here
     may overlap another argument's (:func:`allsky.jit.njit_noalias`): the state's
     arrays, the buffers and the work arrays are each allocated apart.
@@ -298,16 +331,30 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
             clip_every_frame = True
     # The Sun's direction of a frame is computed a frame ahead, beside the plant's step (which
     # takes longest and does not depend on it), where it costs no latency of its own.
-    sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, s.frame[0]), sun_i)
+    if orbit is None:
+        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, s.frame[0]), sun_i)
+    sunlit = 1.0
+    k_orbit, j_orbit, w_orbit, kh, wh = 0, 0, 0.0, 0, 0.0
+    if orbit is not None:  # the Sun seen from the vehicle; the frame between samples
+        k_orbit, j_orbit = start_place(orbit, s.frame[0])
+        w_orbit = j_orbit / orbit.step_frames
+        kh, wh = held(orbit, k_orbit, w_orbit)
+        sun_at(orbit, kh, wh, sun_i)
     for frame_in_leg in range(done, n_max):
         frame = s.frame[0]  # the mission's clock: the frame flown now
         tracker_p = p.tracker
+        if orbit is not None:  # the stars behind the Earth hidden from the tracker
+            kh, wh = held(orbit, k_orbit, w_orbit)
+            sunlit = occult_stars(orbit, kh, wh, frame_in_leg == done)
+            tracker_p = orbit.tracker
         if faults is not None:
             tracker_p = fault_tracker(faults, p.tracker, fault_state, frame)
             fault_release(faults, fault_state, frame, s.tracker_lock)
         star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
                      s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, s.tracker_lock,
                      cone_armed, sun_b, fine, trk, gyro)
+        if orbit is not None:  # the Earth's shadow
+            dim_sun(sunlit, fine)
         if faults is not None:
             star = fault_sense(faults, tracker_p, fault_state, frame, dt, s.dtheta_rad, fine,
                                trk, gyro, s.tracker_lock, star, cone_armed)
@@ -345,9 +392,16 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         if faults is not None:
             tank_ok = fault_actuate(faults, fault_state, frame, p.jets, dt, s.pwpf_out,
                                     s.propellant_kg, torque, tank_ok, feed)
+        if orbit is not None:  # gravity gradient, drag, solar pressure
+            env_torque(orbit, kh, wh, dt, s.x, p.plant.inertia_kg_m2, sun_b, torque)
         count_jet_time(s.pwpf_out, dt, s.jet_on_s)
         # The next frame's Sun
-        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, frame + 1), sun_i)
+        if orbit is None:
+            sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, frame + 1), sun_i)
+        else:  # the next frame's place between samples
+            k_orbit, j_orbit, w_orbit = next_place(orbit, k_orbit, j_orbit)
+            kh, wh = held(orbit, k_orbit, w_orbit)
+            sun_at(orbit, kh, wh, sun_i)
         if wheels_p is None:
             advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.frame, s.excursion_ref_q,
                     s.max_excursion_rad)

@@ -21,6 +21,7 @@ from allsky import clock, units, xmath
 from allsky.computer import targeting
 from allsky.computer import word_registers as wr
 from allsky.config import faults as fault_config
+from allsky.config.cross_rules import longest_mission_s
 from allsky.hardware import (
     control_amp,
     gyro,
@@ -42,7 +43,7 @@ from allsky.sim import faults as sim_faults
 from allsky.sim import state as sim_state
 from allsky.sim.braking import flight_warning
 from allsky.sim.telemetry import COLUMNS, INDEX
-from allsky.vehicle import plant, quaternion, sky, wheels
+from allsky.vehicle import environment, orbit, plant, quaternion, sky, wheels
 from allsky.vocabulary import AXES
 
 #: The telemetry's time column.
@@ -116,6 +117,19 @@ class ModeRecord(NamedTuple):
     exit: str
 
 
+def orbit_span_s(cfg) -> float:
+    """[s] how long ``cfg``'s orbit samples cover: the longest mission, an hour more.
+
+    The hour is room for what lengthens a mission past its modes' timeouts
+    (a recovery, ground commands); past the last sample the vehicle is held
+    where it was (the environment stops moving).
+    """
+    flat = {f"{sec}.{k}": v for sec, table in cfg.as_dict().items() if isinstance(table, dict)
+            for k, v in table.items()}
+    flat.setdefault("target.sequence", None)
+    return longest_mission_s(flat) + 3600.0
+
+
 def build_params(cfg) -> sim_state.Params:
     """Frame-loop parameters from a validated scenario ``cfg``."""
     ck = clock.clock(cfg.mission.frame_s)
@@ -132,6 +146,7 @@ def build_params(cfg) -> sim_state.Params:
         reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
         bool(st.bright_gate), *gate_stars(cfg))
     el = cfg.electronics
+    track, step = orbit.track(cfg, ck, orbit_span_s(cfg))
     return sim_state.Params(
         frame_s=dt,
         clock=ck,
@@ -186,6 +201,7 @@ def build_params(cfg) -> sim_state.Params:
             cfg, tracker, [s.name for s in stars],
             lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc),
             lambda name: sky.star(name).magnitude),
+        orbit=environment.build(cfg, track, s0, sdot, step, tracker),
     )
 
 
@@ -685,10 +701,53 @@ class Mission:
         return rows
 
     def _drain_journal(self):
-        """Move what the frame loop journaled into the journal."""
+        """Move what the frame loop journaled into the journal (and the orbit's entries)."""
         s = self.state
+        before = len(self.journal.events)
         if s.journal_n[0] or s.journal_n[1]:
             self.journal.drain(s.journal, s.journal_n, self._mode, self._decoder)
+        if self.params.orbit.n > 0 and self._orbit_journal():
+            # the slice's entries in the order of time (the loop's, then the orbit's, stably)
+            ev = self.journal.events
+            ev[before:] = sorted(ev[before:], key=lambda e: e["t_s"])
+
+    def _orbit_journal(self) -> bool:
+        """Journal the eclipses and occultations of the frames flown since the last call.
+
+        They depend on the orbit and the date only, not on the attitude: they
+        are found from the orbit's samples, interpolated as the frame loop
+        interpolates them (:mod:`allsky.vehicle.environment`), frame by frame.
+        Returns whether any entry was written.
+        """
+        o = self.params.orbit
+        first, last = getattr(self, "_orbit_frame", 0), self.frame
+        if last <= first:
+            return False
+        self._orbit_frame = last
+        ck = self.params.clock
+        f = environment.sunlit_series(o, first, last)
+        phase = np.where(f >= 1.0, 0, np.where(f <= 0.0, 2, 1))
+        prev = getattr(self, "_orbit_phase", 0)
+        wrote = False
+        names = ("sunlit", "penumbra", "umbra")
+        for k in np.nonzero(np.diff(np.concatenate([[prev], phase])))[0]:
+            self.journal.note(clock.time_s(ck, first + int(k)), self._mode, "eclipse",
+                              phase=names[phase[k]], active=bool(phase[k] != 0),
+                              sunlit_fraction=float(f[k]))
+            wrote = True
+        self._orbit_phase = int(phase[-1])
+        bodies = [*tracker_star_names(self.cfg)[:o.stars_inertial.shape[0]], "target"]
+        dirs = np.ascontiguousarray(np.vstack([o.stars_inertial,
+                                               np.asarray(self.state.target_inertial)[None]]))
+        hidden = environment.occulted_series(o, dirs, first, last)
+        seen = getattr(self, "_orbit_hidden", np.zeros(len(bodies), dtype=bool))
+        steps = np.diff(np.vstack([seen[None, :], hidden]).astype(np.int8), axis=0)
+        for k, j in zip(*np.nonzero(steps)):
+            self.journal.note(clock.time_s(ck, first + int(k)), self._mode, "occultation",
+                              body=bodies[j], active=bool(steps[k, j] > 0))
+            wrote = True
+        self._orbit_hidden = hidden[-1].copy()
+        return wrote
 
     # -- running ---------------------------------------------------------------
     @property
@@ -803,6 +862,9 @@ class Mission:
         for _ in range(2):
             t = t0 + abs(roll) / rate_deg_s + SETTLE_ALLOWANCE_S
             sun = self.params.sun0_inertial + self.params.sun_rate_inertial * t
+            if self.params.orbit.n > 0:  # the ground knows the orbit: the vehicle's Sun
+                sun = environment.sun_seen(self.params.orbit,
+                                           clock.frame_at(self.params.clock, t))
             roll, yaw = targeting.programmed_angles_deg(sun, star, target)
         self.programmed_roll_deg, self.programmed_yaw_deg = roll, yaw
         if self.cfg.sequencer.between_targets == "direct":
@@ -996,6 +1058,21 @@ class Mission:
             return np.empty((0, len(COLUMNS)))
         return np.vstack(pieces)
 
+    def orbit_telemetry(self, start_row=0):
+        """The orbit's columns beside :meth:`telemetry`'s rows (from ``start_row``).
+
+        None without an orbit.
+
+        Columns :data:`allsky.vehicle.environment.ORBIT_COLUMNS`: time [s],
+        the Sun's visible fraction, the eclipse flag, the Earth's angle from
+        +x and from the tracker's boresight [deg]
+        (:func:`allsky.vehicle.environment.orbit_telemetry`).
+        """
+        if self.params.orbit.n == 0:
+            return None
+        return environment.orbit_telemetry(self.params.orbit, self.params.clock,
+                                           self.telemetry(start_row))
+
     def pointing_error_arcsec(self) -> float:
         """True angle between the roll axis and the target being flown."""
         x_body = quaternion.dcm_body_from_inertial(self.state.x[0:4])[0]
@@ -1105,6 +1182,8 @@ class Mission:
         out["targets"] = records
         if self.cfg.actuators.kind == "wheels":
             out["wheels"] = self.wheel_summary()
+        if self.params.orbit.n > 0:
+            out["orbit"] = self.orbit_summary()
         out["warnings"] = results.warnings(out, self.journal, fault_config.describe,
                                            self.params.sequencer.settle_threshold_arcsec)
         braking = flight_warning(self.cfg, self.state.propellant_kg[0])
@@ -1112,6 +1191,40 @@ class Mission:
             out["warnings"].insert(0, braking)
         out["events"] = [dict(e) for e in self.journal.events]
         return out
+
+    def orbit_summary(self) -> dict:
+        """The orbit's part of the summary (a mission in orbit only).
+
+        ``sunlit_fraction`` of the Sun's disk at the end; ``sunlit_margin_s``,
+        the time from the end of the flight to the next orbit sunset (the
+        onset of the penumbra; 0 in the shadow, None past the orbit's
+        samples); ``eclipsed_s`` and ``occulted``, the time spent in the
+        shadow and the bodies the Earth hid while flying; ``torques``, each
+        environment torque's ``peak_n_m`` and ``impulse_n_m_s`` (its
+        magnitude integrated over the flight), or None where it is off.
+        """
+        o = self.params.orbit
+        ck = self.params.clock
+        end = self.frame
+        horizon = (o.n - 1) * o.step_frames
+        ahead = environment.sunlit_series(o, end, max(end, horizon))
+        dark = np.nonzero(ahead < 1.0)[0]
+        margin = None if dark.size == 0 else clock.time_s(ck, int(dark[0]))
+        flown = environment.sunlit_series(o, 0, end)
+        keys = {"gravity_gradient": self.cfg.orbit.gravity_gradient,
+                "aerodynamic": self.cfg.orbit.aerodynamic,
+                "solar_pressure": self.cfg.orbit.solar_pressure}
+        torques = {name: ({"peak_n_m": float(o.peak[environment.PEAK, i]),
+                           "impulse_n_m_s": float(o.peak[environment.IMPULSE, i])}
+                          if on else None) for i, (name, on) in enumerate(keys.items())}
+        occulted = sorted({e["body"] for e in self.journal.of_kind("occultation")
+                           if e["active"]})
+        return {"kind": self.cfg.orbit.kind,
+                "sunlit_fraction": float(ahead[0]) if ahead.size else None,
+                "sunlit_margin_s": margin,
+                "eclipsed_s": clock.time_s(ck, int(np.count_nonzero(flown < 1.0))),
+                "occulted": occulted,
+                "torques": torques}
 
     def wheel_summary(self) -> dict:
         """The reaction wheels at the end: momenta, the largest fraction of a limit held."""

@@ -257,6 +257,12 @@ def timed_warnings(summary, journal, describe, settle_threshold_arcsec) -> list:
                        f"{settle_threshold_arcsec:g} arcsec)")
     for t_s, text in wrong_star_calibrations(summary, journal):
         out.append(t_s, text)
+    eclipses = journal.of_kind("eclipse")
+    if summary.get("status") == "aborted" and eclipses and eclipses[-1]["phase"] == "umbra":
+        e = eclipses[-1]
+        out.append(e["t_s"], f"the mission aborted in orbit night: the Earth's shadow has hidden "
+                   f"the Sun since {e['t_s']:.1f} s (Mode {e['mode']}), and sun sensor 104 "
+                   "sees no Sun in the umbra")
     if journal.lost:
         out.append(summary.get("mission_time_s", 0.0),
                    f"the journal lost {journal.lost} entries the frame loop could not hold")

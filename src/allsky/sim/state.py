@@ -29,6 +29,7 @@ from allsky.sequencer.dither import DitherParams
 from allsky.sequencer.legs import N_CLOCK
 from allsky.sim import journal
 from allsky.sim.faults import FaultParams, new_fault_state
+from allsky.vehicle.environment import OrbitParams
 from allsky.vehicle.plant import RigidBodyParams
 from allsky.vehicle.wheels import WheelParams
 
@@ -87,6 +88,8 @@ class Params(NamedTuple):
     actuator: int
     wheels: WheelParams  #: the reaction-wheel array (read only when actuator is the wheels)
     faults: FaultParams  #: the scenario's faults (allsky.sim.faults; n = 0: none)
+    #: the orbit's samples (allsky.vehicle.environment; n = 0: none, kind = "none")
+    orbit: OrbitParams
 
 
 class State(NamedTuple):

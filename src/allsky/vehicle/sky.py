@@ -21,15 +21,23 @@ it: within 0.2" of PyEphem's over a century).
 
 Model limits
 ------------
-* Positions are geocentric; the vehicle's position in its orbit is not
-  modelled. For the stars the shift is negligible: from a 7000 km baseline
+* Positions here are geocentric. The vehicle's position in its orbit is
+  modelled only with an ``[orbit]`` (:mod:`allsky.vehicle.orbit`), and then
+  only for the Sun (:mod:`allsky.vehicle.environment`: the Sun seen from the
+  vehicle, the Earth's shadow, the Earth's disk hiding stars and the
+  target); without one the Sun is the geocentric Sun, below. The Moon and
+  the planets are not in the sky: Jupiter (-2.0 mag) and Mars pass through
+  the default magnitude window on some dates, and the tracker does not see
+  them. For the stars the shift is negligible: from a 7000 km baseline
   even Rigil Kentaurus (parallax 0.75" per au) moves by
   ``0.75" * 7000 km / 1 au = 3.5e-5"``, far below 0.001". For the Sun it is
   not below 0.001": the solar horizontal parallax is 8.794" per Earth radius,
   so from a low orbit (r <= 7000 km) the Sun's direction differs from the
-  geocentric one by up to ``atan(7000 km / 1 au) = 9.7"``. The emulator
-  accepts this: its Sun is the geocentric Sun, used consistently by the
-  sensors and the targeting.
+  geocentric one by up to ``atan(7000 km / 1 au) = 9.7"``. Without an
+  orbit the emulator accepts this: its Sun is the geocentric Sun, used
+  consistently by the sensors and the targeting. In orbit both use the Sun
+  seen from the vehicle (programmed for the geocentric Sun, the packaged
+  free flyer would point 2.3" worse).
 * Annual stellar parallax is not in the catalog (at most 0.75", Rigil
   Kentaurus; Canopus 0.01"), and aberration (20.5" from the Earth's orbital
   velocity, about 5" more from the vehicle's) is not applied.

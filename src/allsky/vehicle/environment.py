@@ -1,0 +1,555 @@
+"""What the orbit does: the Earth's shadow and disk, and the torques of low orbit.
+
+The orbit (:mod:`allsky.vehicle.orbit`) is sampled every ``orbit.sample_s``
+before flight into :class:`OrbitParams`; the frame loop interpolates the
+samples linearly (:func:`at_frame`) and computes, frame by frame:
+
+* **The Sun from the vehicle.** The mission's Sun (``Params.sun0_inertial``
+  moving on its line) at its distance, less the vehicle's position: up to
+  9.7 arcsec from the geocentric direction in low orbit.
+* **The Earth's shadow** (conical: umbra and penumbra). Seen from the
+  vehicle, the Sun's disk (angular radius ``a_s``) and the Earth's
+  (``a_e = asin((R + h) / r)``, ``R`` the equatorial radius, ``h``
+  ``orbit.atmosphere_height_km``) are circles ``c`` apart; the visible
+  fraction of the Sun's disk is one less the area of their overlap over the
+  Sun's, the overlap of two plane circles (Montenbruck and Gill 2000,
+  eq. 3.87; :func:`visible_fraction`). Taking the Earth's limb as a plane
+  circle across the Sun's 0.27 deg disk errs by under 1e-3 of the fraction.
+  The limb is taken sharp at ``R + h``: refraction and the atmosphere's
+  extinction (a few seconds of a setting Sun's light) are left out. The
+  fraction scales sun sensor 104's signal; in the umbra (fraction 0) it
+  sees no Sun.
+* **The Earth's disk** occulting a star or the target: its direction within
+  ``a_e`` of the Earth's centre. An occulted star is taken out of star
+  tracker 105's view.
+* **Torques** on the body, held over the frame (the frame loop adds them to
+  the jets'): gravity gradient ``3 mu / r^3 n x (J n)`` (``n`` the unit
+  vector to the Earth's centre, body axes, ``J`` the full inertia tensor);
+  drag ``-1/2 rho C_D A abs(w) w`` through the centre of pressure (``w`` the
+  velocity relative to an atmosphere turning with the Earth, ``rho`` the
+  exponential atmosphere of :data:`DENSITY_TABLE`); solar radiation pressure
+  ``-P C_r A f s`` through its own centre (``P`` = 4.56e-6 N/m^2 at 1 au,
+  ``f`` the visible fraction, ``s`` the unit vector to the Sun). The areas
+  are constant: the attitude's effect on them is left out.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from allsky import xarrays, xmath
+from allsky.jit import njit, njit_alloc, njit_stage
+from allsky.vehicle.orbit import MU_EARTH_M3_S2, R_EARTH_M
+
+#: [m] the Sun's radius (IAU 2015 nominal)
+R_SUN_M = 6.957e8
+#: [m] the astronomical unit
+AU_M = 1.495978707e11
+#: [N/m^2] solar radiation pressure on a black surface at 1 au (1361 W/m^2 / c)
+SOLAR_PRESSURE_N_M2 = 4.54e-6
+#: [rad/s] the Earth's rotation (the atmosphere turns with it)
+EARTH_RATE_RAD_S = 7.292115e-5
+#: The exponential atmosphere (Vallado 2013, table 8-4): base altitude [km], density at
+#: it [kg/m^3], scale height [km]; ``rho = rho0 exp(-(h - h0) / H)`` from the base below.
+#: Its densities are a mean solar activity's: a solar maximum raises those at 300 km
+#: fivefold, a minimum halves them.
+DENSITY_TABLE = (
+    (100.0, 5.297e-7, 5.877), (110.0, 9.661e-8, 7.263), (120.0, 2.438e-8, 9.473),
+    (130.0, 8.484e-9, 12.636), (140.0, 3.845e-9, 16.149), (150.0, 2.070e-9, 22.523),
+    (180.0, 5.464e-10, 29.740), (200.0, 2.789e-10, 37.105), (250.0, 7.248e-11, 45.546),
+    (300.0, 2.418e-11, 53.628), (350.0, 9.518e-12, 53.298), (400.0, 3.725e-12, 58.515),
+    (450.0, 1.585e-12, 60.828), (500.0, 6.967e-13, 63.822), (600.0, 1.454e-13, 71.835),
+    (700.0, 3.614e-14, 88.667), (800.0, 1.170e-14, 124.64), (900.0, 5.245e-15, 181.05),
+    (1000.0, 3.019e-15, 268.00),
+)
+
+# Columns of OrbitParams.scalars, one row per sample.
+SEP = 0  #: [rad] angle between the Sun's centre and the Earth's, seen from the vehicle
+EARTH_RADIUS = 1  #: [rad] the Earth's angular radius (with the atmosphere height)
+SUN_RADIUS = 2  #: [rad] the Sun's angular radius
+EARTH_COS = 3  #: [-] cosine of EARTH_RADIUS
+GG = 4  #: [1/s^2] 3 mu / r^3
+DRAG = 5  #: [N / (m/s)^2] 1/2 rho C_D A (0 with the aerodynamic torque off)
+SRP = 6  #: [N] P (1 au / d)^2 C_r A (0 with the solar pressure torque off)
+#: 1.0 where the Sun is whole at this sample and the next (the loop skips the shadow's
+#: computation between them), 0.0 elsewhere
+WHOLE = 7
+#: 1.0 where the Earth's disk begins or ends hiding a window star between this sample and
+#: the next (the loop tests the stars frame by frame only there), 0.0 elsewhere
+CHANGES = 8
+N_SCALARS = 9
+
+# Entries of OrbitParams.env, the frame's environment (written by at_frame and the loop).
+E_SUNLIT = 0  #: [-] visible fraction of the Sun's disk
+E_GG = 1  #: [N m] magnitude of the gravity-gradient torque this frame
+E_AERO = 2  #: [N m] of the aerodynamic torque
+E_SRP = 3  #: [N m] of the solar radiation pressure torque
+N_ENV = 4
+# Rows of OrbitParams.peak: the largest torque magnitude [N m] and the angular impulse
+# [N m s] (abs summed per axis) of each torque since ejection.
+PEAK, IMPULSE = 0, 1
+
+
+class OrbitParams(NamedTuple):
+    """The orbit's samples and the environment's constants, for the frame loop."""
+
+    n: int  #: samples (0: no orbit)
+    step_frames: int  #: [frames] between samples
+    sun_i: np.ndarray  #: (n, 3) unit vector, vehicle to the Sun, inertial
+    nadir_i: np.ndarray  #: (n, 3) unit vector, vehicle to the Earth's centre
+    wind_i: np.ndarray  #: [m/s] (n, 3) velocity relative to the atmosphere
+    scalars: np.ndarray  #: (n, N_SCALARS) the columns SEP ... SRP
+    gravity_gradient: bool  #: the gravity-gradient torque acts
+    pressure_offset_m: np.ndarray  #: [m] (3,) centre of pressure, body axes
+    srp_offset_m: np.ndarray  #: [m] (3,) centre of solar pressure, body axes
+    stars_inertial: np.ndarray  #: (m, 3) the window's stars (as the tracker's)
+    tracker: object  #: star tracker 105 whose stars the frame loop hides while occulted
+    env: np.ndarray  #: (N_ENV,) the frame's environment, written by the loop
+    work: np.ndarray  #: (4, 3) the frame's nadir, wind, Sun (body) and a torque, written
+    peak: np.ndarray  #: (2, 3) PEAK and IMPULSE per torque (gg, aero, srp), updated
+
+
+def no_orbit(tracker) -> OrbitParams:
+    """The :class:`OrbitParams` of ``kind = "none"`` (``tracker``; never read)."""
+    z3 = np.zeros((0, 3))
+    return OrbitParams(0, 1, z3, z3.copy(), z3.copy(), np.zeros((0, N_SCALARS)), False,
+                       np.zeros(3), np.zeros(3), z3.copy(), tracker, np.zeros(N_ENV),
+                       np.zeros((4, 3)), np.zeros((2, 3)))
+
+
+def density_kg_m3(altitude_m):
+    """The exponential atmosphere's density [kg/m^3] at ``altitude_m`` (array) [m]."""
+    h = np.asarray(altitude_m, dtype=float) / 1000.0
+    base = np.array([row[0] for row in DENSITY_TABLE])
+    k = np.clip(np.searchsorted(base, h, side="right") - 1, 0, len(base) - 1)
+    h0 = base[k]
+    rho0 = np.array([row[1] for row in DENSITY_TABLE])[k]
+    scale = np.array([row[2] for row in DENSITY_TABLE])[k]
+    x = -(h - h0) / scale
+    return rho0 * np.array([xmath.exp(float(v)) for v in np.ravel(x)]).reshape(np.shape(x))
+
+
+def _angle_rows(u, v):
+    """Angle [rad] between the rows of ``u`` and ``v`` (atan2 of cross and dot)."""
+    cr = np.cross(u, v)
+    return xarrays.atan2_many(xarrays.norm_rows(cr), (u * v).sum(axis=1))
+
+
+def samples(track, sun0, sun_rate, sun_distance_m, atmosphere_height_m,
+            inertia_kg_m2=None, cfg_orbit=None):
+    """The per-sample geometry of ``track`` (:class:`allsky.vehicle.orbit.Track`).
+
+    ``sun0`` and ``sun_rate`` [1/s] are the mission's geocentric Sun on its
+    line (``Params.sun0_inertial``, ``sun_rate_inertial``), ``sun_distance_m``
+    its distance, ``atmosphere_height_m`` [m] the height added to the Earth's
+    radius (``inertia_kg_m2`` is unused). Returns ``(sun_i, nadir_i, wind_i, scalars)`` as
+    :class:`OrbitParams` holds them; with ``cfg_orbit`` (the ``[orbit]``
+    section) the torques' factors are filled in, else they are zero.
+    """
+    t, r = track.t_s, track.r_m
+    s = sun0[None, :] + sun_rate[None, :] * t[:, None]
+    s = s / xarrays.norm_rows(s)[:, None] * sun_distance_m
+    sun_vec = s - r
+    d_sun = xarrays.norm_rows(sun_vec)
+    rn = xarrays.norm_rows(r)
+    nadir = -r / rn[:, None]
+    sun_i = sun_vec / d_sun[:, None]
+    sc = np.zeros((t.shape[0], N_SCALARS))
+    sc[:, SEP] = _angle_rows(sun_i, nadir)
+    re = R_EARTH_M + atmosphere_height_m
+    sc[:, EARTH_RADIUS] = xarrays.atan2_many(re, np.sqrt(rn * rn - re * re))
+    sc[:, SUN_RADIUS] = xarrays.atan2_many(R_SUN_M, np.sqrt(d_sun * d_sun - R_SUN_M * R_SUN_M))
+    sc[:, EARTH_COS] = np.sqrt(rn * rn - re * re) / rn
+    sc[:, GG] = 3.0 * MU_EARTH_M3_S2 / (rn * rn * rn)
+    wind = track.v_m_s.copy()
+    wind[:, 0] += EARTH_RATE_RAD_S * r[:, 1]  # v - omega x r, omega along +z
+    wind[:, 1] -= EARTH_RATE_RAD_S * r[:, 0]
+    if cfg_orbit is not None:
+        o = cfg_orbit
+        if o.aerodynamic:
+            sc[:, DRAG] = (0.5 * float(o.drag_coefficient) * float(o.drag_area_m2)
+                           * density_kg_m3(rn - R_EARTH_M))
+        if o.solar_pressure:
+            sc[:, SRP] = (SOLAR_PRESSURE_N_M2 * (AU_M / d_sun) ** 2
+                          * float(o.srp_reflectivity) * float(o.srp_area_m2))
+    return sun_i, nadir, wind, sc
+
+
+def _flags(sc, nadir, stars):
+    """Fill the WHOLE and CHANGES columns of ``sc`` from the samples' geometry."""
+    whole = sc[:, SEP] >= sc[:, EARTH_RADIUS] + sc[:, SUN_RADIUS]
+    sc[:-1, WHOLE] = (whole[:-1] & whole[1:]).astype(float)
+    if stars.shape[0]:
+        # a star's angle from the nadir changes by at most the orbit's rate times the step:
+        # flag an interval whose either end lies within that much of the limb, or whose ends
+        # differ
+        hidden = (stars @ nadir.T).T > sc[:, EARTH_COS][:, None]
+        differ = (hidden[:-1] != hidden[1:]).any(axis=1)
+        sc[:-1, CHANGES] = differ.astype(float)
+    sc[-1, WHOLE] = sc[-2, WHOLE] if sc.shape[0] > 1 else 0.0
+
+
+def build(cfg, track, sun0, sun_rate, step_frames, tracker) -> OrbitParams:
+    """:class:`OrbitParams` of the scenario ``cfg`` for its ``track`` (None: no orbit).
+
+    ``sun0``, ``sun_rate`` are the mission's Sun on its line, ``step_frames``
+    the frames between samples, ``tracker`` star tracker 105's parameters; the loop's copy of it gets
+    its own star array, whose rows of occulted stars it zeroes.
+    """
+    if track is None:
+        return no_orbit(tracker)
+    from allsky.vehicle import ephemeris
+
+    o = cfg.orbit
+    d_sun = float(xmath.norm3(ephemeris.sun_from_earth_km(
+        ephemeris.tdb_jd(cfg.mission.date_utc)))) * 1000.0
+    sun_i, nadir, wind, sc = samples(track, np.asarray(sun0, float), np.asarray(sun_rate, float),
+                                     d_sun, o.atmosphere_height_km * 1000.0, cfg_orbit=o)
+    stars = np.ascontiguousarray(tracker.stars_inertial.copy())
+    _flags(sc, nadir, stars)
+    own = tracker._replace(stars_inertial=stars.copy())
+    return OrbitParams(int(track.t_s.shape[0]), int(step_frames), np.ascontiguousarray(sun_i),
+                       np.ascontiguousarray(nadir), np.ascontiguousarray(wind),
+                       np.ascontiguousarray(sc), bool(o.gravity_gradient),
+                       np.array(o.pressure_offset_m, dtype=float),
+                       np.array(o.srp_offset_m, dtype=float), stars, own, np.zeros(N_ENV),
+                       np.zeros((4, 3)), np.zeros((2, 3)))
+
+
+@njit
+def visible_fraction(c, a_s, a_e):
+    """Visible fraction of the Sun's disk (radius ``a_s``) beside the Earth's ``a_e``.
+
+    ``c`` [rad] is the angle between their centres. Overlap of two plane
+    circles (Montenbruck and Gill, eq. 3.87).
+    """
+    if c >= a_s + a_e:
+        return 1.0
+    if c <= a_e - a_s:
+        return 0.0
+    if c <= a_s - a_e:  # the Earth inside the Sun's disk (never in Earth orbit)
+        return 1.0 - (a_e * a_e) / (a_s * a_s)
+    x = (c * c + a_s * a_s - a_e * a_e) / (2.0 * c)
+    y = np.sqrt(max(a_s * a_s - x * x, 0.0))
+    area = (a_s * a_s * xmath.acos(min(max(x / a_s, -1.0), 1.0))
+            + a_e * a_e * xmath.acos(min(max((c - x) / a_e, -1.0), 1.0)) - c * y)
+    return 1.0 - area / (math.pi * a_s * a_s)
+
+
+@njit_stage
+def place(orbit, frame):
+    """``(k, w)`` of ``frame`` in ``orbit``: ``w`` of the way from sample k to k + 1.
+
+    Held at the last interval past the samples.
+    """
+    step = orbit.step_frames
+    k = frame // step
+    if k >= orbit.n - 1:
+        return orbit.n - 2, 1.0
+    return k, (frame - k * step) / step
+
+
+@njit_stage
+def start_place(orbit, frame):
+    """``(k, j)``: ``frame`` is ``j`` frames after sample ``k`` of ``orbit``."""
+    k = frame // orbit.step_frames
+    return k, frame - k * orbit.step_frames
+
+
+@njit_stage
+def next_place(orbit, k, j):
+    """``(k, j, w)`` of the frame after the one ``k``, ``j`` place in ``orbit``.
+
+    Past the last interval the last sample is held (``k = n - 2``, ``w = 1``).
+    """
+    j += 1
+    if j == orbit.step_frames:
+        j = 0
+        k += 1
+    if k >= orbit.n - 1:
+        return k, j, 1.0
+    return k, j, j / orbit.step_frames
+
+
+@njit_stage
+def held(orbit, k, w):
+    """``k``, ``w`` held at the last interval past the samples of ``orbit``."""
+    if k >= orbit.n - 1:
+        return orbit.n - 2, 1.0
+    return k, w
+
+
+@njit_stage
+def _lerp_unit(a, k, w, out):
+    """Row ``k`` of ``a`` moved ``w`` of the way to row ``k + 1``, renormalised, into ``out``."""
+    n = 0.0
+    for i in range(3):
+        out[i] = a[k, i] + w * (a[k + 1, i] - a[k, i])
+        n += out[i] * out[i]
+    n = 1.0 / np.sqrt(n)
+    for i in range(3):
+        out[i] *= n
+
+
+@njit_stage
+def _lerp(a, k, w, j):
+    return a[k, j] + w * (a[k + 1, j] - a[k, j])
+
+
+@njit_stage
+def sunlit_at(orbit, frame):
+    """Visible fraction of the Sun's disk at ``frame`` of ``orbit`` (interpolated)."""
+    k, w = place(orbit, frame)
+    sc = orbit.scalars
+    if sc[k, WHOLE] != 0.0:  # as the frame loop: whole at both ends, whole between
+        return 1.0
+    c = _lerp(sc, k, w, SEP)
+    a_e = _lerp(sc, k, w, EARTH_RADIUS)
+    a_s = _lerp(sc, k, w, SUN_RADIUS)
+    return visible_fraction(c, a_s, a_e)
+
+
+@njit_stage
+def sun_at(orbit, k, w, out):
+    """Unit vector from the vehicle to the Sun, inertial, into ``out``.
+
+    ``orbit``'s samples; ``k``, ``w`` place the frame between samples (:func:`place`).
+    """
+    _lerp_unit(orbit.sun_i, k, w, out)
+
+
+@njit_stage
+def occult_stars(orbit, k, w, force):
+    """Hide the stars behind the Earth from the loop's tracker; the Sun's fraction.
+
+    ``orbit``'s samples; ``k``, ``w`` place the frame between samples (:func:`place`). The stars
+    are tested at each sample, in each interval where one of them is hidden
+    or uncovered, and with ``force`` (a leg's first frame). Writes the
+    frame's nadir into ``orbit.work[0]`` and its visible fraction of the Sun
+    into ``orbit.env[E_SUNLIT]``.
+    """
+    nadir = orbit.work[0]
+    _lerp_unit(orbit.nadir_i, k, w, nadir)
+    sc = orbit.scalars
+    if force or w == 0.0 or sc[k, CHANGES] != 0.0:  # a sample, or where a star changes
+        _occult(orbit, nadir, _lerp(sc, k, w, EARTH_COS))
+    if sc[k, WHOLE] != 0.0:
+        orbit.env[E_SUNLIT] = 1.0
+        return 1.0
+    f = visible_fraction(_lerp(sc, k, w, SEP), _lerp(sc, k, w, SUN_RADIUS),
+                         _lerp(sc, k, w, EARTH_RADIUS))
+    orbit.env[E_SUNLIT] = f
+    return f
+
+
+@njit_stage
+def _occult(orbit, nadir, cos_e):
+    """Zero the loop tracker's rows of the stars within the Earth's disk (``cos_e``)."""
+    src = orbit.stars_inertial
+    dst = orbit.tracker.stars_inertial
+    for j in range(src.shape[0]):
+        d = src[j, 0] * nadir[0] + src[j, 1] * nadir[1] + src[j, 2] * nadir[2]
+        if d > cos_e:  # behind the Earth's disk: seen nowhere
+            dst[j, 0] = 0.0
+            dst[j, 1] = 0.0
+            dst[j, 2] = 0.0
+        else:
+            dst[j, 0] = src[j, 0]
+            dst[j, 1] = src[j, 1]
+            dst[j, 2] = src[j, 2]
+
+
+@njit_stage
+def dim_sun(f, fine):
+    """Sun sensor 104's outputs ``fine`` at the visible fraction ``f`` of the Sun.
+
+    Its signal scales with the light: the pitch and yaw outputs by ``f``;
+    in the umbra (``f`` = 0) it sees no Sun.
+    """
+    if f <= 0.0:
+        fine[0] = 0.0
+        fine[1] = 0.0
+        fine[2] = 0.0
+    elif f < 1.0:
+        fine[0] *= f
+        fine[1] *= f
+
+
+@njit_stage
+def _cross_add(r, f, out, scale):
+    """``out += scale * (r x f)``; returns the magnitude of ``r x f`` times ``scale``."""
+    tx = r[1] * f[2] - r[2] * f[1]
+    ty = r[2] * f[0] - r[0] * f[2]
+    tz = r[0] * f[1] - r[1] * f[0]
+    out[0] += scale * tx
+    out[1] += scale * ty
+    out[2] += scale * tz
+    return abs(scale) * np.sqrt(tx * tx + ty * ty + tz * tz)
+
+
+@njit_stage
+def gravity_gradient(gg, inertia, n_b, out):
+    """Add ``gg * n x (J n)`` [N m] to ``out``; returns its magnitude.
+
+    ``gg`` [1/s^2] is ``3 mu / r^3``, ``inertia`` the (3, 3) tensor [kg m^2],
+    ``n_b`` the unit vector to the Earth's centre, body axes.
+    """
+    jn0 = inertia[0, 0] * n_b[0] + inertia[0, 1] * n_b[1] + inertia[0, 2] * n_b[2]
+    jn1 = inertia[1, 0] * n_b[0] + inertia[1, 1] * n_b[1] + inertia[1, 2] * n_b[2]
+    jn2 = inertia[2, 0] * n_b[0] + inertia[2, 1] * n_b[1] + inertia[2, 2] * n_b[2]
+    tx = n_b[1] * jn2 - n_b[2] * jn1
+    ty = n_b[2] * jn0 - n_b[0] * jn2
+    tz = n_b[0] * jn1 - n_b[1] * jn0
+    out[0] += gg * tx
+    out[1] += gg * ty
+    out[2] += gg * tz
+    return abs(gg) * np.sqrt(tx * tx + ty * ty + tz * tz)
+
+
+@njit_stage
+def env_torque(orbit, k, w, dt_s, q, inertia, sun_b, torque):
+    """Add the environment's torques at ``frame`` to ``torque`` [N m] (body axes).
+
+    ``orbit`` holds the samples, ``dt_s`` [s] is the frame, ``inertia`` the
+    (3, 3) tensor [kg m^2], ``q`` the attitude quaternion (inertial to body), ``sun_b`` the unit
+    vector to the Sun in body axes; ``k``, ``w`` place the frame between
+    samples (:func:`place`). Call :func:`occult_stars` first in the frame (it
+    leaves the frame's nadir and visible fraction). The torques' magnitudes
+    go to ``orbit.env``, their peaks and impulses to ``orbit.peak``.
+    """
+    sc = orbit.scalars
+    nb = orbit.work[1]
+    w_b = orbit.work[2]
+    wind = orbit.work[3]
+    w0, x, y, z = q[0], q[1], q[2], q[3]
+    # The body-from-inertial matrix (quaternion.dcm_body_from_inertial), once
+    m00, m01, m02 = w0 * w0 + x * x - y * y - z * z, 2.0 * (x * y + w0 * z), \
+        2.0 * (x * z - w0 * y)
+    m10, m11, m12 = 2.0 * (x * y - w0 * z), w0 * w0 - x * x + y * y - z * z, \
+        2.0 * (y * z + w0 * x)
+    m20, m21, m22 = 2.0 * (x * z + w0 * y), 2.0 * (y * z - w0 * x), \
+        w0 * w0 - x * x - y * y + z * z
+    t_gg = 0.0
+    if orbit.gravity_gradient:
+        v = orbit.work[0]  # the nadir occult_stars left
+        nb[0] = m00 * v[0] + m01 * v[1] + m02 * v[2]
+        nb[1] = m10 * v[0] + m11 * v[1] + m12 * v[2]
+        nb[2] = m20 * v[0] + m21 * v[1] + m22 * v[2]
+        t_gg = gravity_gradient(_lerp(sc, k, w, GG), inertia, nb, torque)
+    drag = _lerp(sc, k, w, DRAG)
+    t_aero = 0.0
+    if drag > 0.0:
+        for i in range(3):
+            wind[i] = orbit.wind_i[k, i] + w * (orbit.wind_i[k + 1, i] - orbit.wind_i[k, i])
+        w_b[0] = m00 * wind[0] + m01 * wind[1] + m02 * wind[2]
+        w_b[1] = m10 * wind[0] + m11 * wind[1] + m12 * wind[2]
+        w_b[2] = m20 * wind[0] + m21 * wind[1] + m22 * wind[2]
+        speed = np.sqrt(w_b[0] * w_b[0] + w_b[1] * w_b[1] + w_b[2] * w_b[2])
+        t_aero = _cross_add(orbit.pressure_offset_m, w_b, torque, -drag * speed)
+    srp = _lerp(sc, k, w, SRP) * orbit.env[E_SUNLIT]
+    t_srp = 0.0
+    if srp > 0.0:
+        t_srp = _cross_add(orbit.srp_offset_m, sun_b, torque, -srp)
+    orbit.env[E_GG] = t_gg
+    orbit.env[E_AERO] = t_aero
+    orbit.env[E_SRP] = t_srp
+    pk = orbit.peak
+    pk[PEAK, 0] = max(pk[PEAK, 0], t_gg)
+    pk[PEAK, 1] = max(pk[PEAK, 1], t_aero)
+    pk[PEAK, 2] = max(pk[PEAK, 2], t_srp)
+    pk[IMPULSE, 0] += t_gg * dt_s
+    pk[IMPULSE, 1] += t_aero * dt_s
+    pk[IMPULSE, 2] += t_srp * dt_s
+
+
+def sun_seen(orbit, frame) -> np.ndarray:
+    """Unit vector, vehicle to Sun, at ``frame`` of ``orbit``, as the loop has it."""
+    out = np.empty(3)
+    _sun_at_frame(orbit, int(frame), out)
+    return out
+
+
+@njit
+def _sun_at_frame(orbit, frame, out):
+    k, w = place(orbit, frame)
+    _lerp_unit(orbit.sun_i, k, w, out)
+
+
+@njit_alloc
+def sunlit_series(orbit, first, last):
+    """The Sun's visible fraction at frames ``first`` to ``last`` - 1 of ``orbit``."""
+    out = np.empty(max(last - first, 0))
+    for f in range(first, last):
+        out[f - first] = sunlit_at(orbit, f)
+    return out
+
+
+@njit_alloc
+def occulted_series(orbit, directions, first, last):
+    """Each of ``directions`` (m, 3) behind the Earth's disk, (frames, m) bool.
+
+    At frames ``first`` to ``last`` - 1 of ``orbit``.
+    """
+    m = directions.shape[0]
+    out = np.zeros((max(last - first, 0), m), dtype=np.bool_)
+    nadir = np.empty(3)
+    for f in range(first, last):
+        k, w = place(orbit, f)
+        _lerp_unit(orbit.nadir_i, k, w, nadir)
+        cos_e = _lerp(orbit.scalars, k, w, EARTH_COS)
+        for j in range(m):
+            d = (directions[j, 0] * nadir[0] + directions[j, 1] * nadir[1]
+                 + directions[j, 2] * nadir[2])
+            out[f - first, j] = d > cos_e
+    return out
+
+
+#: The columns of :func:`orbit_telemetry`, with their units.
+ORBIT_COLUMNS = (("time", "s"), ("sunlit_fraction", "-"), ("eclipse", "-"),
+                 ("earth_angle_x", "deg"), ("earth_angle_boresight", "deg"))
+
+
+@njit_alloc
+def _orbit_rows(orbit, frames, q, times):
+    out = np.empty((frames.shape[0], 5))
+    nadir = np.empty(3)
+    for i in range(frames.shape[0]):
+        f = frames[i]
+        k, w = place(orbit, f)
+        _lerp_unit(orbit.nadir_i, k, w, nadir)
+        w0, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        a, b, c = nadir[0], nadir[1], nadir[2]
+        nx = (w0 * w0 + x * x - y * y - z * z) * a + 2.0 * (x * y + w0 * z) * b \
+            + 2.0 * (x * z - w0 * y) * c
+        ny = 2.0 * (x * y - w0 * z) * a + (w0 * w0 - x * x + y * y - z * z) * b \
+            + 2.0 * (y * z + w0 * x) * c
+        nz = 2.0 * (x * z + w0 * y) * a + 2.0 * (y * z - w0 * x) * b \
+            + (w0 * w0 - x * x - y * y + z * z) * c
+        s = sunlit_at(orbit, f)
+        out[i, 0] = times[i]
+        out[i, 1] = s
+        out[i, 2] = 1.0 if s < 1.0 else 0.0
+        out[i, 3] = xmath.atan2(np.sqrt(ny * ny + nz * nz), nx) * (180.0 / math.pi)
+        out[i, 4] = xmath.atan2(np.sqrt(nx * nx + ny * ny), nz) * (180.0 / math.pi)
+    return out
+
+
+def orbit_telemetry(orbit, ck, table) -> np.ndarray:
+    """The orbit's columns (:data:`ORBIT_COLUMNS`) beside a telemetry ``table``.
+
+    For each row (its ``time`` and attitude quaternion, the first six
+    columns of :data:`allsky.sim.recorder.COLUMNS`): the visible fraction of
+    the Sun, the eclipse flag (1 while any of it is hidden), and the angle
+    [deg] of the Earth's centre from body +x (the sun sensor's axis) and from
+    +z (star tracker 105's boresight). ``orbit`` holds the samples, ``ck`` is
+    the mission's clock.
+    """
+    from allsky import clock
+
+    t = np.ascontiguousarray(table[:, 0], dtype=float)
+    frames = np.array([clock.frame_at(ck, float(x)) for x in t], dtype=np.int64)
+    q = np.ascontiguousarray(table[:, 2:6], dtype=float)
+    return _orbit_rows(orbit, frames, q, t)

@@ -1,0 +1,171 @@
+"""The orbit's environment against closed forms: the shadow, the Earth's disk, the torques."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from allsky import clock
+from allsky.config.scenario import load_scenario
+from allsky.sim.mission import build_params
+from allsky.vehicle import environment as env
+from allsky.vehicle import orbit, sky
+
+ORBIT = ['orbit.kind="circular"', "orbit.j2=false", "orbit.altitude_km=300.0",
+         "orbit.inclination_deg=28.5", "orbit.raan_deg=40.0", "orbit.arg_latitude_deg=10.0"]
+
+
+@pytest.fixture(scope="module")
+def flown():
+    cfg = load_scenario(overrides=ORBIT)
+    return cfg, build_params(cfg)
+
+
+def _plane(cfg):
+    """(p, q, h): the node, the in-plane normal to it, the orbit normal (unit vectors)."""
+    o = cfg.orbit
+    node, inc = math.radians(o.raan_deg), math.radians(o.inclination_deg)
+    p = np.array([math.cos(node), math.sin(node), 0.0])
+    h = np.array([math.sin(inc) * math.sin(node), -math.sin(inc) * math.cos(node),
+                  math.cos(inc)])
+    return p, np.cross(h, p), h
+
+
+def _crossings(cfg, direction_at, theta_of, t_max):
+    """Times [s] where the angle between the nadir and ``direction_at(t)`` passes
+    ``theta_of(t)``, entering (angle falling) and leaving, from the orbit's plane alone."""
+    p, q, h = _plane(cfg)
+    a = orbit.R_EARTH_M + cfg.orbit.altitude_km * 1000.0
+    n = math.sqrt(orbit.MU_EARTH_M3_S2 / a**3)
+    u0 = math.radians(cfg.orbit.arg_latitude_deg)
+    period = 2 * math.pi / n
+    out = []
+    for sign in (+1, -1):  # entry at u - u_s = phi, exit at 2 pi - phi
+        for rev in range(int(t_max / period) + 2):
+            t = 0.0
+            for _ in range(4):  # the direction moves (the Sun): iterate on the time
+                s = direction_at(t)
+                beta = math.asin(float(s @ h))
+                u_s = math.atan2(float(s @ q), float(s @ p))
+                phi = math.acos(-math.cos(theta_of(t)) / math.cos(beta))
+                du = (phi if sign > 0 else 2 * math.pi - phi) + u_s - u0
+                t = (du % (2 * math.pi)) / n + (rev - 1) * period
+            if 0.0 <= t <= t_max:
+                out.append((round(t, 6), "in" if sign > 0 else "out"))
+    return sorted(set(out))
+
+
+def _first_frames(mask):
+    """Frames where a boolean series turns true and turns false."""
+    d = np.diff(mask.astype(np.int8))
+    return np.nonzero(d > 0)[0] + 1, np.nonzero(d < 0)[0] + 1
+
+
+def test_eclipse_entry_and_exit_are_the_conical_shadows_closed_form(flown):
+    cfg, p = flown
+    o = p.orbit
+    ck = p.clock
+    t_max = 7000.0
+    frames = clock.frame_at(ck, t_max)
+    f = env.sunlit_series(o, 0, frames)
+    dt = p.frame_s
+    a = orbit.R_EARTH_M + cfg.orbit.altitude_km * 1000.0
+    a_e = math.asin((orbit.R_EARTH_M + cfg.orbit.atmosphere_height_km * 1000.0) / a)
+    a_s = float(o.scalars[0, env.SUN_RADIUS])
+
+    def sun_at(t):
+        s = p.sun0_inertial + p.sun_rate_inertial * t
+        return s / np.linalg.norm(s)
+
+    checked = 0
+    for theta, mask in ((a_e + a_s, f < 1.0), (a_e - a_s, f <= 0.0), (a_e, f < 0.5)):
+        expected = _crossings(cfg, sun_at, lambda t, th=theta: th, t_max - 1.0)
+        on, off = _first_frames(mask)
+        got = sorted([(k * dt, "in") for k in on] + [(k * dt, "out") for k in off])
+        assert len(got) == len(expected) >= 3, (got, expected)
+        for (tg, kg), (te, ke) in zip(got, expected):
+            assert kg == ke
+            # the frame after the crossing; the Sun from the vehicle, not the Earth's centre,
+            # moves it by 9.7" / (0.066 deg/s) = 0.04 s
+            assert abs(tg - te) <= 0.1, (tg, te)
+            checked += 1
+    assert checked >= 9
+
+
+def test_the_earth_occults_canopus_at_the_geometric_time(flown):
+    cfg, p = flown
+    o = p.orbit
+    canopus = sky.star_direction_inertial("Canopus", cfg.mission.date_utc)
+    a = orbit.R_EARTH_M + cfg.orbit.altitude_km * 1000.0
+    a_e = math.asin((orbit.R_EARTH_M + cfg.orbit.atmosphere_height_km * 1000.0) / a)
+    t_max = 7000.0
+    frames = clock.frame_at(p.clock, t_max)
+    hidden = env.occulted_series(o, canopus[None, :].copy(), 0, frames)[:, 0]
+    on, off = _first_frames(hidden)
+    got = sorted([(k * p.frame_s, "in") for k in on] + [(k * p.frame_s, "out") for k in off])
+    expected = _crossings(cfg, lambda t: canopus, lambda t: a_e, t_max - 1.0)
+    assert len(got) == len(expected) >= 2
+    for (tg, kg), (te, ke) in zip(got, expected):
+        assert kg == ke and abs(tg - te) <= 0.02, (tg, te)
+
+
+def test_the_visible_fraction_is_the_overlap_of_two_disks():
+    a_s, a_e = 0.00465, 1.2
+    assert env.visible_fraction(a_e + a_s + 1e-9, a_s, a_e) == 1.0
+    assert env.visible_fraction(a_e - a_s - 1e-9, a_s, a_e) == 0.0
+    # the Sun's centre on the limb: half its disk, to the limb's curvature over it
+    assert env.visible_fraction(a_e, a_s, a_e) == pytest.approx(0.5, abs=2e-3)
+    # monotonic across the penumbra
+    cs = np.linspace(a_e - a_s, a_e + a_s, 101)
+    fs = [env.visible_fraction(c, a_s, a_e) for c in cs]
+    assert all(b >= a for a, b in itertools.pairwise(fs))
+
+
+def _random_inertia(rnd):
+    d = np.diag(rnd.uniform(50, 800, 3))
+    q, _ = np.linalg.qr(rnd.standard_normal((3, 3)))
+    return q, d, q @ d @ q.T
+
+
+@settings(max_examples=50, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), alt=st.floats(150, 1000))
+def test_gravity_gradient_is_its_closed_form_on_the_principal_axes(seed, alt):
+    rnd = np.random.default_rng(seed)
+    q, d, j = _random_inertia(rnd)
+    n_b = rnd.standard_normal(3)
+    n_b /= np.linalg.norm(n_b)
+    r = orbit.R_EARTH_M + alt * 1000.0
+    gg = 3.0 * orbit.MU_EARTH_M3_S2 / r**3
+    out = np.zeros(3)
+    mag = env.gravity_gradient(gg, np.ascontiguousarray(j), n_b, out)
+    # the principal axes: 3 mu / r^3 [(Iz - Iy) ny nz, (Ix - Iz) nz nx, (Iy - Ix) nx ny]
+    nx, ny, nz = q.T @ n_b
+    ix, iy, iz = np.diag(d)
+    closed = gg * np.array([(iz - iy) * ny * nz, (ix - iz) * nz * nx, (iy - ix) * nx * ny])
+    expected = q @ closed
+    scale = gg * (np.diag(d).max() - np.diag(d).min())
+    assert np.abs(out - expected).max() <= 1e-9 * scale
+    assert mag == pytest.approx(np.linalg.norm(expected), rel=1e-9, abs=1e-9 * scale)
+
+
+def test_the_issues_gravity_gradient_figure():
+    # Iz - Ix = 580 kg m^2 at 300 km, the Earth 45 deg off both: 1.2e-3 N m about pitch
+    r = orbit.R_EARTH_M + 300e3
+    gg = 3.0 * orbit.MU_EARTH_M3_S2 / r**3
+    j = np.diag([100.0, 650.0, 680.0])
+    n_b = np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)
+    out = np.zeros(3)
+    env.gravity_gradient(gg, j, n_b, out)
+    assert out[1] == pytest.approx(-gg * 580.0 / 2.0, rel=1e-12)
+    assert abs(out[1]) == pytest.approx(1.16e-3, rel=0.01)
+
+
+def test_the_atmosphere_is_its_table():
+    assert env.density_kg_m3(300e3) == pytest.approx(2.418e-11, rel=1e-12)
+    # one scale height above the base: 1/e
+    assert env.density_kg_m3(353.628e3 - 3.628e3 + 0.0) == pytest.approx(9.518e-12, rel=1e-12)
+    h = 320e3
+    assert env.density_kg_m3(h) == pytest.approx(2.418e-11 * math.exp(-20 / 53.628), rel=1e-12)

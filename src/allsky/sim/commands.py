@@ -62,9 +62,12 @@ from allsky.config.faults import MAX_FAULTS, describe, validate_fault
 from allsky.config.rules import NON_NEGATIVE, ConfigError, in_open_closed, number, type_name
 from allsky.config.schema import RULES
 from allsky.config.toml_io import read_toml, toml_key, toml_value
-from allsky.sequencer import ground
+from allsky.hardware import star_tracker
+from allsky.sequencer import ground, modes
 from allsky.sequencer.ground import Refused
+from allsky.sequencer.watch import sensors_in_use
 from allsky.sim import faults as sim_faults
+from allsky.sim import journal
 from allsky.sim import mission as mission_mod
 from allsky.vocabulary import FAULT_KIND, GROUND_COMMAND
 
@@ -359,23 +362,23 @@ class Station:
             def add(data):
                 data["faults"] = [*data.get("faults", []), entry]
             cfg = _amended(m, add)
-            return (lambda: m.amend(cfg)), {"fault": n}
+            return (lambda: amend(m, cfg)), {"fault": n}
         if kind == "clear_fault":
             cfg = _amended(m, lambda data: self._clear(data, fields["fault"]))
-            return (lambda: m.amend(cfg)), {}
+            return (lambda: amend(m, cfg)), {}
         if kind == "tracker_window":
             cfg = _amended(m, lambda data: data["star_tracker"].update(
                 magnitude_window=list(fields["magnitude_window"])))
-            return (lambda: m.amend(cfg)), {}
+            return (lambda: amend(m, cfg)), {}
         if kind == "bright_gate":
             cfg = _amended(m, lambda data: data["star_tracker"].update(
                 bright_gate=bool(fields["enabled"])))
-            return (lambda: m.amend(cfg)), {}
+            return (lambda: amend(m, cfg)), {}
         if kind == "step_on":
-            held = m.held_object()
+            held = held_object(m)
             if held is None:
                 raise Refused("star tracker 105 holds nothing to step on from")
-            return m.step_on, {"object": held}
+            return (lambda: step_on(m)), {"object": held}
         if kind in ground.SEQUENCER_COMMANDS:
             return self._sequencer(kind, fields), {}
         if kind == "resume" and not self.paused:
@@ -424,8 +427,8 @@ class Station:
 
         def effect():
             if cfg is not None:
-                m.amend(cfg, retarget=plan.target == "replace")
-            m.replan(plan.plan, plan.end_mode, text)
+                amend(m, cfg, retarget=plan.target == "replace")
+            replan(m, plan.plan, plan.end_mode, text)
         return effect
 
 
@@ -568,3 +571,125 @@ def read_log(path) -> tuple:
     if scenario is not None and not isinstance(scenario, Mapping):
         raise ConfigError("scenario", scenario, "must be a table of the scenario's sections")
     return scenario, data.get("commands", [])
+
+
+# -- the applying half: what a command does to the mission, at a frame boundary -------
+# The deciding half (:class:`Station`) says what a command means; these apply it
+# through the mission's declared interface (``fly_on_with``, ``interrupt``, its state,
+# journal and target log).
+
+def _python(f):
+    """The Python body of a compiled block (itself when compiling is off)."""
+    return getattr(f, "py_func", f)
+
+
+def amend(m, cfg, retarget=False) -> None:
+    """Fly on with scenario ``cfg`` from this frame boundary (a ground command).
+
+    What a command changes of the scenario mid-flight: a fault added (its
+    ``start_s`` onset armed) or ended (its ``duration_s``), star tracker
+    105's magnitude window and bright gate, the targets. The frame loop's
+    parameters are built again (:func:`allsky.sim.mission.build_params`, as for a scenario
+    that had the change from the start); a leg in flight goes on with
+    them. The tracker's memory is carried over by star name; a star it
+    held that the new window does not pass is lost, and the journal says
+    so. With ``retarget`` the target being flown becomes the new
+    scenario's at its index (``target.sequence``): a target whose Mode 6
+    has not begun.
+    """
+    old_names = mission_mod.tracker_star_names(m.cfg)
+    gate_before = m.params.tracker.bright_gate_mag
+    m.fly_on_with(cfg)
+    sim_faults.arm(m.state.fault_state, cfg.faults, m.params.clock)
+    new_names = mission_mod.tracker_star_names(cfg)
+    if new_names != old_names:
+        _carry_tracker(m, old_names, new_names)
+    if m.params.tracker.bright_gate_mag != gate_before:
+        m.state.tracker_lock[star_tracker.GATE] = 0.0
+    if retarget:
+        start = m.target_log[-1]["start_s"]
+        m.target_log[-1] = mission_mod.new_target_record(cfg, m.target_index, start)
+        m.state.target_inertial[:] = m.target_direction()
+
+def held_object(m):
+    """Name of the object star tracker 105 holds now: a star, "stray light", or None."""
+    held = int(m.state.tracker_lock[star_tracker.HELD])
+    if held == star_tracker.FALSE_TARGET:
+        return "stray light"
+    return mission_mod.tracker_star_names(m.cfg)[held] if held >= 0 else None
+
+def step_on(m) -> None:
+    """Star tracker 105 lets go of what it holds and ignores it until it leaves the slit.
+
+    The ground's ``step_on`` (:mod:`allsky.sim.commands`): the object is
+    remembered as the cone-angle check remembers a star it refused
+    (:func:`allsky.hardware.star_tracker.refuse_now`), so the search
+    passes it by; the journal's ``star_lock`` tells the lock's end.
+    """
+    lock = m.state.tracker_lock
+    held = lock[star_tracker.HELD]
+    _python(star_tracker.refuse_now)(lock, held, 0.0)
+    lock[star_tracker.NEW_REFUSAL] = star_tracker.NONE  # the ground's, not the check's
+    lock[star_tracker.HELD] = star_tracker.NONE
+
+def _carry_tracker(m, old_names, new_names) -> None:
+    """Star tracker 105's memory, from the star list ``old_names`` to ``new_names``."""
+    s = m.state
+    lock = s.tracker_lock
+
+    def index(k):
+        k = int(k)
+        if k < 0 or k >= len(old_names):  # nothing, or a glint
+            return k
+        return new_names.index(old_names[k]) if old_names[k] in new_names \
+            else star_tracker.NONE
+
+    held = int(lock[star_tracker.HELD])
+    if 0 <= held < len(old_names) and old_names[held] not in new_names:
+        star_in_use = _python(sensors_in_use)(s.switches, m.params.routing)[1]
+        m.note("star_lock", star=None, previous=old_names[held], cone_angle_deg=None,
+                  in_use=bool(star_in_use))
+    slots = (star_tracker.HELD, star_tracker.NEW_REFUSAL, star_tracker.DROPPED,
+             star_tracker.NEW_DROP, *range(star_tracker.REFUSED,
+                                           star_tracker.REFUSED + star_tracker.N_REFUSED))
+    for slot in slots:
+        lock[slot] = index(lock[slot])
+    if int(lock[star_tracker.HELD]) == star_tracker.FALSE_TARGET:
+        # A glint held is judged again against the new window from the next frame.
+        lock[star_tracker.HELD] = star_tracker.NONE
+    seen = s.journal_seen[journal.SEEN_STAR]
+    s.journal_seen[journal.SEEN_STAR] = -1.0 if index(seen) == star_tracker.NONE \
+        else index(seen)
+    k = int(s.locked_star[0])
+    if k >= 0:
+        if index(k) < 0:
+            m.locked_before = old_names[k]
+        s.locked_star[0] = index(k)
+
+def replan(m, plan, end_mode=False, reason="") -> None:
+    """Fly ``plan`` from the next mode on; with ``end_mode`` end the mode being flown.
+
+    A ground command's change of the plan (:mod:`allsky.sequencer.ground`):
+    ``plan`` is the whole plan, the modes flown and the one being flown
+    as they are. With ``end_mode`` the mode being flown ends at this
+    frame boundary, ``reason`` in its exit (its ``on_command`` steps
+    flown), and the plan goes on after it. A finished mission (complete
+    or aborted) flies again: its status is running and the abort reason
+    cleared (the journal and the timeline keep the abort).
+
+    Raises
+    ------
+    ValueError
+        ``plan`` changes a mode flown, or names a mode not in the table.
+    """
+    plan = tuple(plan)
+    in_mode = m.mode_in_flight is not None
+    kept = m.next_mode + (1 if in_mode else 0)
+    if plan[:kept] != tuple(m.plan[:kept]) or any(n not in modes.BY_NAME for n in plan):
+        raise ValueError(f"plan {plan} does not keep the modes flown {m.plan[:kept]}")
+    m.plan = plan
+    if end_mode:
+        m.interrupt(reason)
+    if m.finished and m.next_mode < len(plan):
+        m.status = "running"
+        m.abort_reason = None

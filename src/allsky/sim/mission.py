@@ -19,7 +19,6 @@ import numpy as np
 
 from allsky import clock, units, xmath
 from allsky.computer import targeting
-from allsky.computer import word_registers as wr
 from allsky.config import faults as fault_config
 from allsky.config.cross_rules import longest_mission_s
 from allsky.hardware import (
@@ -34,17 +33,21 @@ from allsky.hardware import (
     vfc,
     wiring,
 )
-from allsky.hardware.dac import dac
 from allsky.sequencer import dither, legs, modes
 from allsky.sequencer import master_sequencer as ms
-from allsky.sequencer.watch import sensors_in_use
-from allsky.sim import board, frame_loop, journal, results
+from allsky.sim import board, frame_loop, journal, record
 from allsky.sim import faults as sim_faults
 from allsky.sim import state as sim_state
-from allsky.sim.braking import flight_warning
+from allsky.sim.record import (  # noqa: F401 - the mission module's names, kept
+    STATE_FORMAT,
+    ModeRecord,
+    new_target_record,
+    target_name,
+    target_specs,
+    tracker_star_names,
+)
 from allsky.sim.telemetry import COLUMNS, INDEX
 from allsky.vehicle import environment, orbit, plant, quaternion, sky, wheels
-from allsky.vocabulary import AXES
 
 #: The telemetry's time column.
 TIME = INDEX["time"]
@@ -54,9 +57,6 @@ EXIT_TEXT = {
     legs.EXIT_SUN_LOST: "Sun lost",
     legs.EXIT_STAR_LOST: "star lost",
 }
-#: The layout of a snapshot; 4 since the clock became the frame index (a format-3
-#: state's times were summed floats, and its leg clock seconds).
-STATE_FORMAT = 4
 # The plans and the mode names, codes and titles live in the mode table
 # (allsky.sequencer.modes); here under the names scripts know.
 LEGACY_PLAN = modes.LEGACY_PLAN
@@ -105,16 +105,6 @@ class Hooks(NamedTuple):
 
 #: No hooks: the flight straight through.
 NO_HOOKS = Hooks()
-
-
-class ModeRecord(NamedTuple):
-    """One line of the mode timeline."""
-
-    mode: str  #: the mode's name in the mode table ("1" ... "6-2", "dither", ...)
-    start_s: float  #: [s] mission time the mode started
-    end_s: float  #: [s] mission time it ended
-    #: how it ended: the mode's exit text, "aborted: ..." or "ended by ground command: ..."
-    exit: str
 
 
 def orbit_span_s(cfg) -> float:
@@ -266,62 +256,12 @@ def ejection_state(cfg) -> sim_state.State:
     return state
 
 
-def target_specs(cfg) -> list:
-    """The scenario's targets in flight order: a star's name or an RA and Dec each.
-
-    Each is ``{"star": name}`` or ``{"ra_deg": ..., "dec_deg": ...}``, from
-    ``target.sequence`` when given, else the one target of ``target.star``
-    or ``target.ra_deg`` + ``target.dec_deg`` of scenario ``cfg``.
-    """
-    t = cfg.target
-    if t.sequence is not None:
-        return [{"star": e} if isinstance(e, str)
-                else {"ra_deg": float(e["ra_deg"]), "dec_deg": float(e["dec_deg"])}
-                for e in t.sequence]
-    if t.star is not None:
-        return [{"star": t.star}]
-    return [{"ra_deg": t.ra_deg, "dec_deg": t.dec_deg}]
-
-
-def target_name(spec) -> str:
-    """A target's name: the star's, or its RA and Dec [deg].
-
-    ``spec`` is a target as :func:`target_specs` gives one.
-    """
-    if "star" in spec:
-        return spec["star"]
-    return f"RA {spec['ra_deg']:g} deg, Dec {spec['dec_deg']:+g} deg"
-
-
 def target_inertial(cfg, index=0) -> np.ndarray:
     """Unit vector (inertial axes) to target ``index`` (from 0) of scenario ``cfg``."""
     spec = target_specs(cfg)[index]
     if "star" in spec:
         return sky.star_direction_inertial(spec["star"], cfg.mission.date_utc)
     return sky.radec_to_unit(spec["ra_deg"], spec["dec_deg"])
-
-
-def new_target_record(cfg, index, start_s) -> dict:
-    """The record of target ``index`` as its flight begins at ``start_s`` [s].
-
-    ``cfg`` is the scenario, whose targets :func:`target_specs` lists.
-
-    Keys: name, the target (star, or ra_deg and dec_deg), start_s and end_s
-    [s], programmed_roll_deg and programmed_yaw_deg; at the end of its Mode
-    6-2, where the sequencer declares it on target, the truth beside the
-    computer's judgement: pointing_error_arcsec (true), body_rate_deg_s
-    (true) and computed_error_arcsec (CPU 22's); hold (the hold's
-    measurements) and hold_end_pointing_error_arcsec, locked_star; None until
-    known. A target flown from the one before on the gyros
-    (``sequencer.between_targets = "direct"``) gains turn_roll_deg and
-    turn_yaw_deg, the turn CPU 22 formed (:meth:`Mission.targets`).
-    """
-    spec = target_specs(cfg)[index]
-    return {"name": target_name(spec), **spec, "start_s": float(start_s), "end_s": None,
-            "programmed_roll_deg": None, "programmed_yaw_deg": None,
-            "pointing_error_arcsec": None, "body_rate_deg_s": None,
-            "computed_error_arcsec": None, "hold_end_pointing_error_arcsec": None,
-            "hold": None, "locked_star": None}
 
 
 def reference_star_inertial(cfg) -> np.ndarray:
@@ -361,17 +301,6 @@ def gate_stars(cfg):
     stars = [sky.star(n, cfg.mission.date_utc) for n in sky.star_names()]
     return (np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars]).reshape(-1, 3),
             np.array([s.magnitude for s in stars]))
-
-
-def tracker_star_names(cfg) -> list:
-    """Names of the stars the tracker can lock, in the order of ``Params.tracker``.
-
-    ``cfg`` is the scenario: its magnitude window, date and wrong-star faults.
-    """
-    lo, hi = cfg.star_tracker.magnitude_window
-    names = [s.name for s in sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)]
-    # A wrong star (a fault) is tracked after the window's own (allsky.sim.faults).
-    return names + [s for s in sim_faults.wrong_stars(cfg.faults) if s not in names]
 
 
 class Mission:
@@ -431,41 +360,18 @@ class Mission:
         self.view = self.board.view
         self.next_mode = next_mode
         h = history or {}
-        self.timeline = [ModeRecord(*r) for r in h.get("timeline", [])]
-        self.leg_count = int(h.get("leg_count", 0))
-        self.counted_arcsec = dict(h.get("counted_arcsec", {}))
-        self.status = h.get("status", "running")
-        self.abort_reason = h.get("abort_reason")
-        self.programmed_roll_deg = h.get("programmed_roll_deg")
-        self.programmed_yaw_deg = h.get("programmed_yaw_deg")
-        #: [deg] the turn from the target held to the one flown (between_targets = "direct")
-        self.turn_roll_deg = h.get("turn_roll_deg")
-        self.turn_yaw_deg = h.get("turn_yaw_deg")
-        #: The Sun [inertial] the first target's angles were computed for: the reference
-        #: attitude every target's angles are measured from when flown one from the other
-        self.reference_sun_inertial = h.get("reference_sun_inertial")
-        #: The body axes CPU 22 holds after the turns from target to target ("direct")
-        self.held_axes = h.get("held_axes")
-        #: Measurements of the hold on target (master_sequencer.measure_hold); None if not flown.
-        self.hold = h.get("hold")
-        #: One record per target begun (:func:`new_target_record`); the last is being flown.
-        self.target_log = [dict(r) for r in h.get("targets", [])] or [
-            new_target_record(cfg, 0, 0.0)]
+        record.restore(self, h)  # what a snapshot's history holds (the inverse of snapshot)
         self.settle_s = float(cfg.sequencer.settle_time_s)
         self.pulse_weight_arcsec = float(cfg.electronics.vfc_pulse_weight_arcsec)
         self.apply_calibration = bool(cfg.calibration.apply)
-        self._tlm = []
-        #: the telemetry row of the last frame flown (the end of the record, when the flight
-        #: ends between two decimated rows); None before the first leg
-        self._last_row = None
-        #: the telemetry of the leg in flight, slice by slice (:meth:`telemetry`)
-        self._leg_tlm = []
+        #: the telemetry recorded so far, leg by leg (:class:`allsky.sim.record.TelemetryRecord`)
+        self._rows = record.TelemetryRecord(len(COLUMNS))
+        #: the eclipses and occultations journaled so far (a mission in orbit)
+        self._orbit_journal = record.OrbitJournal()
         #: a ground command's words once it has ended the mode being flown (:meth:`replan`)
         self._interrupt = None
         #: the scenario was amended inside a leg (:meth:`amend`): the leg takes its parameters
         self._amended = False
-        #: the star tracker 105 last held, by name, when a new magnitude window left it out
-        self._locked_before = h.get("locked_star_name")
         #: [frame] the frame by which the mode being flown must end (its timeout)
         self._mode_deadline = None
         self._allowed_s = None
@@ -473,8 +379,6 @@ class Mission:
         self._mode_start = None
         self._mode = None
         self._hooks = NO_HOOKS
-        #: What happened, in order (:class:`allsky.sim.journal.Journal`).
-        self.journal = journal.Journal(h.get("events"))
         self._decoder = self._new_decoder()
         #: True while :meth:`run_mode` flies a mode
         self._in_mode = False
@@ -516,29 +420,11 @@ class Mission:
             on_timeout=None, record_rows=0, carry_settle=False):
         """Run the frame loop until ``what`` happens; raise ModeAbort if it does not.
 
-        Returns the dither record (``record_rows`` rows at most) of the leg.
-        ``carry_settle``: the settle time goes on from the previous leg's.
-
-        Parameters
-        ----------
-        what : str
-            What the leg waits for, in words (journal, abort reasons).
-        program : int
-            What the computer runs: a ``PROGRAM_*`` of :mod:`allsky.sequencer.legs`.
-        watch : int
-            What ends the leg: a ``WATCH_*`` of :mod:`allsky.sequencer.legs`.
-        mask : int
-            Bits of the ``SIG_*`` signals that must settle.
-        signal : int
-            The ``SIG_*`` signal watched for a hand-over.
-        blank_s : float
-            [s] the watched signal is ignored this long after the leg starts.
-        hold_s : float, optional
-            [s] settle time, or the leg's length for an elapsed watch
-            (default: ``sequencer.settle_time_s``).
-        on_timeout : str, optional
-            The abort reason if the mode's deadline passes first (default:
-            ``what`` not achieved).
+        The leg of :meth:`allsky.sequencer.host.Host.leg`, whose parameters
+        (``what``, ``program``, ``watch``, ``mask``, ``signal``, ``blank_s``,
+        ``hold_s``, ``on_timeout``, ``record_rows``, ``carry_settle``) it
+        takes; ``hold_s`` None is ``sequencer.settle_time_s``. Returns the
+        leg's dither record (``record_rows`` rows at most).
         """
         ck = self.params.clock
         if hold_s is None:
@@ -558,14 +444,14 @@ class Mission:
                                                           else 0))
         every = params.telemetry_every
         # A slice's rows at most: the leg's rows are moved out after each slice (_run_leg).
-        # and one more: the row of the frame each slice ends on (:meth:`_keep_last_row`)
+        # and one more: the row of the frame each slice ends on (TelemetryRecord.slice)
         rows = min(leg.timeout_frames // every + 3, SLICE_FRAMES // every + 3) if every else 0
         buf = np.empty((rows, len(COLUMNS)))
         filled = np.zeros(1, dtype=np.int64)
         rec = np.empty((record_rows, frame_loop.N_REC))
         rec_filled = np.zeros(1, dtype=np.int64)
         code = self._run_leg(params, leg, what, buf, filled, rec, rec_filled)
-        rows_flown = self._end_leg_telemetry(every)
+        rows_flown = self._rows.end_leg(every)
         if hooks.after_leg is not None:
             hooks.after_leg(self, self._mode, what, rows_flown)
         if code == legs.EXIT_DONE:
@@ -642,9 +528,7 @@ class Mission:
                 code, _ = frame_loop.run_leg(params, self.state, leg, buf, filled, rec,
                                              rec_filled)
                 self._drain_journal()
-                self._slice_telemetry(buf, filled)
-                if len(buf) and not np.isnan(buf[-1, TIME]):
-                    self._last_row = buf[-1].copy()
+                self._rows.slice(buf, filled)
                 if code != legs.EXIT_PAUSE:
                     return code
                 leg = leg._replace(resume=1)
@@ -653,7 +537,7 @@ class Mission:
                 if self.frame >= step_at:
                     params = self._pause(hooks, what, params)
         except BaseException:
-            self._slice_telemetry(buf, filled)
+            self._rows.slice(buf, filled)
             raise
 
     def _next_pause(self, ck, every, asked) -> int:
@@ -685,69 +569,16 @@ class Mission:
             return self.params._replace(telemetry_every=params.telemetry_every)
         return params
 
-    def _slice_telemetry(self, buf, filled):
-        """Move the rows a slice recorded into the leg's telemetry."""
-        if filled[0]:
-            self._leg_tlm.append(buf[: filled[0]].copy())
-            filled[0] = 0
-
-    def _end_leg_telemetry(self, every):
-        """The leg's rows, kept as one piece of :meth:`telemetry`; returns them."""
-        rows = (np.vstack(self._leg_tlm) if self._leg_tlm
-                else np.empty((0, len(COLUMNS))))
-        self._leg_tlm = []
-        if every:
-            self._tlm.append(rows)
-        return rows
-
     def _drain_journal(self):
         """Move what the frame loop journaled into the journal (and the orbit's entries)."""
         s = self.state
         before = len(self.journal.events)
         if s.journal_n[0] or s.journal_n[1]:
             self.journal.drain(s.journal, s.journal_n, self._mode, self._decoder)
-        if self.params.orbit.n > 0 and self._orbit_journal():
+        if self.params.orbit.n > 0 and self._orbit_journal.note(self):
             # the slice's entries in the order of time (the loop's, then the orbit's, stably)
             ev = self.journal.events
             ev[before:] = sorted(ev[before:], key=lambda e: e["t_s"])
-
-    def _orbit_journal(self) -> bool:
-        """Journal the eclipses and occultations of the frames flown since the last call.
-
-        They depend on the orbit and the date only, not on the attitude: they
-        are found from the orbit's samples, interpolated as the frame loop
-        interpolates them (:mod:`allsky.vehicle.environment`), frame by frame.
-        Returns whether any entry was written.
-        """
-        o = self.params.orbit
-        first, last = getattr(self, "_orbit_frame", 0), self.frame
-        if last <= first:
-            return False
-        self._orbit_frame = last
-        ck = self.params.clock
-        f = environment.sunlit_series(o, first, last)
-        phase = np.where(f >= 1.0, 0, np.where(f <= 0.0, 2, 1))
-        prev = getattr(self, "_orbit_phase", 0)
-        wrote = False
-        names = ("sunlit", "penumbra", "umbra")
-        for k in np.nonzero(np.diff(np.concatenate([[prev], phase])))[0]:
-            self.journal.note(clock.time_s(ck, first + int(k)), self._mode, "eclipse",
-                              phase=names[phase[k]], active=bool(phase[k] != 0),
-                              sunlit_fraction=float(f[k]))
-            wrote = True
-        self._orbit_phase = int(phase[-1])
-        bodies = [*tracker_star_names(self.cfg)[:o.stars_inertial.shape[0]], "target"]
-        dirs = np.ascontiguousarray(np.vstack([o.stars_inertial,
-                                               np.asarray(self.state.target_inertial)[None]]))
-        hidden = environment.occulted_series(o, dirs, first, last)
-        seen = getattr(self, "_orbit_hidden", np.zeros(len(bodies), dtype=bool))
-        steps = np.diff(np.vstack([seen[None, :], hidden]).astype(np.int8), axis=0)
-        for k, j in zip(*np.nonzero(steps)):
-            self.journal.note(clock.time_s(ck, first + int(k)), self._mode, "occultation",
-                              body=bodies[j], active=bool(steps[k, j] > 0))
-            wrote = True
-        self._orbit_hidden = hidden[-1].copy()
-        return wrote
 
     # -- running ---------------------------------------------------------------
     @property
@@ -799,8 +630,7 @@ class Mission:
             self._hooks = NO_HOOKS
             self._interrupt = None
             self._in_mode = False
-            if self._leg_tlm:  # the part of a leg flown before an exception ended it
-                self._end_leg_telemetry(True)
+            self._rows.end_leg(True)  # the part of a leg flown before an exception ended it
         self.note("mode_end", exit=exit_text,
                   status="aborted" if self.status == "aborted" else "ended" if ended
                   else "done")
@@ -829,15 +659,11 @@ class Mission:
         return self.summary()
 
     def on_target(self) -> dict:
-        """The truth where Mode 6-2 declares the vehicle on target, and CPU 22's errors.
+        """The truth where Mode 6-2 declares the vehicle on target.
 
-        Keys: ``pointing_error_arcsec`` (true), ``body_rate_deg_s`` (true,
-        per axis), ``computed_error_arcsec`` (CPU 22's roll, pitch and yaw
-        errors, what the sequencer judged by).
+        Written by :func:`allsky.sim.record.on_target`.
         """
-        return {"pointing_error_arcsec": self.pointing_error_arcsec(),
-                "body_rate_deg_s": journal.rate_deg_s(self.state.x[4:7]),
-                "computed_error_arcsec": dict(zip(AXES, map(float, self.state.cpu[3:6])))}
+        return record.on_target(self)
 
     def program_target(self):
         """Ground computation of the programmed angles that register 24 will hold.
@@ -895,24 +721,11 @@ class Mission:
         self.state.target_inertial[:] = self.target_direction()
 
     def targets(self) -> list:
-        """The record of every target begun (:func:`new_target_record`), in flight order.
+        """The record of every target begun, in flight order.
 
-        The last one's is completed with what the mission holds now; its
-        ``end_s`` is the mission time once the mission is finished.
+        Written by :func:`allsky.sim.record.targets`.
         """
-        out = [dict(r) for r in self.target_log]
-        cur = out[-1]
-        hold = self.hold if self.hold is not None and "hold_s" in self.hold else None
-        cur.update(programmed_roll_deg=self.programmed_roll_deg,
-                   programmed_yaw_deg=self.programmed_yaw_deg, hold=hold,
-                   hold_end_pointing_error_arcsec=(hold["end_pointing_error_arcsec"]
-                                                   if hold else None),
-                   locked_star=self.locked_star())
-        if self.turn_roll_deg is not None:  # flown from the target before, on the gyros
-            cur.update(turn_roll_deg=self.turn_roll_deg, turn_yaw_deg=self.turn_yaw_deg)
-        if self.finished:
-            cur["end_s"] = self.now_s()
-        return out
+        return record.targets(self)
 
     # -- ground commands (allsky.sim.commands) ----------------------------------
     @property
@@ -920,119 +733,21 @@ class Mission:
         """Index in ``plan`` of the mode being flown; None between modes."""
         return self.next_mode if self._in_mode else None
 
-    def amend(self, cfg, retarget=False) -> None:
-        """Fly on with scenario ``cfg`` from this frame boundary (a ground command).
+    def fly_on_with(self, cfg) -> None:
+        """Fly on with scenario ``cfg`` from this frame boundary, its parameters built again.
 
-        What a command changes of the scenario mid-flight: a fault added (its
-        ``start_s`` onset armed) or ended (its ``duration_s``), star tracker
-        105's magnitude window and bright gate, the targets. The frame loop's
-        parameters are built again (:func:`build_params`, as for a scenario
-        that had the change from the start); a leg in flight goes on with
-        them. The tracker's memory is carried over by star name; a star it
-        held that the new window does not pass is lost, and the journal says
-        so. With ``retarget`` the target being flown becomes the new
-        scenario's at its index (``target.sequence``): a target whose Mode 6
-        has not begun.
+        For :func:`allsky.sim.commands.amend`: a leg in flight goes on with them.
         """
-        old_names = tracker_star_names(self.cfg)
-        gate_before = self.params.tracker.bright_gate_mag
         self.cfg = cfg
         params = build_params(cfg)
         self.params = params if self._telemetry else params._replace(telemetry_every=0)
         self._amended = True
-        sim_faults.arm(self.state.fault_state, cfg.faults, params.clock)
-        new_names = tracker_star_names(cfg)
-        if new_names != old_names:
-            self._carry_tracker(old_names, new_names)
-        if self.params.tracker.bright_gate_mag != gate_before:
-            self.state.tracker_lock[star_tracker.GATE] = 0.0
         self._decoder = self._new_decoder()
-        if retarget:
-            start = self.target_log[-1]["start_s"]
-            self.target_log[-1] = new_target_record(cfg, self.target_index, start)
-            self.state.target_inertial[:] = self.target_direction()
 
-    def held_object(self):
-        """Name of the object star tracker 105 holds now: a star, "stray light", or None."""
-        held = int(self.state.tracker_lock[star_tracker.HELD])
-        if held == star_tracker.FALSE_TARGET:
-            return "stray light"
-        return tracker_star_names(self.cfg)[held] if held >= 0 else None
-
-    def step_on(self) -> None:
-        """Star tracker 105 lets go of what it holds and ignores it until it leaves the slit.
-
-        The ground's ``step_on`` (:mod:`allsky.sim.commands`): the object is
-        remembered as the cone-angle check remembers a star it refused
-        (:func:`allsky.hardware.star_tracker.refuse_now`), so the search
-        passes it by; the journal's ``star_lock`` tells the lock's end.
-        """
-        lock = self.state.tracker_lock
-        held = lock[star_tracker.HELD]
-        _python(star_tracker.refuse_now)(lock, held, 0.0)
-        lock[star_tracker.NEW_REFUSAL] = star_tracker.NONE  # the ground's, not the check's
-        lock[star_tracker.HELD] = star_tracker.NONE
-
-    def _carry_tracker(self, old_names, new_names) -> None:
-        """Star tracker 105's memory, from the star list ``old_names`` to ``new_names``."""
-        s = self.state
-        lock = s.tracker_lock
-
-        def index(k):
-            k = int(k)
-            if k < 0 or k >= len(old_names):  # nothing, or a glint
-                return k
-            return new_names.index(old_names[k]) if old_names[k] in new_names \
-                else star_tracker.NONE
-
-        held = int(lock[star_tracker.HELD])
-        if 0 <= held < len(old_names) and old_names[held] not in new_names:
-            star_in_use = _python(sensors_in_use)(s.switches, self.params.routing)[1]
-            self.note("star_lock", star=None, previous=old_names[held], cone_angle_deg=None,
-                      in_use=bool(star_in_use))
-        slots = (star_tracker.HELD, star_tracker.NEW_REFUSAL, star_tracker.DROPPED,
-                 star_tracker.NEW_DROP, *range(star_tracker.REFUSED,
-                                               star_tracker.REFUSED + star_tracker.N_REFUSED))
-        for slot in slots:
-            lock[slot] = index(lock[slot])
-        if int(lock[star_tracker.HELD]) == star_tracker.FALSE_TARGET:
-            # A glint held is judged again against the new window from the next frame.
-            lock[star_tracker.HELD] = star_tracker.NONE
-        seen = s.journal_seen[journal.SEEN_STAR]
-        s.journal_seen[journal.SEEN_STAR] = -1.0 if index(seen) == star_tracker.NONE \
-            else index(seen)
-        k = int(s.locked_star[0])
-        if k >= 0:
-            if index(k) < 0:
-                self._locked_before = old_names[k]
-            s.locked_star[0] = index(k)
-
-    def replan(self, plan, end_mode=False, reason="") -> None:
-        """Fly ``plan`` from the next mode on; with ``end_mode`` end the mode being flown.
-
-        A ground command's change of the plan (:mod:`allsky.sequencer.ground`):
-        ``plan`` is the whole plan, the modes flown and the one being flown
-        as they are. With ``end_mode`` the mode being flown ends at this
-        frame boundary, ``reason`` in its exit (its ``on_command`` steps
-        flown), and the plan goes on after it. A finished mission (complete
-        or aborted) flies again: its status is running and the abort reason
-        cleared (the journal and the timeline keep the abort).
-
-        Raises
-        ------
-        ValueError
-            ``plan`` changes a mode flown, or names a mode not in the table.
-        """
-        plan = tuple(plan)
-        kept = self.next_mode + (1 if self._in_mode else 0)
-        if plan[:kept] != tuple(self.plan[:kept]) or any(n not in modes.BY_NAME for n in plan):
-            raise ValueError(f"plan {plan} does not keep the modes flown {self.plan[:kept]}")
-        self.plan = plan
-        if end_mode and self._in_mode:
+    def interrupt(self, reason) -> None:
+        """End the mode being flown at this frame boundary, ``reason`` in its exit."""
+        if self._in_mode:
             self._interrupt = reason or "ended"
-        if self.finished and self.next_mode < len(plan):
-            self.status = "running"
-            self.abort_reason = None
 
     # -- results ---------------------------------------------------------------
     def telemetry(self, start_row=0) -> np.ndarray:
@@ -1041,22 +756,7 @@ class Mission:
         Mid-leg (a hook's view) the rows of the leg in flight are included;
         ``start_row``: the rows from that one on (a live view's next rows).
         """
-        pieces, skip = [], int(start_row)
-        every = [*self._tlm, *self._leg_tlm]
-        last = self._last_row
-        if self.finished and last is not None and self._telemetry:
-            tail = next((p[-1, TIME] for p in reversed(every) if len(p)), -np.inf)
-            if last[TIME] > tail:  # the flight ended off the grid: its last frame ends it
-                every.append(last[None, :])
-        for piece in every:
-            if skip >= len(piece):
-                skip -= len(piece)
-                continue
-            pieces.append(piece[skip:])
-            skip = 0
-        if not pieces:
-            return np.empty((0, len(COLUMNS)))
-        return np.vstack(pieces)
+        return self._rows.rows(start_row, self.finished and self._telemetry)
 
     def orbit_telemetry(self, start_row=0):
         """The orbit's columns beside :meth:`telemetry`'s rows (from ``start_row``).
@@ -1081,198 +781,57 @@ class Mission:
     def locked_star(self):
         """Name of the star tracker 105 last held while in use; None before a lock."""
         k = int(self.state.locked_star[0])
-        return tracker_star_names(self.cfg)[k] if k >= 0 else self._locked_before
+        return tracker_star_names(self.cfg)[k] if k >= 0 else self.locked_before
 
     def calibration(self) -> dict:
-        """What the mission stored: the drift counted and applied, and register 23.
+        """What the mission stored: the drift counted and applied, register 23.
 
-        ``drift_deg_h`` is what drift counters 13/15/17 counted,
-        ``drift_applied_deg_h`` what drift DACs 7/9/11 apply from it: the
-        same unless the count is beyond a DAC's full scale
-        (:meth:`drift_dac_clipped`).
+        Written by :func:`allsky.sim.record.calibration`.
         """
-        el = self.params.electronics
-        lsb = el.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S
-        counted = [float(d * el.drift_lsb_arcsec_s) for d in self.state.drift_counters]
-        applied = [float(_python(dac)(int(d), el.drift_dac_bits, lsb))
-                   for d in self.state.drift_counters]
-        out = {"drift_deg_h": dict(zip(AXES, counted)),
-               "drift_applied_deg_h": dict(zip(AXES, applied))}
-        out.update(wr.computed_as_dict(self.state.word23))
-        return out
+        return record.calibration(self)
 
     def drift_dac_clipped(self) -> dict:
-        """Per axis: is the drift count beyond its drift DAC's full scale (7, 9, 11)?"""
-        bits = self.params.electronics.drift_dac_bits
-        return {axis: int(_python(dac)(int(d), bits, 1)) != int(d)
-                for axis, d in zip(AXES, self.state.drift_counters)}
+        """Per axis: is the drift count beyond its drift DAC's full scale?.
+
+        Written by :func:`allsky.sim.record.drift_dac_clipped`.
+        """
+        return record.drift_dac_clipped(self)
 
     def end(self) -> dict:
-        """The truth at the end of the flight (so far): time, target, error, rates, gas.
+        """The truth at the end of the flight (so far).
 
-        Keys: ``t_s`` [s], ``target`` (the last target begun), ``mode`` (the
-        last mode flown), ``true_pointing_error_arcsec``, ``body_rate_deg_s``
-        (roll, pitch, yaw), ``propellant_kg`` (used since ejection) and
-        ``propellant_remaining_kg``.
+        Written by :func:`allsky.sim.record.end`.
         """
-        return {"t_s": self.now_s(), "target": self.target_log[-1]["name"],
-                "mode": self._mode,
-                "true_pointing_error_arcsec": float(self.pointing_error_arcsec()),
-                "body_rate_deg_s": journal.rate_deg_s(self.state.x[4:7]),
-                "propellant_kg": float(self.cfg.jets.propellant_kg
-                                       - self.state.propellant_kg[0]),
-                "propellant_remaining_kg": float(self.state.propellant_kg[0])}
+        return record.end(self)
 
     def summary(self) -> dict:
         """The ``--json`` summary (a stable contract).
 
-        ``target`` is the first target: its programmed angles and its true
-        pointing error at the end of its flight (after its hold, if any).
-        ``targets`` lists every target begun (:meth:`targets`; one entry for
-        a single target), each with the truth where its Mode 6-2 declared it
-        on target. Beside the machine's judgement (``status``, the mode
-        timeline) stands what happened: ``end`` (:meth:`end`, the truth at
-        the end of the flight, the last target flown), ``drift_dac_clipped``
-        and ``counter_overflow``, ``warnings`` (one sentence for each thing a
-        reader must not miss, :func:`allsky.sim.results.warnings`) and
-        ``events``, the journal (:mod:`allsky.sim.journal`).
+        Written by :func:`allsky.sim.record.summary`.
         """
-        done = [r.mode for r in self.timeline]
-        records = self.targets()
-        first = records[0]
-        if len(records) == 1:
-            pointing = self.pointing_error_arcsec() if self.status == "complete" else None
-        else:  # the first target's flight has ended
-            pointing = (first["hold_end_pointing_error_arcsec"] if first["hold"] is not None
-                        else first["pointing_error_arcsec"])
-        target = {"programmed_roll_deg": first["programmed_roll_deg"],
-                  "programmed_yaw_deg": first["programmed_yaw_deg"],
-                  "pointing_error_arcsec": pointing}
-        target.update(target_specs(self.cfg)[0])
-        calibration = self.calibration() if ("5" in done or "dither" in done) else None
-        out = {
-            "status": self.status,
-            "abort_reason": self.abort_reason,
-            "modes": [{"mode": r.mode, "start_s": r.start_s, "end_s": r.end_s, "exit": r.exit}
-                      for r in self.timeline],
-            "calibration": calibration,
-            "truth": gyro.perfect_calibration(self.params.gyro,
-                                              self.params.vfc.integrator_drift_arcsec_s),
-            "calibration_applied": self.apply_calibration,
-            "target": target,
-            "propellant_kg": float(self.cfg.jets.propellant_kg - self.state.propellant_kg[0]),
-            "mission_time_s": self.now_s(),
-            "seed": int(self.cfg.mission.seed),
-            "reference_star": self.cfg.star_tracker.reference_star,
-            "locked_star": self.locked_star(),
-            "counter_overflow": {
-                name: bool(f) for name, f in zip(
-                    ("counter14", "counter16", "counter18", "drift13", "drift15", "drift17"),
-                    self.state.overflow)},
-            "drift_dac_clipped": self.drift_dac_clipped(),
-            "end": self.end(),
-        }
-        if first["hold"] is not None:
-            out["hold"] = first["hold"]
-        if self.cfg.faults:
-            out["faults"] = [{**f, "onset_s": (clock.time_s(self.params.clock, int(onset))
-                                               if onset >= 0.0 else None)}
-                             for f, onset in zip(self.cfg.as_dict()["faults"],
-                                                 self.state.fault_state[sim_faults.ONSET])]
-        out["targets"] = records
-        if self.cfg.actuators.kind == "wheels":
-            out["wheels"] = self.wheel_summary()
-        if self.params.orbit.n > 0:
-            out["orbit"] = self.orbit_summary()
-        out["warnings"] = results.warnings(out, self.journal, fault_config.describe,
-                                           self.params.sequencer.settle_threshold_arcsec)
-        braking = flight_warning(self.cfg, self.state.propellant_kg[0])
-        if braking is not None:  # the scenario's, before any time: first
-            out["warnings"].insert(0, braking)
-        out["events"] = [dict(e) for e in self.journal.events]
-        return out
+        return record.summary(self)
 
     def orbit_summary(self) -> dict:
-        """The orbit's part of the summary (a mission in orbit only).
+        """The orbit's part of the summary.
 
-        ``sunlit_fraction`` of the Sun's disk at the end; ``sunlit_margin_s``,
-        the time from the end of the flight to the next orbit sunset (the
-        onset of the penumbra; 0 in the shadow, None past the orbit's
-        samples); ``eclipsed_s`` and ``occulted``, the time spent in the
-        shadow and the bodies the Earth hid while flying; ``torques``, each
-        environment torque's ``peak_n_m`` and ``impulse_n_m_s`` (its
-        magnitude integrated over the flight), or None where it is off.
+        Written by :func:`allsky.sim.record.orbit_summary`.
         """
-        o = self.params.orbit
-        ck = self.params.clock
-        end = self.frame
-        horizon = (o.n - 1) * o.step_frames
-        ahead = environment.sunlit_series(o, end, max(end, horizon))
-        dark = np.nonzero(ahead < 1.0)[0]
-        margin = None if dark.size == 0 else clock.time_s(ck, int(dark[0]))
-        flown = environment.sunlit_series(o, 0, end)
-        keys = {"gravity_gradient": self.cfg.orbit.gravity_gradient,
-                "aerodynamic": self.cfg.orbit.aerodynamic,
-                "solar_pressure": self.cfg.orbit.solar_pressure}
-        torques = {name: ({"peak_n_m": float(o.peak[environment.PEAK, i]),
-                           "impulse_n_m_s": float(o.peak[environment.IMPULSE, i])}
-                          if on else None) for i, (name, on) in enumerate(keys.items())}
-        occulted = sorted({e["body"] for e in self.journal.of_kind("occultation")
-                           if e["active"]})
-        return {"kind": self.cfg.orbit.kind,
-                "sunlit_fraction": float(ahead[0]) if ahead.size else None,
-                "sunlit_margin_s": margin,
-                "eclipsed_s": clock.time_s(ck, int(np.count_nonzero(flown < 1.0))),
-                "occulted": occulted,
-                "torques": torques}
+        return record.orbit_summary(self)
 
     def wheel_summary(self) -> dict:
-        """The reaction wheels at the end: momenta, the largest fraction of a limit held."""
-        n = len(self.cfg.wheels.axes)
-        h = self.state.wheel_h[:n]
-        return {"momentum_n_m_s": [float(x) for x in h],
-                "speed_rad_s": [float(x) for x in wheels.wheel_speeds_rad_s(
-                    self.params.wheels, h, self.state.x[4:7])],
-                "peak_momentum_fraction": float(self.state.wheel_peak_fraction[0]),
-                "unloading_propellant_kg": float(self.cfg.jets.propellant_kg
-                                                 - self.state.propellant_kg[0])}
+        """The reaction wheels at the end.
+
+        Written by :func:`allsky.sim.record.wheel_summary`.
+        """
+        return record.wheel_summary(self)
 
     # -- snapshot / resume ---------------------------------------------------------
     def snapshot(self):
-        """The mission at the current mode boundary, as data to keep and resume from.
+        """The mission at the current mode boundary, as data to resume from.
 
-        :mod:`allsky.apps.states` writes it to a file and reads it back.
-
-        Returns
-        -------
-        history : dict
-            JSON-serialisable: ``format`` (:data:`STATE_FORMAT`), plan, timeline,
-            next mode, leg count, counted angles, status, abort reason,
-            programmed angles, the scenario (:meth:`Scenario.as_dict`), once
-            flown, the hold's measurements and, with several targets, their
-            records (:meth:`targets`).
-        arrays : dict of numpy.ndarray
-            Copies of the state arrays, by :class:`allsky.sim.state.State` field.
+        Written by :func:`allsky.sim.record.snapshot`.
         """
-        history = {"format": STATE_FORMAT, "next_mode": self.next_mode, "plan": list(self.plan),
-                   "timeline": [list(r) for r in self.timeline], "leg_count": self.leg_count,
-                   "counted_arcsec": self.counted_arcsec, "status": self.status,
-                   "abort_reason": self.abort_reason,
-                   "programmed_roll_deg": self.programmed_roll_deg,
-                   "programmed_yaw_deg": self.programmed_yaw_deg,
-                   "scenario": self.cfg.as_dict(),
-                   "events": [dict(e) for e in self.journal.events]}
-        if self.hold is not None:
-            history["hold"] = self.hold
-        for key in ("turn_roll_deg", "turn_yaw_deg", "reference_sun_inertial", "held_axes"):
-            if getattr(self, key) is not None:
-                history[key] = getattr(self, key)
-        if self._locked_before is not None:
-            history["locked_star_name"] = self._locked_before
-        if len(self.target_log) > 1 or self.cfg.target.sequence is not None:
-            history["targets"] = [dict(r) for r in self.target_log]
-        arrays = {k: v.copy() for k, v in self.state._asdict().items()}
-        return history, arrays
+        return record.snapshot(self)
 
     @classmethod
     def from_snapshot(cls, history, arrays, telemetry=True):
@@ -1288,23 +847,9 @@ class Mission:
         KeyError
             A state array missing from ``arrays``.
         """
-        from allsky.config import scenario_from_dict
-
-        if history.get("format") != STATE_FORMAT:
-            raise ValueError(f"a mission state of format {history.get('format')!r}, not "
-                             f"{STATE_FORMAT} (format 3 held summed times, before the exact "
-                             "clock)")
-        # Copies, so that one snapshot can be resumed any number of times; the arrays
-        # added since the format's first files stand for what an older file meant.
-        arrays = {**newer_state_arrays(), **arrays}
-        lock = np.asarray(arrays["tracker_lock"], dtype=float)
-        if lock.shape[0] < star_tracker.N_LOCK:  # entries added since: as a new lock's
-            arrays["tracker_lock"] = np.concatenate([lock, star_tracker.new_lock()[lock.shape[0]:]])
-        state = sim_state.State(**{k: np.array(arrays[k], copy=True)
-                                   for k in sim_state.State._fields})
-        cfg = scenario_from_dict(history["scenario"])
-        return cls(cfg, telemetry=telemetry, state=state, next_mode=history["next_mode"],
-                   history=history)
+        cfg, state, next_mode, history = record.resume_args(history, arrays,
+                                                            newer_state_arrays())
+        return cls(cfg, telemetry=telemetry, state=state, next_mode=next_mode, history=history)
 
 
 def newer_state_arrays() -> dict:

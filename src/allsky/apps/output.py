@@ -331,7 +331,10 @@ def _identity(path: Path):
     try:
         st = os.fstat(fd) if fd is not None else os.stat(path)
     except (OSError, ValueError):
-        return ("path", os.path.realpath(path))
+        try:
+            return ("path", os.path.realpath(path))
+        except ValueError:  # a NUL in the path: no file, the reader says so
+            return ("path", str(path))
     if stat.S_ISCHR(st.st_mode) and os.path.exists(os.devnull) and (
             st.st_rdev == os.stat(os.devnull).st_rdev):
         return None  # the null device takes any number of outputs

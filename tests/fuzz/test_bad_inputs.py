@@ -28,7 +28,7 @@ from allsky.sim.mission import Mission
 
 CLASSES = ("scenario", "disperse", "commands", "summary", "telemetry", "state", "path")
 #: Inputs per class: the default run, and the long campaign.
-SHORT, LONG = 12, 160
+SHORT, LONG = 12, 210
 
 
 class Valid:

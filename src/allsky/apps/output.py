@@ -116,8 +116,11 @@ _completed = []
 
 
 def written_files() -> list:
-    """The outputs written whole so far, in order (a message after an interruption names
-    them); :func:`forget_written` starts the list again for a new command."""
+    """The outputs written whole so far, in order.
+
+    A message after an interruption names them; :func:`forget_written`
+    starts the list again for a new command.
+    """
     return list(_completed)
 
 

@@ -130,8 +130,9 @@ def _state_mutant(rng, data: bytes, tmp) -> bytes:
         name = rng.choice([k for k in members if k != "history"])
         a = members[name].copy()
         if a.size:
-            a.flat[rng.randrange(a.size)] = rng.choice([10**6, -5, 3, 2**40]) if (
-                a.dtype.kind in "iu") else rng.choice([np.nan, 1e300, -1.0, 7.0])
+            value = rng.choice([10**6, -5, 3, 2**40]) if a.dtype.kind in "iu" else (
+                rng.choice([np.nan, 1e300, -1.0, 7.0]))
+            a.flat[rng.randrange(a.size)] = np.array(value).astype(a.dtype)
         members[name] = a
     else:
         return _flip(rng, data)

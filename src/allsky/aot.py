@@ -118,7 +118,7 @@ def file_digest(path) -> dict:
 
 
 def manifest_problem(m) -> str | None:
-    """What makes ``m`` not a manifest of the shape :mod:`allsky.apps.aot_build` writes."""
+    """What makes ``m`` not a manifest of the shape the build writes, or None."""
     if not isinstance(m, dict):
         return "not a JSON object"
     for key in ("stamp", "cache_tag"):

@@ -128,7 +128,7 @@ def _digest(path) -> str:
 
 
 def set_aside(path, why) -> None:
-    """Move a damaged cache file out of numba's way, saying so in one line on stderr."""
+    """Move the damaged cache file ``path`` aside; one line on stderr says ``why``."""
     try:
         os.replace(path, path + SET_ASIDE)
         where = f"set aside as {os.path.basename(path)}{SET_ASIDE}"

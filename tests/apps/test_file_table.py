@@ -112,3 +112,9 @@ def test_the_interrupted_line_names_what_was_written(tmp_path):
     assert line.startswith("allsky: interrupted; nothing half-written")
     assert line.endswith(f"written whole: {tmp_path / 'a.json'}")
     output.forget_written()
+
+
+def test_a_nul_in_an_input_path_is_a_usage_error(tmp_path, capsys, monkeypatch):
+    monkeypatch.undo()  # the reader itself refuses it (no flight: plot reads first)
+    err = _refused(["plot", str(tmp_path / "\x07\x00.csv")], capsys, "telemetry file")
+    assert "\x00" not in err and "\x07" not in err

@@ -28,7 +28,7 @@ from allsky.sim.mission import Mission
 
 CLASSES = ("scenario", "disperse", "commands", "summary", "telemetry", "state", "path")
 #: Inputs per class: the default run, and the long campaign.
-SHORT, LONG = 12, 160
+SHORT, LONG = 12, 210
 
 
 class Valid:
@@ -130,8 +130,9 @@ def _state_mutant(rng, data: bytes, tmp) -> bytes:
         name = rng.choice([k for k in members if k != "history"])
         a = members[name].copy()
         if a.size:
-            a.flat[rng.randrange(a.size)] = rng.choice([10**6, -5, 3, 2**40]) if (
-                a.dtype.kind in "iu") else rng.choice([np.nan, 1e300, -1.0, 7.0])
+            value = rng.choice([10**6, -5, 3, 2**40]) if a.dtype.kind in "iu" else (
+                rng.choice([np.nan, 1e300, -1.0, 7.0]))
+            a.flat[rng.randrange(a.size)] = np.array(value).astype(a.dtype)
         members[name] = a
     else:
         return _flip(rng, data)

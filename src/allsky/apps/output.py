@@ -116,8 +116,11 @@ _completed = []
 
 
 def written_files() -> list:
-    """The outputs written whole so far, in order (a message after an interruption names
-    them); :func:`forget_written` starts the list again for a new command."""
+    """The outputs written whole so far, in order.
+
+    A message after an interruption names them; :func:`forget_written`
+    starts the list again for a new command.
+    """
     return list(_completed)
 
 
@@ -331,7 +334,10 @@ def _identity(path: Path):
     try:
         st = os.fstat(fd) if fd is not None else os.stat(path)
     except (OSError, ValueError):
-        return ("path", os.path.realpath(path))
+        try:
+            return ("path", os.path.realpath(path))
+        except ValueError:  # a NUL in the path: no file, the reader says so
+            return ("path", str(path))
     if stat.S_ISCHR(st.st_mode) and os.path.exists(os.devnull) and (
             st.st_rdev == os.stat(os.devnull).st_rdev):
         return None  # the null device takes any number of outputs

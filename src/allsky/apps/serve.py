@@ -92,7 +92,7 @@ _HOST = re.compile(r"^(?:[A-Za-z0-9](?:[A-Za-z0-9.-]{0,252})|\[[0-9A-Fa-f:.]{2,4
 
 
 def clean_host(value):
-    """A request's Host header, lowercased, or None when it is not a plain host[:port]."""
+    """A Host header ``value``, lowercased, or None when it is not a plain host[:port]."""
     if not isinstance(value, str) or not _HOST.match(value):
         return None
     return value.lower()

@@ -25,7 +25,7 @@ SUMMARY_FORMAT = 1
 
 
 def summary_text(summary) -> str:
-    """The JSON text of a mission summary as ``--json`` writes it: ``format`` first."""
+    """The JSON text of mission ``summary`` as ``--json`` writes it: ``format`` first."""
     return json.dumps({"format": SUMMARY_FORMAT, **summary}, indent=2) + "\n"
 
 

@@ -52,9 +52,11 @@ def _cache_dirs(entries):
 
 
 def cache_problems(directory) -> tuple:
-    """``(files, damaged)`` of numba's cache in ``directory``: each index and data file
-    checked as a command loads it (it unpickles; a data file matches its recorded size and
-    sha256), without changing any."""
+    """``(files, damaged)`` of numba's cache in ``directory``, changing nothing.
+
+    Each index and data file is checked as a command loads it: it unpickles,
+    and a data file matches its recorded size and sha256.
+    """
     import os
     import pickle
 
@@ -94,8 +96,10 @@ def cache_problems(directory) -> tuple:
 
 
 def check() -> int:
-    """``allsky warm-up --check``: what is installed, compiled and cached, and whether it
-    loads; changes nothing. Exit 0 when nothing is damaged, 1 otherwise."""
+    """``allsky warm-up --check``: what is installed, compiled, cached; does it load.
+
+    Changes nothing. Exit 0 when nothing is damaged, 1 otherwise.
+    """
     import os
 
     import numba

@@ -90,12 +90,13 @@ FIFO_PARTNER_S = 1.0
 
 
 def open_fifo_waiting(path, mode: str, what: str):
-    """Open ``path`` with ``mode``; a FIFO with no other end is reported, then waited for.
+    """Open ``path``; a FIFO with no other end is reported, then waited for.
 
     Opening a FIFO blocks until a process opens its other end (a reader for
     an output, a writer for an input). After :data:`FIFO_PARTNER_S` one line
     on stderr says what is awaited; the wait goes on (Ctrl-C ends it). Any
-    other path is opened at once. ``what`` names the file in the line.
+    other path is opened at once. ``mode`` is :func:`open`'s; ``what`` names
+    the file in the line.
     """
     try:
         is_fifo = stat.S_ISFIFO(os.stat(path).st_mode)

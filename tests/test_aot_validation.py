@@ -21,10 +21,10 @@ def package(tmp_path, monkeypatch):
     monkeypatch.setattr(aot, "MANIFEST", str(pkg / "_aot.json"))
     monkeypatch.setattr(aot, "stamp", lambda: "s")
     monkeypatch.setattr(aot, "cpu_fingerprint", lambda: "c")
-    aot._manifest.cache_clear()
+    aot.read_manifest.cache_clear()
     aot._module_if_valid.cache_clear()
     yield pkg
-    aot._manifest.cache_clear()
+    aot.read_manifest.cache_clear()
     aot._module_if_valid.cache_clear()
 
 
@@ -59,7 +59,7 @@ BAD_MANIFESTS = ['{"stamp": 1}', "[1, 2]", '{"stamp": "s", "cache_tag": "x", "ex
 @pytest.mark.parametrize("text", BAD_MANIFESTS)
 def test_a_manifest_of_the_wrong_shape_is_bypassed(package, capsys, text):
     (package / "_aot.json").write_text(text)
-    assert aot._manifest() is None and aot._module_if_valid() is None
+    assert aot.read_manifest() is None and aot._module_if_valid() is None
     _one_note(capsys, "manifest")
 
 

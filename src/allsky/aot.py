@@ -144,7 +144,11 @@ def _note(text):
 
 
 @functools.lru_cache(maxsize=1)
-def _manifest():
+def read_manifest():
+    """The built extension's manifest, checked for its shape; None if absent or damaged.
+
+    A damaged one is said in one line and bypassed (the missions use numba's loop).
+    """
     try:
         with open(MANIFEST, encoding="utf-8") as f:
             m = json.load(f)
@@ -198,7 +202,7 @@ def extension_problem(m) -> str | None:
 def _module_if_valid():
     """The extension module when its manifest matches this tree and CPU and its file is
     whole (:func:`extension_problem`); else None."""
-    m = _manifest()
+    m = read_manifest()
     if (m is None or os.environ.get("ALLSKY_AOT", "1") == "0"
             or os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
             or m.get("cache_tag") != sys.implementation.cache_tag
@@ -243,7 +247,7 @@ def entry(qualified: str, args):
     module = _module_if_valid()
     if module is None:
         return None
-    want = _manifest()["exports"].get(qualified)
+    want = read_manifest()["exports"].get(qualified)
     if want is None or len(want) != len(args):
         return None
     if any(_structure_of(a) != w for a, w in zip(args, want, strict=True)):

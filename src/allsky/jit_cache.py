@@ -119,7 +119,8 @@ SET_ASIDE = ".damaged"
 DIGEST = ".sha256"
 
 
-def _digest(path) -> str:
+def cache_digest(path) -> str:
+    """What a cache file at ``path`` is checked by: its size and sha256, in one line."""
     h = hashlib.sha256()
     with open(path, "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
@@ -176,7 +177,7 @@ def _healing(cache_file_class):
                 want = f.read().strip()
         except OSError:
             want = None
-        if want is not None and os.path.exists(path) and _digest(path) != want:
+        if want is not None and os.path.exists(path) and cache_digest(path) != want:
             set_aside(path, "its size or sha256 is not what was saved")
             raise OSError(f"{path}: damaged")
         try:
@@ -192,7 +193,7 @@ def _healing(cache_file_class):
         path = self._data_path(name)
         try:
             with open(path + DIGEST, "w", encoding="ascii") as f:
-                f.write(_digest(path) + "\n")
+                f.write(cache_digest(path) + "\n")
         except OSError:  # not writable: the data file is still checked by unpickling
             pass
 

@@ -173,3 +173,25 @@ def test_a_study_s_loads_are_journaled_as_its_own():
             axis = AXES[board.DRIFT_COUNTERS.index(e["register"])]
             assert e["value"] == pytest.approx(cal["drift_applied_deg_h"][axis], rel=1e-12)
             assert abs(e["value"] - [1.0, -0.5, 0.25][AXES.index(axis)]) < 0.01
+
+
+def test_the_summary_s_fields_are_declared_and_checked():
+    """A summary carries only declared fields, every one it must; a stray key is refused."""
+    from allsky.sim import record
+
+    m = Mission(load_scenario(), telemetry=False)
+    summary = m.run()
+    assert set(summary) <= set(record.SUMMARY_FIELD)
+    assert {f.name for f in record.SUMMARY_FIELDS if f.always} <= set(summary)
+    with pytest.raises(ValueError, match="undeclared"):
+        record.check_summary({**summary, "pointing_eror": 1.0})
+    with pytest.raises(ValueError, match="missing"):
+        record.check_summary({k: v for k, v in summary.items() if k != "status"})
+
+
+def test_what_readers_check_of_a_summary_is_declared():
+    """apps/summaries checks a summary read back by a shape whose fields are all declared."""
+    from allsky.apps import summaries
+    from allsky.sim import record
+
+    assert {k.rstrip("!") for k in summaries.SHAPE} <= set(record.SUMMARY_FIELD)

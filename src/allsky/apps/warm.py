@@ -84,7 +84,7 @@ def cache_problems(directory) -> tuple:
                     want = f.read().strip()
             except OSError:
                 want = None
-            if want is not None and jit_cache._digest(path) != want:
+            if want is not None and jit_cache.cache_digest(path) != want:
                 damaged.append(f"{path} (its size or sha256 is not what was saved)")
                 continue
             try:
@@ -114,7 +114,7 @@ def check() -> int:
     if not os.path.exists(aot.MANIFEST):
         print("ahead of time: not built (missions use numba's compiled loop)")
     else:
-        m = aot._manifest()
+        m = aot.read_manifest()
         if m is None:
             print("ahead of time: the manifest is damaged (bypassed)")
             bad += 1

@@ -29,7 +29,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from allsky import xmath
+from allsky import xarrays, xmath
 from allsky.jit import njit
 from allsky.units import RAD2ARCSEC
 
@@ -102,7 +102,7 @@ def hann(n) -> np.ndarray:
     The window ``numpy.hanning`` gives, with the exact cosine."""
     if n == 1:
         return np.ones(1)
-    return np.array([0.5 - 0.5 * xmath.cos(2.0 * math.pi * k / (n - 1)) for k in range(n)])
+    return 0.5 - 0.5 * xarrays.cos_many(2.0 * math.pi * np.arange(n, dtype=float) / (n - 1))
 
 
 def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
@@ -143,10 +143,11 @@ def fft_amplitude(x, sample_s, freq_hz, window="rect", integrating=True):
         w = hann(n)
     w_sum = _weighted_sum(w)
     y = y - _weighted_sum(w * y) / w_sum
-    angles = [omega * ((j + first) * sample_s) for j in range(n)]
+    # the same bits as xmath.sin/cos of each angle, compiled (allsky.xarrays)
+    angles = omega * (np.arange(first, n + first, dtype=float) * sample_s)
     wy = w * y
-    re = _weighted_sum(wy * np.array([xmath.cos(a) for a in angles]))
-    im = -_weighted_sum(wy * np.array([xmath.sin(a) for a in angles]))
+    re = _weighted_sum(wy * xarrays.cos_many(angles))
+    im = -_weighted_sum(wy * xarrays.sin_many(angles))
     # For |c| sin(w t + arg c) = Im(c e^{i w t}) the single-bin DFT gives c / (2i).
     c = 2j * complex(re, im) / w_sum
     return c / (1.0 - phasor(-omega * sample_s)) if integrating else c
@@ -166,8 +167,8 @@ def lsq_amplitude(x, sample_s, freq_hz, trend_order=2):
     t = np.arange(x.size) * sample_s
     wt = 2.0 * math.pi * freq_hz * t
     tn = t / max(t[-1], 1e-12)
-    cols = [np.array([xmath.sin(float(a)) for a in wt]),
-            np.array([xmath.cos(float(a)) for a in wt]), np.ones_like(tn)]
+    cols = [xarrays.sin_many(np.asarray(wt, dtype=float)),
+            xarrays.cos_many(np.asarray(wt, dtype=float)), np.ones_like(tn)]
     for _ in range(trend_order):
         cols.append(cols[-1] * tn)  # tn^k by products: NumPy's power calls the C library
     coef = xmath.lstsq(np.column_stack(cols), x)

@@ -145,7 +145,7 @@ def _note(text):
 
 @functools.lru_cache(maxsize=1)
 def read_manifest():
-    """The built extension's manifest, checked for its shape; None if absent or damaged.
+    """The built extension's manifest, its shape checked; None if absent or damaged.
 
     A damaged one is said in one line and bypassed (the missions use numba's loop).
     """

@@ -40,9 +40,11 @@ import time
 import traceback
 
 from allsky import __version__
+from allsky.apps.output import ENDING_SIGNALS
 
 # Nothing else of allsky is imported here: `allsky --help` parses and prints without numpy,
-# numba or matplotlib, and each command imports its own module when it runs (_run).
+# numba or matplotlib, and each command imports its own module when it runs (_run). The
+# signals that end a command as Ctrl-C does (EXIT_INTERRUPTED) are output's.
 
 #: The exit codes of every command.
 EXIT_CODES = {
@@ -57,10 +59,6 @@ EXIT_CODES = {
          "written (a closed or full stdout: exit 2 and one line)",
 }
 EXIT_ABORTED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 130
-#: The signals that end a command as Ctrl-C does (:data:`EXIT_INTERRUPTED`): SIGHUP comes
-#: from a closed terminal or a dropped ssh session.
-ENDING_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
-                       if hasattr(signal, n))
 #: 128 + SIGPIPE, what a shell reports for a writer whose pipe closed.
 EXIT_STDOUT_GONE = 141
 #: The options that mean the same on every command that has them.

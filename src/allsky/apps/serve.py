@@ -921,7 +921,7 @@ def run_from_cli(cfg, args) -> int:
         signalled.append(signum)
         flight.commands.put(({"kind": "end"}, (None, None)))
 
-    from allsky.apps.cli import ENDING_SIGNALS
+    from allsky.apps.output import ENDING_SIGNALS
 
     # A hang-up (the terminal closed, ssh dropped) ends the session as Ctrl-C does: the
     # summary, telemetry and command log are written.

@@ -27,6 +27,7 @@ from allsky.config.schema import (
 from allsky.config.toml_io import iso_utc
 from allsky.units import DEG2ARCSEC
 from allsky.vehicle import sky
+from allsky.vehicle.sky import check_to_pass_deg, cone_angle_deg
 
 
 def _frame_fits_jet_minimum(v):
@@ -277,7 +278,6 @@ def _cone_check_passes_the_reference_star(v):
     check = v["star_tracker.cone_angle_check_deg"]
     if check <= 0.0:
         return
-    from allsky.hardware.star_tracker import check_to_pass_deg, cone_angle_deg
 
     name, date = v["star_tracker.reference_star"], v["mission.date_utc"]
     sun = sky.sun_direction_inertial(date)

@@ -53,6 +53,7 @@ from allsky import xmath
 from allsky.gauss import standard_normal
 from allsky.jit import njit, njit_stage
 from allsky.units import RAD2ARCSEC
+from allsky.vehicle.sky import check_to_pass_deg, cone_angle_deg, edge_pitch_deg  # noqa: F401
 
 #: What the tracker holds when it holds no star of the catalog but a false target (a glint
 #: of stray light): its index is neither a star's nor -1 (nothing in the slit).
@@ -165,43 +166,6 @@ def new_lock() -> np.ndarray:
     return lock
 
 
-def cone_angle_deg(sun_star_angle_deg) -> float:
-    """The cone angle [deg] of a star this far from the Sun, the roll axis on the Sun.
-
-    The pitch output ``atan2(s_x, s_z)`` of a star at zero yaw, ``s_x = cos
-    theta`` along the roll axis and ``s_z = sin theta``: 90 deg - theta.
-    ``sun_star_angle_deg`` is theta [deg].
-    """
-    return 90.0 - float(sun_star_angle_deg)
-
-
-def edge_pitch_deg(cone_deg, narrow_half_deg) -> float:
-    """The pitch output [deg] of a star of cone angle ``cone_deg`` at the slit's edge.
-
-    A roll search brings a star into the slit across its narrow width: the
-    tracker finds it at yaw ``narrow_half_deg``, where ``s = (sin c, -cos c
-    sin psi, cos c cos psi)`` and the pitch output ``atan2(s_x, s_z)`` is
-    ``atan(tan c / cos psi)``, further from zero than the cone angle c. The
-    cone-angle check judges this output against the reference star's cone
-    angle, so a check passes a star of cone angle c by the slit's own
-    geometry, not by c alone.
-    """
-    c, psi = math.radians(cone_deg), math.radians(narrow_half_deg)
-    return math.degrees(xmath.atan(xmath.tan(c) / xmath.cos(psi)))
-
-
-def check_to_pass_deg(cone_deg, reference_cone_deg, narrow_half_deg) -> float:
-    """The smallest cone-angle check [deg] that passes a star met at the slit's edge.
-
-    A star of cone angle ``cone_deg`` found at the edge of a slit of half
-    width ``narrow_half_deg`` [deg] is passed by a check larger than this,
-    refused by one smaller; for the reference star itself
-    (``cone_deg == reference_cone_deg``) it is the slit's own offset, which
-    no check may be under.
-    """
-    return abs(edge_pitch_deg(cone_deg, narrow_half_deg) - reference_cone_deg)
-
-
 def seen_magnitude(magnitudes) -> float:
     """The magnitude of the light of several sources together (fluxes add).
 
@@ -237,7 +201,11 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True, sun_pitch_arcsec=0.0):
     inside the window or not) is kept in ``lock[SLIT_FLUX]``, to which a
     fault's glints add theirs (:func:`allsky.sim.faults.fault_sense`) before
     the gate judges it (:func:`bright_gate`, after the faults). Returns the
-    target held, as :func:`search_and_hold`.
+    target held, as :func:`search_and_hold`. ``p`` is the tracker
+    (:class:`StarTrackerParams`), ``lock`` its memory, ``rng`` the noise
+    state; ``cone_armed`` and ``sun_pitch_arcsec`` [arcsec] say whether the
+    cone-angle check is armed and how far the Sun is off the roll axis (a
+    carried lock is judged once the Sun is on it).
     """
     star = search_and_hold(p, q, lock, out, rng, cone_armed, sun_pitch_arcsec)
     if p.bright_gate_mag > -np.inf:
@@ -247,7 +215,7 @@ def star_tracker(p, q, lock, out, rng, cone_armed=True, sun_pitch_arcsec=0.0):
 
 @njit
 def slit_flux(p, q) -> float:
-    """The light [magnitude-0 stars] of every gate star inside the slit at attitude ``q``.
+    """The light [magnitude-0 stars] of the gate stars in the slit at attitude ``q``.
 
     ``p`` is the tracker (:class:`StarTrackerParams`); fluxes add (Pogson),
     a star of magnitude m giving ``10**(-0.4 m)``.
@@ -279,7 +247,8 @@ def bright_gate(p, lock, star, out):
     [magnitude-0 stars]: the stars' and the glints'. A lock the gate takes is flagged
     once in ``lock`` (for the journal), with the light seen; ``out`` (the
     outputs) is cleared. Returns the target held after the gate (-1 when it
-    took it). ``p`` is the tracker (:class:`StarTrackerParams`).
+    took it). ``p`` is the tracker (:class:`StarTrackerParams`), ``star``
+    the target held before the gate.
     """
     flux = lock[SLIT_FLUX]
     over = flux > 0.0 and -2.5 * xmath.log10(flux) < p.bright_gate_mag

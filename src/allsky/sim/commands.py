@@ -596,6 +596,8 @@ def amend(m, cfg, retarget=False) -> None:
     so. With ``retarget`` the target being flown becomes the new
     scenario's at its index (``target.sequence``): a target whose Mode 6
     has not begun.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     old_names = mission_mod.tracker_star_names(m.cfg)
     gate_before = m.params.tracker.bright_gate_mag
@@ -612,19 +614,24 @@ def amend(m, cfg, retarget=False) -> None:
         m.state.target_inertial[:] = m.target_direction()
 
 def held_object(m):
-    """Name of the object star tracker 105 holds now: a star, "stray light", or None."""
+    """Name of the object star tracker 105 holds now: a star, "stray light", or None.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
+    """
     held = int(m.state.tracker_lock[star_tracker.HELD])
     if held == star_tracker.FALSE_TARGET:
         return "stray light"
     return mission_mod.tracker_star_names(m.cfg)[held] if held >= 0 else None
 
 def step_on(m) -> None:
-    """Star tracker 105 lets go of what it holds and ignores it until it leaves the slit.
+    """Star tracker 105 lets go of what it holds, ignoring it until it leaves the slit.
 
     The ground's ``step_on`` (:mod:`allsky.sim.commands`): the object is
     remembered as the cone-angle check remembers a star it refused
     (:func:`allsky.hardware.star_tracker.refuse_now`), so the search
     passes it by; the journal's ``star_lock`` tells the lock's end.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     lock = m.state.tracker_lock
     held = lock[star_tracker.HELD]
@@ -681,6 +688,8 @@ def replan(m, plan, end_mode=False, reason="") -> None:
     ------
     ValueError
         ``plan`` changes a mode flown, or names a mode not in the table.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     plan = tuple(plan)
     in_mode = m.mode_in_flight is not None

@@ -290,7 +290,9 @@ def reference_cone_deg(cfg) -> float:
 
 
 def gate_stars(cfg):
-    """``(directions, magnitudes)`` of every catalog star, whose light the bright gate counts.
+    """``(directions, magnitudes)`` of the catalog stars the bright gate counts.
+
+    ``cfg`` is the scenario (its date).
 
     One entry per star (its variant names are one), inside the magnitude
     window or not, at the mission date; none without a gate
@@ -734,7 +736,7 @@ class Mission:
         return self.next_mode if self._in_mode else None
 
     def fly_on_with(self, cfg) -> None:
-        """Fly on with scenario ``cfg`` from this frame boundary, its parameters built again.
+        """Fly on with scenario ``cfg`` from this frame boundary, parameters rebuilt.
 
         For :func:`allsky.sim.commands.amend`: a leg in flight goes on with them.
         """

@@ -1,4 +1,4 @@
-"""The record a flight leaves: summary, calibration, targets, the end, the snapshot.
+"""The record a flight leaves: summary, calibration, targets, end and snapshot.
 
 A mission (:class:`allsky.sim.mission.Mission`) owns its record and drives
 it; these functions read what the mission holds (its state, scenario,
@@ -143,7 +143,7 @@ def new_target_record(cfg, index, start_s) -> dict:
 
 
 def restore(m, h) -> None:
-    """Set mission ``m``'s record from a snapshot's history ``h`` ({} for a new flight).
+    """Set mission ``m``'s record from a snapshot's history ``h`` ({}: a new one).
 
     The inverse of :func:`snapshot`: the timeline, leg count, counted angles,
     status, programmed angles and turns, the reference Sun, the hold, the
@@ -207,7 +207,7 @@ def resume_args(history, arrays, newer) -> tuple:
 
 
 def python_of(f):
-    """The Python body of a compiled block (itself when compiling is off)."""
+    """The Python body of a compiled block ``f`` (itself when compiling is off)."""
     return getattr(f, "py_func", f)
 
 
@@ -235,6 +235,8 @@ def calibration(m) -> dict:
     ``drift_applied_deg_h`` what drift DACs 7/9/11 apply from it: the
     same unless the count is beyond a DAC's full scale
     (:meth:`drift_dac_clipped`).
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     el = m.params.electronics
     lsb = el.drift_lsb_arcsec_s / units.DEG_H2ARCSEC_S
@@ -248,7 +250,10 @@ def calibration(m) -> dict:
 
 
 def drift_dac_clipped(m) -> dict:
-    """Per axis: is the drift count beyond its drift DAC's full scale (7, 9, 11)?"""
+    """Per axis: is the drift count beyond its drift DAC's full scale (7, 9, 11)?
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
+    """
     bits = m.params.electronics.drift_dac_bits
     return {axis: int(python_of(dac)(int(d), bits, 1)) != int(d)
             for axis, d in zip(AXES, m.state.drift_counters)}
@@ -261,6 +266,8 @@ def end(m) -> dict:
     last mode flown), ``true_pointing_error_arcsec``, ``body_rate_deg_s``
     (roll, pitch, yaw), ``propellant_kg`` (used since ejection) and
     ``propellant_remaining_kg``.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     return {"t_s": m.now_s(), "target": m.target_log[-1]["name"],
             "mode": m.current_mode,
@@ -284,6 +291,8 @@ def summary(m) -> dict:
     and ``counter_overflow``, ``warnings`` (one sentence for each thing a
     reader must not miss, :func:`allsky.sim.results.warnings`) and
     ``events``, the journal (:mod:`allsky.sim.journal`).
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     done = [r.mode for r in m.timeline]
     records = m.targets()
@@ -351,6 +360,8 @@ def orbit_summary(m) -> dict:
     shadow and the bodies the Earth hid while flying; ``torques``, each
     environment torque's ``peak_n_m`` and ``impulse_n_m_s`` (its
     magnitude integrated over the flight), or None where it is off.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     o = m.params.orbit
     ck = m.params.clock
@@ -377,7 +388,10 @@ def orbit_summary(m) -> dict:
 
 
 def wheel_summary(m) -> dict:
-    """The reaction wheels at the end: momenta, the largest fraction of a limit held."""
+    """The reaction wheels at the end: momenta, the largest fraction of a limit held.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
+    """
     n = len(m.cfg.wheels.axes)
     h = m.state.wheel_h[:n]
     return {"momentum_n_m_s": [float(x) for x in h],
@@ -403,6 +417,8 @@ def snapshot(m):
         records (:meth:`targets`).
     arrays : dict of numpy.ndarray
         Copies of the state arrays, by :class:`allsky.sim.state.State` field.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     history = {"format": STATE_FORMAT, "next_mode": m.next_mode, "plan": list(m.plan),
                "timeline": [list(r) for r in m.timeline], "leg_count": m.leg_count,
@@ -430,6 +446,8 @@ def targets(m) -> list:
 
     The last one's is completed with what the mission holds now; its
     ``end_s`` is the mission time once the mission is finished.
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     out = [dict(r) for r in m.target_log]
     cur = out[-1]
@@ -452,6 +470,8 @@ def on_target(m) -> dict:
     Keys: ``pointing_error_arcsec`` (true), ``body_rate_deg_s`` (true,
     per axis), ``computed_error_arcsec`` (CPU 22's roll, pitch and yaw
     errors, what the sequencer judged by).
+
+    ``m`` is the mission (:class:`allsky.sim.mission.Mission`).
     """
     return {"pointing_error_arcsec": m.pointing_error_arcsec(),
             "body_rate_deg_s": journal.rate_deg_s(m.state.x[4:7]),
@@ -459,7 +479,7 @@ def on_target(m) -> dict:
 
 
 class OrbitJournal:
-    """The eclipses and occultations of a flight in orbit, journaled as its frames pass."""
+    """The eclipses and occultations of a flight in orbit, journaled as they pass."""
 
     def __init__(self):
         self.frame = 0  #: the frame journaled up to
@@ -468,7 +488,7 @@ class OrbitJournal:
 
 
     def note(self, m) -> bool:
-        """Journal the eclipses and occultations of mission ``m``'s frames since the last call.
+        """Journal the eclipses and occultations of mission ``m`` since the last call.
 
         They depend on the orbit and the date only, not on the attitude: they
         are found from the orbit's samples, interpolated as the frame loop
@@ -523,7 +543,7 @@ class TelemetryRecord:
         self.last = None  #: the row of the last frame flown (None before the first slice)
 
     def slice(self, buf, filled) -> None:
-        """Keep the rows a slice wrote into ``buf`` (``filled`` of them) and its last frame's."""
+        """Keep the ``filled`` rows a slice wrote into ``buf``, and its last frame's."""
         if filled[0]:
             self.leg.append(buf[: filled[0]].copy())
             filled[0] = 0
@@ -531,7 +551,7 @@ class TelemetryRecord:
             self.last = buf[-1].copy()
 
     def end_leg(self, every) -> np.ndarray:
-        """Close the leg in flight (kept when ``every`` > 0: it recorded); returns its rows."""
+        """Close the leg in flight (kept if ``every`` > 0: it recorded); returns its rows."""
         rows = np.vstack(self.leg) if self.leg else np.empty((0, self.n_columns))
         self.leg = []
         if every and len(rows):

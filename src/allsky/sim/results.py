@@ -123,7 +123,9 @@ def _held_at(locks, t_s):
 
 
 def wrong_star_calibrations(summary, journal) -> list:
-    """``(t_s, sentence)`` for each calibration turn made on a star not the reference star.
+    """``(t_s, sentence)`` for each calibration turn made on a star not the reference.
+
+    ``summary`` is the summary being built, ``journal`` the mission's journal.
 
     A roll (Mode 4) or yaw (Mode 5) calibration turn is flown from the star
     held as it begins to the star held when calibration sequencer 19 stores

@@ -435,3 +435,43 @@ def catalog(date_utc: datetime | None = None, magnitude_window=None,
                     "reference": s.name == reference_star})
     out.sort(key=lambda r: (r["magnitude"], r["name"]))
     return out
+
+
+# -- the star tracker's slit, as geometry (allsky.hardware.star_tracker uses it) ------
+
+def cone_angle_deg(sun_star_angle_deg) -> float:
+    """The cone angle [deg] of a star this far from the Sun, the roll axis on the Sun.
+
+    The pitch output ``atan2(s_x, s_z)`` of a star at zero yaw, ``s_x = cos
+    theta`` along the roll axis and ``s_z = sin theta``: 90 deg - theta.
+    ``sun_star_angle_deg`` is theta [deg].
+    """
+    return 90.0 - float(sun_star_angle_deg)
+
+
+def edge_pitch_deg(cone_deg, narrow_half_deg) -> float:
+    """The pitch output [deg] of a star of cone angle ``cone_deg`` at the slit's edge.
+
+    A roll search brings a star into the slit across its narrow width: the
+    tracker finds it at yaw ``narrow_half_deg``, where ``s = (sin c, -cos c
+    sin psi, cos c cos psi)`` and the pitch output ``atan2(s_x, s_z)`` is
+    ``atan(tan c / cos psi)``, further from zero than the cone angle c. The
+    cone-angle check judges this output against the reference star's cone
+    angle, so a check passes a star of cone angle c by the slit's own
+    geometry, not by c alone.
+    """
+    c, psi = math.radians(cone_deg), math.radians(narrow_half_deg)
+    return math.degrees(xmath.atan(xmath.tan(c) / xmath.cos(psi)))
+
+
+def check_to_pass_deg(cone_deg, reference_cone_deg, narrow_half_deg) -> float:
+    """The smallest cone-angle check [deg] that passes a star met at the slit's edge.
+
+    A star of cone angle ``cone_deg`` found at the edge of a slit of half
+    width ``narrow_half_deg`` [deg] is passed by a check larger than this
+    (judged against the reference star's cone angle ``reference_cone_deg``),
+    refused by one smaller; for the reference star itself
+    (``cone_deg == reference_cone_deg``) it is the slit's own offset, which
+    no check may be under.
+    """
+    return abs(edge_pitch_deg(cone_deg, narrow_half_deg) - reference_cone_deg)

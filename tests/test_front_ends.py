@@ -31,10 +31,25 @@ READERS = {
                   "imports) into the key of numba's on-disk cache",
     "allsky.vehicle.ephemeris": "the DE421 ephemeris's coefficient arrays, the de421 "
                                 "package's data files, memory-mapped",
+    "allsky.jit_cache": "numba's cache files, hashed to check them before numba loads them",
     "allsky.sim.warm_up": "the frame loop's own source, opened read-only to hold an flock "
                           "on it: the machine's compile lock (one process compiles, the "
                           "others wait and load its cache)",
 }
+#: Library modules that say one line on stderr (and tidy the files they own) because the
+#: issue they meet has no front end between it and the user, and why.
+WRITERS = {
+    "allsky.jit_cache": "a damaged numba cache file is set aside (removed) and said in one "
+                        "line when numba loads it, and each cache file's digest is written "
+                        "beside it: numba calls the cache directly, no front end is between",
+    "allsky.aot": "a damaged ahead-of-time manifest is said in one line and bypassed, where "
+                  "the extension is imported",
+    "allsky.config.toml_io": "an input FIFO with no writer yet is said in one line after a "
+                             "second, then waited for, where the file is opened",
+}
+#: What a module of WRITERS may do (and nothing else of the writes the test finds).
+WRITER_CALLS = {"print()", "sys.stderr", "open()", "os.unlink()", "os.replace()",
+                "os.rename()"}
 #: Packages a library module must not import, and what they are for.
 FRONT_END_PACKAGES = {"tqdm": "progress bars", "matplotlib": "figures"}
 #: Calls of a builtin that talk to the terminal.
@@ -129,6 +144,8 @@ def test_the_library_is_every_module_outside_apps():
 @pytest.mark.parametrize("module", sorted(LIBRARY))
 def test_library_module_does_not_print_draw_or_write(module):
     writes, _ = FOUND[module]
+    if module in WRITERS:
+        writes = [(n, what) for n, what in writes if what not in WRITER_CALLS]
     assert not writes, (f"{module} prints, draws or writes (return the data and let "
                         "allsky.apps present it): "
                         + "; ".join(f"line {n}: {what}" for n, what in writes))
@@ -146,7 +163,9 @@ def test_library_module_reads_files_only_where_it_must(module):
 @pytest.mark.parametrize("module", sorted(READERS))
 def test_every_allowed_reader_exists_and_reads(module):
     assert module in LIBRARY, f"{module}: no such library module; drop it from READERS"
-    assert FOUND[module][1], f"{module} reads no file any more; drop it from READERS"
+    # an opener that may also write (a FIFO-aware open) counts among the writes
+    opens = [w for w in FOUND[module][0] if w[1] == "open()"] if module in WRITERS else []
+    assert FOUND[module][1] or opens, f"{module} reads no file any more; drop it from READERS"
 
 
 # -- the checker itself ------------------------------------------------------------------------

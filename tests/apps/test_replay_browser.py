@@ -135,6 +135,8 @@ MISSIONS = {
     "voyager1": ("voyager1-wrong-star", []),
     "gyro_failure": ("gyro-failure-to-target", ["target.hold_s=300"]),
     "dust": ("mariner4-dust-glints", []),
+    "free_flyer": ("shuttle-free-flyer", []),
+    "sunset": ("shuttle-free-flyer-sunset", []),
     "wheels": (None, ['actuators.kind="wheels"', "wheels.max_momentum_n_m_s=6"]),
     "hold": (None, ["target.hold_s=300"]),
 }
@@ -885,7 +887,8 @@ def test_a_warned_completion_is_amber_with_the_first_warning(other):
 #: Every packaged scenario, by its name in MISSIONS ("default": the module's own page).
 PACKAGED = {"default": "default", "gyro-failure-to-target": "gyro_failure",
             "mariner4-dust-glints": "dust", "mariner4-star-hopping": "mariner4",
-            "stuck-jet-roll-calibration": "stuck_jet", "voyager1-wrong-star": "voyager1"}
+            "stuck-jet-roll-calibration": "stuck_jet", "voyager1-wrong-star": "voyager1",
+            "shuttle-free-flyer": "free_flyer", "shuttle-free-flyer-sunset": "sunset"}
 OVERLAPS = """const out = [];
 for (const id of ["vehicle", "sky"]) {
   const t = window.__canvasTexts.filter((c) => c.canvas === id);
@@ -990,8 +993,8 @@ def test_the_page_fits_a_notebook_frame(page, width):
 
 
 def test_words_never_written_read_not_calibrated(other):
-    """mariner4-dust-glints aborts in Mode 5: its yaw words are not calibrated, not errors."""
-    driver, _, summary, _ = other("dust")
+    """shuttle-free-flyer-sunset aborts in Mode 5: its yaw words read not calibrated."""
+    driver, _, summary, _ = other("sunset")
     assert summary["status"] == "aborted" and summary["modes"][-1]["mode"] == "5"
     cells = js(driver, """window.allsky.seek(1e9); return Array.from(document.querySelectorAll(
         '#registers-line tr:first-child td.word')).map((c) => [c.textContent, c.title]);""")

@@ -5,6 +5,7 @@ import pytest
 
 from allsky.apps import telemetry_files
 from allsky.apps.cli import main
+from allsky.sim.recorder import FORMAT
 
 
 @pytest.fixture(scope="module")
@@ -17,7 +18,7 @@ def csv_file(tmp_path_factory, saved_states):
 def test_the_first_line_counts_the_rows(csv_file):
     first = csv_file.read_text().split("\n", 1)[0]
     table, _ = telemetry_files.read(csv_file)
-    assert first == f"# allsky telemetry format 2; rows {len(table)}"
+    assert first == f"# allsky telemetry format {FORMAT}; rows {len(table)}"
 
 
 def test_a_file_cut_at_a_line_boundary_is_truncated(csv_file, tmp_path, capsys):

@@ -111,8 +111,8 @@ def test_a_fault_that_ended_has_its_duration(runs):
 
 
 def test_words_never_written_are_not_calibrated_not_errors(runs):
-    """mariner4-dust-glints aborts in Mode 5: the yaw words stay the power-on ones."""
-    code, report, summary, _ = runs("mariner4-dust-glints")
+    """shuttle-free-flyer-sunset aborts in Mode 5 (orbit night): the yaw words stay power-on."""
+    code, report, summary, _ = runs("shuttle-free-flyer-sunset")
     assert code == 1 and summary["modes"][-1]["mode"] == "5"
     assert summary["calibration"]["scale_factor"]["yaw"] == 1.0  # the power-on word
     never = verdict.unwritten(summary)

@@ -294,7 +294,7 @@ def check_output(option, path, directory=False, suffixes=None):
         if not os.access(probe, os.W_OK | os.X_OK):
             raise OutputError(option, path, f"{probe}: permission denied")
         return
-    if suffixes is not None and path.suffix.lower() not in suffixes and not _is_null(path):
+    if suffixes is not None and path.suffix.lower() not in suffixes and not is_null_device(path):
         raise OutputError(option, path, f"unknown suffix {path.suffix or '(none)'!r}; "
                           f"use {' or '.join(suffixes)}")
     fd = descriptor_of(path)
@@ -324,7 +324,7 @@ def check_output(option, path, directory=False, suffixes=None):
         raise OutputError(option, path, "permission denied")
 
 
-def _is_null(path) -> bool:
+def is_null_device(path) -> bool:
     """Whether ``path`` is the null device (it takes any output, of any suffix)."""
     try:
         st, null = os.stat(path), os.stat(os.devnull)

@@ -477,6 +477,7 @@ def run_from_cli(cfg, args) -> int:
         Interrupted,
         OutputError,
         check_output,
+        is_null_device,
         write_atomic,
     )
     from allsky.apps.progress import fly
@@ -491,7 +492,7 @@ def run_from_cli(cfg, args) -> int:
     quiet = getattr(args, "quiet", False) or to_stdout
     check_output("--json", json_path)  # before flying: no mission lost to a typo
     check_output("--telemetry", tlm_path, suffixes=TELEMETRY_SUFFIXES)
-    if tlm_path:
+    if tlm_path and not is_null_device(tlm_path):  # the null device takes any suffix
         telemetry_files.file_format(tlm_path)
     check_output("--plots", plots_dir, directory=True)
     check_output("--html", html_path, suffixes=(".html", ".htm"))

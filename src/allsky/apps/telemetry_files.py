@@ -67,7 +67,9 @@ def write(path, table: np.ndarray, option=None) -> Path:
     ``option`` names the command-line option in an
     :class:`~allsky.apps.output.OutputError`.
     """
-    fmt = file_format(path)
+    from allsky.apps.output import is_null_device
+
+    fmt = "csv" if is_null_device(path) else file_format(path)  # the null device: any
     table = np.asarray(table, dtype=np.float64).reshape(-1, len(COLUMNS))
     return write_csv(path, table, option) if fmt == "csv" else write_parquet(path, table,
                                                                               option)

@@ -186,7 +186,11 @@ def _flags(sc, nadir, stars):
         # a star's angle from the nadir changes by at most the orbit's rate times the step:
         # flag an interval whose either end lies within that much of the limb, or whose ends
         # differ
-        hidden = (stars @ nadir.T).T > sc[:, EARTH_COS][:, None]
+        # each star's cosine from the nadir, summed in axis order (no BLAS: the same bits
+        # on every machine)
+        cos_nadir = (nadir[:, 0:1] * stars[None, :, 0] + nadir[:, 1:2] * stars[None, :, 1]
+                     + nadir[:, 2:3] * stars[None, :, 2])
+        hidden = cos_nadir > sc[:, EARTH_COS][:, None]
         differ = (hidden[:-1] != hidden[1:]).any(axis=1)
         sc[:-1, CHANGES] = differ.astype(float)
     sc[-1, WHOLE] = sc[-2, WHOLE] if sc.shape[0] > 1 else 0.0

@@ -170,6 +170,13 @@ def event_text(e) -> str:
         return f"ABORTED: {e['reason']}"
     if kind == "ground_command":
         return f"ground command: {e['text']}"
+    if kind == "eclipse":
+        if e["phase"] == "sunlit":
+            return "orbit: the vehicle leaves the Earth's shadow, fully sunlit"
+        return (f"orbit: the vehicle enters the {e['phase']} "
+                f"({100 * e['sunlit_fraction']:.0f} % of the Sun's disk in view)")
+    if kind == "occultation":
+        return f"orbit: the Earth {'hides' if e['active'] else 'no longer hides'} {e['body']}"
     return kind
 
 
@@ -230,7 +237,9 @@ def page_log(events) -> list:
             row["reason"] = {"star_lock": "the star tracker",
                              "lock_rejected": "the tracker's cone-angle check",
                              "lock_dropped": "the tracker's bright gate",
-                             "saturation": "a saturation", "fault": "an injected fault"}[kind]
+                             "saturation": "a saturation", "fault": "an injected fault",
+                             "eclipse": "the Earth's shadow (the orbit)",
+                             "occultation": "the Earth's disk (the orbit)"}[kind]
         out.append(row)
     return out
 

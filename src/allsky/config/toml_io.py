@@ -95,7 +95,7 @@ def open_fifo_waiting(path, mode: str, what: str):
     Opening a FIFO blocks until a process opens its other end (a reader for
     an output, a writer for an input). After :data:`FIFO_PARTNER_S` one line
     on stderr says what is awaited; the wait goes on (Ctrl-C ends it). Any
-    other path is opened at once. ``mode`` is :func:`open`'s; ``what`` names
+    other path is opened at once. ``mode`` is ``open``'s; ``what`` names
     the file in the line.
     """
     try:

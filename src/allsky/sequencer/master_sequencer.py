@@ -66,7 +66,7 @@ class ModeInterrupted(Exception):
     """A ground command ends the mode being flown, at a frame boundary.
 
     The message is the command's words. The mission raises it inside a leg
-    (:meth:`allsky.sim.mission.Mission.replan`); :func:`run_mode` flies the
+    (:func:`allsky.sim.commands.replan`); :func:`run_mode` flies the
     mode's ``on_command`` steps and lets it go on to the mission, which
     ends the mode and flies the plan the command set.
     """

@@ -36,13 +36,13 @@ table, never by writing the state:
   ``clear_fault`` gives an acting fault the ``duration_s`` that ends it at
   the boundary; ``tracker_window`` and ``bright_gate`` set
   ``star_tracker.magnitude_window`` and ``star_tracker.bright_gate``
-  (:meth:`allsky.sim.mission.Mission.amend`); ``step_on`` has the tracker
+  (:func:`amend`); ``step_on`` has the tracker
   let go of the object it holds and ignore it until it leaves the slit
-  (:meth:`allsky.sim.mission.Mission.step_on`), as the cone-angle check
+  (:func:`step_on`), as the cone-angle check
   ignores a star it refused;
 * ``target``, ``hold``, ``proceed``, ``reacquire`` and ``recycle`` change
   the plan with the modes of the mode table (:mod:`allsky.sequencer.ground`,
-  :meth:`allsky.sim.mission.Mission.replan`); a target flown again or anew
+  :func:`replan`); a target flown again or anew
   joins the scenario's ``target.sequence``;
 * ``pause``, ``resume``, ``speed`` and ``end`` act on the session (the live
   clock, its end); they change nothing of the flight.

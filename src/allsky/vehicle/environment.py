@@ -2,7 +2,7 @@
 
 The orbit (:mod:`allsky.vehicle.orbit`) is sampled every ``orbit.sample_s``
 before flight into :class:`OrbitParams`; the frame loop interpolates the
-samples linearly (:func:`at_frame`) and computes, frame by frame:
+samples linearly (``at_frame``) and computes, frame by frame:
 
 * **The Sun from the vehicle.** The mission's Sun (``Params.sun0_inertial``
   moving on its line) at its distance, less the vehicle's position: up to

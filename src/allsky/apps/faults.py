@@ -221,20 +221,15 @@ def scenarios_from_cli(cfg, args) -> int:
             about = describe_scenario(name)
             card = {"title": about["title"],
                     "text": about["description"] or "No historical card: not a flight's story."}
-        entry = {**known[name], "card_title": card["title"], "card": card["text"]}
-        if args.json:
-            body = json.dumps(entry, indent=2) + "\n"
-            if args.json == "-":
-                sys.stdout.write(body)
-                return 0
-            write_atomic(args.json, body, option="--json")
-        print(format_card(name, card["title"], card["text"], report_width()))
-        return 0
+        data = {**known[name], "card_title": card["title"], "card": card["text"]}
+        text = format_card(name, card["title"], card["text"], report_width())
+    else:
+        data, text = entries, format_scenarios(entries)
     if args.json:
-        body = json.dumps(entries, indent=2) + "\n"
+        body = json.dumps(data, indent=2) + "\n"
         if args.json == "-":
             sys.stdout.write(body)
             return 0
         write_atomic(args.json, body, option="--json")
-    print(format_scenarios(entries))
+    print(text)
     return 0

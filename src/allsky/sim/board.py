@@ -26,6 +26,7 @@ from allsky.hardware import switch_bank, wiring
 from allsky.hardware.dac import dac
 from allsky.sim import journal
 from allsky.sim import state as sim_state
+from allsky.sim.record import python_of
 from allsky.vocabulary import AXES
 
 #: Who made a write when the caller does not say: the patent's sequencer.
@@ -135,7 +136,7 @@ class Board:
                                pulses=counted)
             if wiring.ROUTING.drift_switch[a] in moved_close:
                 # The DAC's code: the count, clipped to its word (dac.py, as Python).
-                applied = int(getattr(dac, "py_func", dac)(counted, bits, 1))
+                applied = int(python_of(dac)(counted, bits, 1))
                 self._register(DRIFT_DACS[a], axis, applied * lsb, "deg/h", by,
                                pulses=applied, counted_pulses=counted)
 

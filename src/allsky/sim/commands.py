@@ -67,7 +67,7 @@ from allsky.sequencer import ground, modes
 from allsky.sequencer.ground import Refused
 from allsky.sequencer.watch import sensors_in_use
 from allsky.sim import faults as sim_faults
-from allsky.sim import journal
+from allsky.sim import journal, record
 from allsky.sim import mission as mission_mod
 from allsky.vocabulary import FAULT_KIND, GROUND_COMMAND
 
@@ -578,11 +578,6 @@ def read_log(path) -> tuple:
 # through the mission's declared interface (``fly_on_with``, ``interrupt``, its state,
 # journal and target log).
 
-def _python(f):
-    """The Python body of a compiled block (itself when compiling is off)."""
-    return getattr(f, "py_func", f)
-
-
 def amend(m, cfg, retarget=False) -> None:
     """Fly on with scenario ``cfg`` from this frame boundary (a ground command).
 
@@ -635,7 +630,7 @@ def step_on(m) -> None:
     """
     lock = m.state.tracker_lock
     held = lock[star_tracker.HELD]
-    _python(star_tracker.refuse_now)(lock, held, 0.0)
+    record.python_of(star_tracker.refuse_now)(lock, held, 0.0)
     lock[star_tracker.NEW_REFUSAL] = star_tracker.NONE  # the ground's, not the check's
     lock[star_tracker.HELD] = star_tracker.NONE
 
@@ -653,7 +648,7 @@ def _carry_tracker(m, old_names, new_names) -> None:
 
     held = int(lock[star_tracker.HELD])
     if 0 <= held < len(old_names) and old_names[held] not in new_names:
-        star_in_use = _python(sensors_in_use)(s.switches, m.params.routing)[1]
+        star_in_use = record.python_of(sensors_in_use)(s.switches, m.params.routing)[1]
         m.note("star_lock", star=None, previous=old_names[held], cone_angle_deg=None,
                   in_use=bool(star_in_use))
     slots = (star_tracker.HELD, star_tracker.NEW_REFUSAL, star_tracker.DROPPED,

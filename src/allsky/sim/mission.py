@@ -71,11 +71,6 @@ SETTLE_ALLOWANCE_S = 30.0
 SLICE_FRAMES = 100_000
 
 
-def _python(f):
-    """The Python body of a compiled block (itself when compiling is off)."""
-    return getattr(f, "py_func", f)
-
-
 class Hooks(NamedTuple):
     """What a front end or a study asks to hear while a mission flies (all optional).
 
@@ -840,14 +835,8 @@ class Mission:
         """Resume a mission from a :meth:`snapshot` (its own scenario is restored).
 
         ``history`` and ``arrays`` are the snapshot's two parts; ``telemetry``
-        as for :class:`Mission`.
-
-        Raises
-        ------
-        ValueError
-            A history of another format than :data:`STATE_FORMAT`.
-        KeyError
-            A state array missing from ``arrays``.
+        as for :class:`Mission`. Raises as :func:`allsky.sim.record.resume_args`
+        does (another format, a missing array).
         """
         cfg, state, next_mode, history = record.resume_args(history, arrays,
                                                             newer_state_arrays())

@@ -156,8 +156,8 @@ def capture():
         f0 = int(s.frame[0])
         out = orig(p, s, leg, tlm, tlm_rows, rec, rec_rows)
         n = int(s.frame[0]) - f0
-        fixed = leg._replace(timeout_s=(int(start.leg_clock[CLOCK_FRAMES]) + n - 0.5) * p.frame_s,
-                             pause_at_s=np.inf)
+        fixed = leg._replace(timeout_frames=int(start.leg_clock[CLOCK_FRAMES]) + n,
+                             pause_at_frame=np.iinfo(np.int64).max)
         legs.append((p, start, fixed, n, tlm.shape, rec.shape))
         return out
 

@@ -54,7 +54,7 @@ VARIANTS = (
     ("watch", "_run_frames", "watch"),
 )
 #: Neutral values of removed stages whose result the loop uses.
-NEUTRAL = {"sense": "-1", "actuate": "True", "watch": "(0, timer, sun_gone, star_gone)",
+NEUTRAL = {"sense": "-1", "actuate": "True", "watch": "(0, settled, sun_gone, star_gone)",
            "star_tracker": "-1"}
 #: Statements that go with a removed stage (the journal's other notes, the dither record).
 ALSO = {"note_frame": ("note_clip",), "record_telemetry": ("record_dither",),

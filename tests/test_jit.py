@@ -16,8 +16,8 @@ from allsky.config.scenario import load_scenario
 from allsky.jit import njit, njit_alloc, njit_stage
 from allsky.sequencer import legs, watch
 from allsky.sim import faults, frame_loop, journal, parts, recorder
-from allsky.vehicle import environment
 from allsky.sim.mission import Mission
+from allsky.vehicle import environment
 
 needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT, reason="about compiled code")
 

@@ -12,11 +12,14 @@ flows through the patent's block diagram::
                    inputs of control amplifiers 31-33; lines 130/131 -> rate inputs
     acquire_sun    (instead of route, when the leg runs Mode 1's controller)
     control        control amplifiers 31-33 (and the dither command with its feed-forward)
-    actuate        PWPF modulators 34-36 -> jets 39-41 (or the reaction wheels, with
-                   the jets unloading them: allsky.vehicle.wheels)
-    advance        rigid-body plant (the gyrostat on the wheel vehicle), mission clock
+    actuate_vehicle  PWPF modulators 34-36 -> jets 39-41 (or the reaction wheels,
+                   with the jets unloading them: allsky.vehicle.wheels)
+    advance_vehicle  rigid-body plant (the gyrostat on the wheel vehicle), mission clock
     record         telemetry row and dither record (allsky.sim.recorder)
     watch          master sequencer 20's watch (allsky.sequencer.watch)
+
+The faults, the reaction wheels and the orbit add their stages among these
+(:mod:`allsky.sim.parts`), each compiled only for a mission that has them.
 
 The on/off switches are read through the wiring table's index arrays
 (:data:`allsky.hardware.wiring.ROUTING`, carried in ``Params.routing``), once

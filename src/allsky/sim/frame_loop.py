@@ -276,7 +276,7 @@ class Work(NamedTuple):
 # frames run in _run_frames, compiled without it (allsky.jit), which cannot allocate.
 @njit_alloc
 def new_work(p, n_wheels):
-    """:class:`Work` for the loop of parameters ``p``, with ``n_wheels`` wheels' torques."""
+    """:class:`Work` for the loop of parameters ``p``, with ``n_wheels`` wheels."""
     return Work(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
                 np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
                 np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(n_wheels),
@@ -892,7 +892,7 @@ def count_jet_time(valve, dt_s, jet_on_s):
 @njit_stage
 def advance_vehicle(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hdot, wheel_u,
                     wheel_h, wheel_peak_fraction, x, dtheta_rad, frame):
-    """The rigid body over a frame under ``torque`` (the gyrostat on the wheel vehicle); the clock.
+    """The rigid body (or the gyrostat) over a frame under ``torque``; the clock.
 
     ``wheels_p`` is None on a vehicle without wheels (the loop then compiles
     the rigid body alone, :mod:`allsky.sim.parts`). On the wheel vehicle the
@@ -933,9 +933,9 @@ def advance_vehicle(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_h
 
 @njit_stage
 def excursion_tracked(excursion_ref_q):
-    """Whether the mission tracks the largest excursion from ``excursion_ref_q`` (all zero: not).
+    """Whether the mission tracks its largest excursion from ``excursion_ref_q``.
 
-    Read once a leg: the mission sets the reference between legs
+    All zero: not tracked. Read once a leg: the mission sets the reference between legs
     (:meth:`allsky.sim.mission.Mission.track_excursion`).
     """
     return (excursion_ref_q[0] != 0.0 or excursion_ref_q[1] != 0.0

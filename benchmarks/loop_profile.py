@@ -46,15 +46,15 @@ VARIANTS = (
     ("CPU 22 (computer)", "_run_frames", "compute"),
     ("routing / Mode 1 controller", "_run_frames", "route"),
     ("control amplifiers 31-33", "_run_frames", "control"),
-    ("modulators 34-36, jets", "_run_frames", "actuate"),
+    ("modulators 34-36, jets", "_run_frames", "actuate_vehicle"),
     ("jet on-time", "_run_frames", "count_jet_time"),
-    ("plant (RK4), clock", "_run_frames", "advance"),
+    ("plant (RK4), clock", "_run_frames", "advance_vehicle"),
     ("telemetry, dither record", "_run_frames", "record_telemetry"),
     ("journal", "_run_frames", "note_frame"),
     ("watch", "_run_frames", "watch"),
 )
 #: Neutral values of removed stages whose result the loop uses.
-NEUTRAL = {"sense": "-1", "actuate": "True", "watch": "(0, settled, sun_gone, star_gone)",
+NEUTRAL = {"sense": "-1", "actuate_vehicle": "True", "watch": "(0, settled, sun_gone, star_gone)",
            "star_tracker": "-1"}
 #: Statements that go with a removed stage (the journal's other notes, the dither record).
 ALSO = {"note_frame": ("note_clip",), "record_telemetry": ("record_dither",),

@@ -15,8 +15,9 @@ from allsky import clock
 from allsky.config.scenario import load_scenario
 from allsky.jit import njit, njit_alloc, njit_stage
 from allsky.sequencer import legs, watch
-from allsky.sim import frame_loop, journal, recorder
+from allsky.sim import faults, frame_loop, journal, parts, recorder
 from allsky.sim.mission import Mission
+from allsky.vehicle import environment
 
 needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT, reason="about compiled code")
 
@@ -61,14 +62,21 @@ def _py(f):
     return getattr(f, "py_func", f)
 
 
-#: The stages the loop calls every frame, in signal order.
-STAGES = (frame_loop.sense, frame_loop.sum_and_count, frame_loop.compute, frame_loop.route,
-          frame_loop.acquire_sun, frame_loop.control, frame_loop.actuate,
-          frame_loop.count_jet_time, frame_loop.advance, recorder.record_telemetry,
-          recorder.record_dither, journal.note_frame, journal.note_clip, journal.note_wheels,
-          journal.note_faults, watch.watch, frame_loop.occult_stars, frame_loop.dim_sun,
-          frame_loop.env_torque, frame_loop.sun_at, frame_loop.next_place, frame_loop.held,
-          frame_loop.start_place)
+#: The stages the loop calls every frame, in signal order (the optional parts' among them).
+STAGES = (parts.orbit_start, parts.orbit_sky, parts.faults_tracker, frame_loop.sense,
+          parts.orbit_shadow, parts.faults_sense, frame_loop.sum_and_count, frame_loop.compute,
+          parts.faults_upset, parts.faults_feed, frame_loop.route, frame_loop.acquire_sun,
+          frame_loop.control, frame_loop.actuate_vehicle, parts.faults_actuate,
+          parts.orbit_torque, frame_loop.count_jet_time, parts.orbit_next,
+          frame_loop.advance_vehicle, frame_loop.track_excursion, parts.wheels_row,
+          recorder.record_telemetry, journal.note_frame, journal.note_clip, parts.wheels_note,
+          parts.faults_note, recorder.record_dither, watch.watch)
+#: The stages the optional parts call (allsky.sim.parts), inlined with them.
+PART_STAGES = (environment.occult_stars, environment.dim_sun, environment.env_torque,
+               environment.sun_at, environment.next_place, environment.held,
+               environment.start_place, faults.fault_tracker, faults.fault_release,
+               faults.fault_sense, faults.fault_upset, faults.fault_actuate,
+               journal.note_wheels, journal.note_faults)
 
 
 @needs_jit
@@ -83,7 +91,7 @@ def test_frame_loop_and_blocks_are_compiled_without_the_runtime():
 
 
 @needs_jit
-@pytest.mark.parametrize("stage", STAGES, ids=lambda f: _py(f).__name__)
+@pytest.mark.parametrize("stage", STAGES + PART_STAGES, ids=lambda f: _py(f).__name__)
 def test_stages_are_compiled_without_the_runtime_and_inlined(stage):
     assert stage.targetoptions["_nrt"] is False
     # Inlined into the loop by numba: no call, and no argument passing, per frame.

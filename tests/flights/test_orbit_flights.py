@@ -110,3 +110,28 @@ def test_window_cli_writes_its_json(tmp_path, capsys):
     data = json.loads(out.read_text())
     assert len(data["rows"]) == 3 and data["rows"][0]["status"] == "complete"
     assert "Ejection window" in capsys.readouterr().out
+
+
+def test_the_earth_hides_canopus_from_a_faulted_loop_too():
+    """A fault that changes nothing flies the orbit's flight exactly, the Earth's disk included.
+
+    Ejected at argument of latitude 250 deg (ascending node 315 deg), the Earth
+    rises over Canopus in Mode 5 (907.67 s): the tracker loses it and the
+    sequencer aborts. The loop with faults takes the orbit's tracker, its
+    hidden stars, as its tracker without a fault.
+    """
+    orbit = ["orbit.arg_latitude_deg=250.0", "orbit.raan_deg=315.0"]
+    inert = ['faults=[{kind="gyro_bias_step", axis="roll", start_s=1.0, size_deg_h=0.0}]']
+    flights = []
+    for extra in ([], inert):
+        m = Mission(load_scenario("shuttle-free-flyer", overrides=orbit + extra))
+        flights.append((m, m.run()))
+    (plain, a), (faulted, b) = flights
+    assert faulted.params.faults.n == 1
+    hidden = [e for e in b["events"] if e["kind"] == "occultation" and e["body"] == "Canopus"]
+    assert hidden and hidden[0]["mode"] == "5"
+    assert b["status"] == "aborted" and "star lost" in b["abort_reason"]
+    assert np.array_equal(plain.telemetry(), faulted.telemetry())
+    # the same journal, but for the fault's own entry (and the abort naming it)
+    assert [(e["t_s"], e["kind"]) for e in a["events"]] == \
+        [(e["t_s"], e["kind"]) for e in b["events"] if e["kind"] != "fault"]

@@ -387,7 +387,7 @@ def test_a_leak_with_a_torque_turns_the_vehicle_as_euler_says():
     axes along the body axes (no product of inertia): about pitch alone, Euler's equation
     is I_yy dw/dt = tau, so w(50 s) = 0.002 * 50 / 650 rad/s; the tank loses 0.05 kg. The
     leak's stage feeds the plant of the frame loop, frame by frame, nothing else acting."""
-    from allsky.sim.frame_loop import advance
+    from allsky.sim.frame_loop import advance_vehicle
 
     cfg, p, fs = _params('{kind="propellant_leak", rate_kg_s=0.001, torque_n_m=[0, 0.002, 0]}',
                          extra=("vehicle.inertia_kg_m2=[[100,0,0],[0,650,0],[0,0,680]]",))
@@ -399,7 +399,8 @@ def test_a_leak_with_a_torque_turns_the_vehicle_as_euler_says():
         torque = np.zeros(3)
         assert sf.fault_actuate(p.faults, fs, frame[0], p.jets, 0.01,
                                 np.zeros(3, dtype=np.int64), tank, torque, True, 1.0)
-        advance(p.plant, 0.01, torque, x, np.zeros(3), frame, np.zeros(4), np.zeros(1))
+        advance_vehicle(p.plant, None, 0, 0.01, torque, None, None, None, None, None, x,
+                        np.zeros(3), frame)
     assert x[5] == pytest.approx(0.002 * 50.0 / 650.0, rel=1e-9)
     assert x[4] == x[6] == 0.0
     # The pitch angle turned: w t / 2 over the 50 s (a quaternion's half angle, small).

@@ -12,11 +12,14 @@ flows through the patent's block diagram::
                    inputs of control amplifiers 31-33; lines 130/131 -> rate inputs
     acquire_sun    (instead of route, when the leg runs Mode 1's controller)
     control        control amplifiers 31-33 (and the dither command with its feed-forward)
-    actuate        PWPF modulators 34-36 -> jets 39-41 (or the reaction wheels, with
-                   the jets unloading them: allsky.vehicle.wheels)
-    advance        rigid-body plant (the gyrostat on the wheel vehicle), mission clock
+    actuate_vehicle  PWPF modulators 34-36 -> jets 39-41 (or the reaction wheels,
+                   with the jets unloading them: allsky.vehicle.wheels)
+    advance_vehicle  rigid-body plant (the gyrostat on the wheel vehicle), mission clock
     record         telemetry row and dither record (allsky.sim.recorder)
     watch          master sequencer 20's watch (allsky.sequencer.watch)
+
+The faults, the reaction wheels and the orbit add their stages among these
+(:mod:`allsky.sim.parts`), each compiled only for a mission that has them.
 
 The on/off switches are read through the wiring table's index arrays
 (:data:`allsky.hardware.wiring.ROUTING`, carried in ``Params.routing``), once
@@ -33,6 +36,8 @@ lost). All state lives in the arrays of :class:`allsky.sim.state.State`, so a
 mission can be saved and resumed between legs.
 """
 
+from typing import NamedTuple
+
 import numpy as np
 
 from allsky import xmath
@@ -43,7 +48,7 @@ from allsky.gauss import seed as gauss_seed
 from allsky.hardware.control_amp import control_amp
 from allsky.hardware.dac import dac
 from allsky.hardware.gyro import RRW_STEP_S, gyro_output
-from allsky.hardware.jets import jets, thrust_fraction
+from allsky.hardware.jets import jets
 from allsky.hardware.pwpf import pwpf_step
 from allsky.hardware.rate_command import rate_command
 from allsky.hardware.star_tracker import bright_gate, star_tracker
@@ -79,25 +84,24 @@ from allsky.sequencer.legs import (
     PROGRAM_TARGET_ROLL,
 )
 from allsky.sequencer.watch import EXIT_NONE, sensors_in_use, watch
-from allsky.sim.faults import (
-    ONSET,
-    fault_actuate,
-    fault_release,
-    fault_sense,
-    fault_tracker,
-    fault_upset,
+from allsky.sim.journal import SEEN_WHEEL, note_clip, note_frame
+from allsky.sim.parts import (
+    faults_actuate,
+    faults_feed,
+    faults_note,
+    faults_sense,
+    faults_tracker,
+    faults_upset,
+    orbit_next,
+    orbit_shadow,
+    orbit_sky,
+    orbit_start,
+    orbit_torque,
+    wheels_last_row,
+    wheels_note,
+    wheels_row,
 )
-from allsky.sim.journal import SEEN_WHEEL, note_clip, note_faults, note_frame, note_wheels
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_last_row, record_telemetry  # noqa: F401
-from allsky.vehicle.environment import (
-    dim_sun,
-    env_torque,
-    held,
-    next_place,
-    occult_stars,
-    start_place,
-    sun_at,
-)
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
 from allsky.vehicle.wheels import (
@@ -111,9 +115,6 @@ from allsky.vehicle.wheels import (
     unload_valves,
 )
 
-# Rows of 3-vectors of per-leg scratch (sensor outputs, amplifier signals, torque, and the
-# reaction wheels' momentum and its rate in body axes).
-N_SCRATCH = 16
 # Rows of the per-leg ``gates`` (wire_leg), one column per axis.
 GATE_DRIFT = 0  #: S1-S3: drift DAC 7/9/11 into summing amplifier 4/5/6
 GATE_DRIFT_COUNT = 1  #: S4-S6: converter 8/10/12 into drift counter 13/15/17
@@ -239,58 +240,91 @@ def leg_entry(p):
     return _run_leg_any_orbit if p.orbit.n > 0 else _run_leg_any
 
 
-# The work arrays are allocated in the two entries (with numba's runtime), once per leg; the
+class Work(NamedTuple):
+    """The loop's work arrays, allocated once a leg (:func:`new_work`), each apart.
+
+    The frame's signals as they pass from block to block, and what
+    :func:`wire_leg` reads of the switches. Each is its own array, so that
+    the compiler knows that writing one changes no other
+    (:func:`allsky.jit.njit_noalias`).
+    """
+
+    sun_i: np.ndarray  #: (3,) [-] unit vector to the Sun, inertial axes
+    sun_b: np.ndarray  #: (3,) [-] the same in body axes
+    coarse: np.ndarray  #: (3,) the coarse sun eyes (Mode 1)
+    fine: np.ndarray  #: (3,) sun sensor 104: pitch, yaw [arcsec], present
+    trk: np.ndarray  #: (3,) star tracker 105: yaw, pitch [arcsec], present
+    gyro: np.ndarray  #: (3,) [arcsec/s] gyros 1-3
+    comp: np.ndarray  #: (3,) [arcsec/s] summing amplifiers 4-6, drift-compensated
+    line: np.ndarray  #: (3,) [arcsec/s] the loop rates of lines 130/131
+    pos: np.ndarray  #: (3,) [arcsec] control amplifiers 31-33's position inputs
+    rate: np.ndarray  #: (3,) [arcsec/s] their rate inputs
+    volts: np.ndarray  #: (3,) [V] their outputs
+    torque: np.ndarray  #: (3,) [N m] on the body, body axes
+    dith: np.ndarray  #: (3,) [arcsec] the dither command
+    ff: np.ndarray  #: (3,) [V] its feed-forward
+    wheel_hb: np.ndarray  #: (3,) [N m s] the wheels' momentum, body axes
+    wheel_hdot: np.ndarray  #: (3,) [N m] its rate over the frame, body axes
+    wheel_u: np.ndarray  #: (wheels,) [N m] the wheels' motor torques
+    gates: np.ndarray  #: (N_GATES, 3) the on/off switches by GATE_* row (wire_leg)
+    position_gain: np.ndarray  #: (position routes,) 1.0 where a route's switch is closed
+    sources: np.ndarray  #: (N_POSITION_SOURCES,) [arcsec] the positions S9-S15 switch
+    sig: np.ndarray  #: (N_SIGNALS,) the signals the watch reads (allsky.sequencer.watch)
+
+
+# The work arrays are allocated in the entries (with numba's runtime), once per leg; the
 # frames run in _run_frames, compiled without it (allsky.jit), which cannot allocate.
+@njit_alloc
+def new_work(p, n_wheels):
+    """:class:`Work` for the loop of parameters ``p``, with ``n_wheels`` wheels."""
+    return Work(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
+                np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
+                np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(n_wheels),
+                np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
+                np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS))
+
+
 @njit_alloc
 def _run_leg_plain(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """:func:`run_leg` on the jets, without faults."""
-    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
-                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
-                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS), np.zeros(0), None,
-                       None, None)
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, new_work(p, 0), None, None, None)
 
 
 @njit_alloc
 def _run_leg_orbit(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """:func:`run_leg` on the jets, without faults, in orbit."""
-    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
-                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
-                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS), np.zeros(0), None,
-                       None, p.orbit)
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, new_work(p, 0), None, None,
+                       p.orbit)
 
 
 @njit_alloc
 def _run_leg_any(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """:func:`run_leg` on either actuator, with the scenario's faults."""
-    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
-                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
-                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS),
-                       np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults, None)
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows,
+                       new_work(p, p.wheels.axes.shape[0]), p.wheels, p.faults, None)
 
 
 @njit_alloc
 def _run_leg_any_orbit(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     """:func:`run_leg` on either actuator, with the scenario's faults, in orbit."""
-    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, np.zeros((N_SCRATCH, 3)),
-                       np.zeros((N_GATES, 3)), np.zeros(p.routing.position_routes.shape[0]),
-                       np.zeros(N_POSITION_SOURCES), np.zeros(N_SIGNALS),
-                       np.zeros(p.wheels.axes.shape[0]), p.wheels, p.faults, p.orbit)
+    return _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows,
+                       new_work(p, p.wheels.axes.shape[0]), p.wheels, p.faults, p.orbit)
 
 
 @njit_noalias
-def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, position_gain, sources,
-                sig, wheel_u, wheels_p, faults, orbit):
+def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, w, wheels_p, faults, orbit):
     """The frames of :func:`run_leg`.
 
-    ``scratch`` (N_SCRATCH, 3), ``gates`` (N_GATES, 3), ``position_gain``
-    (one per position route), ``sources`` (N_POSITION_SOURCES,) and ``sig``
-    (N_SIGNALS,) are per-leg work arrays, and ``wheel_u`` the reaction wheels'
-    motor torques (one per wheel); ``orbit`` the orbit's samples
-    (:class:`allsky.vehicle.environment.OrbitParams`), None far from any
-    body. Each stage is handed only the
-    parameters and state arrays of its own blocks. No array written here
-    may overlap another argument's (:func:`allsky.jit.njit_noalias`): the state's
-    arrays, the buffers and the work arrays are each allocated apart.
+    ``w`` holds the leg's work arrays (:class:`Work`). ``wheels_p``,
+    ``faults`` and ``orbit`` are the loop's optional parts
+    (:mod:`allsky.sim.parts`): the reaction wheels
+    (:class:`allsky.vehicle.wheels.WheelParams`), the scenario's faults and the
+    orbit's samples (:class:`allsky.vehicle.environment.OrbitParams`), each
+    None where the mission has none; the stages of a part absent compile to
+    nothing. Each stage is handed only the parameters and state arrays of its
+    own blocks. No array written here may overlap another argument's
+    (:func:`allsky.jit.njit_noalias`): the state's arrays, the buffers and the
+    work arrays are each allocated apart.
     """
     if not leg.resume:
         gauss_seed(s.rng, leg.seed)
@@ -299,27 +333,22 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
         s.leg_clock[CLOCK_SETTLE] = carried
     dt = p.frame_s
     ck = p.clock
-    sun_i, sun_b, coarse, fine, trk, gyro, comp = (scratch[0], scratch[1], scratch[2],
-                                                   scratch[3], scratch[4], scratch[5],
-                                                   scratch[6])
-    line, pos, rate, volts, torque, dith, ff = (scratch[7], scratch[8], scratch[9], scratch[10],
-                                                scratch[11], scratch[12], scratch[13])
-    wheel_hb, wheel_hdot = scratch[14], scratch[15]
+    fine, trk, gyro, volts, torque = w.fine, w.trk, w.gyro, w.volts, w.torque
+    gates = w.gates
     el = p.electronics
     sw = s.switches
     program = leg.program
     dithering = program == PROGRAM_DITHER or program == PROGRAM_TARGET_DITHER
     rrw_every = max(1, round(RRW_STEP_S / dt))
-    wire_leg(p.routing, el, sw, s.rate_sign, gates, position_gain)
+    wire_leg(p.routing, el, sw, s.rate_sign, gates, w.position_gain)
     sun_in_use, star_in_use = sensors_in_use(sw, p.routing)
-    cone_armed = sun_holds_pitch(p.routing.position_routes, position_gain)
+    cone_armed = sun_holds_pitch(p.routing.position_routes, w.position_gain)
+    tracking = excursion_tracked(s.excursion_ref_q)
     settled = s.leg_clock[CLOCK_SETTLE]
     sun_gone = s.leg_clock[CLOCK_SUN_GONE]
     star_gone = s.leg_clock[CLOCK_STAR_GONE]
     done = s.leg_clock[CLOCK_FRAMES]
     n_max = leg.timeout_frames
-    # ``wheels_p`` and ``faults`` are None on the patent's vehicle without faults: the
-    # branches that test them are dropped when that loop compiles (leg_entry).
     fault_state = s.fault_state
     dac_hi = (1 << (el.drift_dac_bits - 1)) - 1
     dac_lo = -(1 << (el.drift_dac_bits - 1))
@@ -331,130 +360,96 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, scratch, gates, positio
             clip_every_frame = True
     # The Sun's direction of a frame is computed a frame ahead, beside the plant's step (which
     # takes longest and does not depend on it), where it costs no latency of its own.
+    k_orbit, j_orbit, w_orbit = orbit_start(orbit, s.frame[0], w.sun_i)
     if orbit is None:
-        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, s.frame[0]), sun_i)
-    sunlit = 1.0
-    k_orbit, j_orbit, w_orbit, kh, wh = 0, 0, 0.0, 0, 0.0
-    if orbit is not None:  # the Sun seen from the vehicle; the frame between samples
-        k_orbit, j_orbit = start_place(orbit, s.frame[0])
-        w_orbit = j_orbit / orbit.step_frames
-        kh, wh = held(orbit, k_orbit, w_orbit)
-        sun_at(orbit, kh, wh, sun_i)
+        sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, s.frame[0]), w.sun_i)
     for frame_in_leg in range(done, n_max):
         frame = s.frame[0]  # the mission's clock: the frame flown now
-        tracker_p = p.tracker
-        if orbit is not None:  # the stars behind the Earth hidden from the tracker
-            kh, wh = held(orbit, k_orbit, w_orbit)
-            sunlit = occult_stars(orbit, kh, wh, frame_in_leg == done)
-            tracker_p = orbit.tracker
-        if faults is not None:
-            tracker_p = fault_tracker(faults, p.tracker, fault_state, frame)
-            fault_release(faults, fault_state, frame, s.tracker_lock)
-        star = sense(p.sun, tracker_p, p.gyro, dt, sun_i, s.x, s.dtheta_rad,
-                     s.frame[0] % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, s.tracker_lock,
-                     cone_armed, sun_b, fine, trk, gyro)
-        if orbit is not None:  # the Earth's shadow
-            dim_sun(sunlit, fine)
-        if faults is not None:
-            star = fault_sense(faults, tracker_p, fault_state, frame, dt, s.dtheta_rad, fine,
-                               trk, gyro, s.tracker_lock, star, cone_armed)
+        tracker_p, kh, wh, sunlit = orbit_sky(orbit, k_orbit, w_orbit, frame_in_leg == done,
+                                              p.tracker)
+        tracker_p = faults_tracker(faults, fault_state, frame, tracker_p, s.tracker_lock)
+        star = sense(p.sun, tracker_p, p.gyro, dt, w.sun_i, s.x, s.dtheta_rad,
+                     frame % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, s.tracker_lock,
+                     cone_armed, w.sun_b, fine, trk, gyro)
+        orbit_shadow(orbit, sunlit, fine)
+        star = faults_sense(faults, tracker_p, fault_state, frame, dt, s.dtheta_rad, fine, trk,
+                            gyro, s.tracker_lock, star, cone_armed)
         if tracker_p.bright_gate_mag > -np.inf:  # every light in the slit, glints too
             star = bright_gate(tracker_p, s.tracker_lock, star, trk)
         if star_in_use and star >= 0:
             s.locked_star[0] = star  # the star the loop is closed on (S12/S13)
         sum_and_count(el, p.vfc, dt, gates, gyro, s.drift_counters, s.counters,
-                      s.vfc_residue_pulses, s.overflow, comp, line)
-        compute(el, p.vfc.pulse_weight_arcsec, program, s.frame[0], s.counters, s.word23,
-                s.word24, sw, s.cpu, s.registers)
-        if faults is not None:  # noqa: SIM102 - alone, so numba drops it on the plain loop
-            if fault_upset(faults, fault_state, frame, s.drift_counters, s.counters,
-                           s.registers):
-                note_clip(s.journal, s.journal_n, s.journal_seen, frame, s.drift_counters,
-                          gates[GATE_DRIFT], dac_hi, dac_lo)
-        feed = 1.0  # the jets' thrust over its full-pressure value (a blow-down feed)
-        if faults is not None:
-            feed = thrust_fraction(p.jets, s.propellant_kg[0])
+                      s.vfc_residue_pulses, s.overflow, w.comp, w.line)
+        compute(el, p.vfc.pulse_weight_arcsec, program, frame, s.counters, s.word23, s.word24,
+                sw, s.cpu, s.registers)
+        faults_upset(faults, fault_state, frame, s.drift_counters, s.counters, s.registers,
+                     s.journal, s.journal_n, s.journal_seen, gates[GATE_DRIFT], dac_hi, dac_lo)
+        feed = faults_feed(faults, p.jets, s.propellant_kg)
         if program == PROGRAM_MODE1:
-            acquire_sun(p.sun, p.mode1, sun_b, fine, comp, s.rng, coarse, pos, rate)
+            acquire_sun(p.sun, p.mode1, w.sun_b, fine, w.comp, s.rng, w.coarse, w.pos, w.rate)
         else:
-            route(el, p.routing.position_routes, position_gain, s.registers, fine, trk, line,
-                  sources, pos, rate)
+            route(el, p.routing.position_routes, w.position_gain, s.registers, fine, trk, w.line,
+                  w.sources, w.pos, w.rate)
         control(p.control, p.dither, gates, program, dithering, frame_time(ck, frame_in_leg),
-                dt, pos, rate, s.amp_integral_arcsec, dith, ff, volts)
-        if wheels_p is None:
-            tank_ok = actuate(p.pwpf, p.jets, dt, volts, s.pwpf_filter_v, s.pwpf_out,
-                              s.pwpf_on_frames, s.propellant_kg, torque)
-        else:
-            tank_ok = actuate_either(p.pwpf, p.jets, wheels_p, p.actuator, dt, volts,
-                                     s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames,
-                                     s.propellant_kg, s.wheel_h, s.wheel_unload, wheel_u, torque,
-                                     wheel_hb, wheel_hdot)
-        if faults is not None:
-            tank_ok = fault_actuate(faults, fault_state, frame, p.jets, dt, s.pwpf_out,
-                                    s.propellant_kg, torque, tank_ok, feed)
-        if orbit is not None:  # gravity gradient, drag, solar pressure
-            env_torque(orbit, kh, wh, dt, s.x, p.plant.inertia_kg_m2, sun_b, torque)
+                dt, w.pos, w.rate, s.amp_integral_arcsec, w.dith, w.ff, volts)
+        tank_ok = actuate_vehicle(p.pwpf, p.jets, wheels_p, p.actuator, dt, volts,
+                                  s.pwpf_filter_v, s.pwpf_out, s.pwpf_on_frames, s.propellant_kg,
+                                  s.wheel_h, s.wheel_unload, w.wheel_u, torque, w.wheel_hb,
+                                  w.wheel_hdot)
+        tank_ok = faults_actuate(faults, fault_state, frame, p.jets, dt, s.pwpf_out,
+                                 s.propellant_kg, torque, tank_ok, feed)
+        orbit_torque(orbit, kh, wh, dt, s.x, p.plant.inertia_kg_m2, w.sun_b, torque)
         count_jet_time(s.pwpf_out, dt, s.jet_on_s)
         # The next frame's Sun
+        k_orbit, j_orbit, w_orbit = orbit_next(orbit, k_orbit, j_orbit, w_orbit, w.sun_i)
         if orbit is None:
-            sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, frame + 1), sun_i)
-        else:  # the next frame's place between samples
-            k_orbit, j_orbit, w_orbit = next_place(orbit, k_orbit, j_orbit)
-            kh, wh = held(orbit, k_orbit, w_orbit)
-            sun_at(orbit, kh, wh, sun_i)
-        if wheels_p is None:
-            advance(p.plant, dt, torque, s.x, s.dtheta_rad, s.frame, s.excursion_ref_q,
-                    s.max_excursion_rad)
-        else:
-            advance_either(p.plant, wheels_p, p.actuator, dt, torque, wheel_hb, wheel_hdot,
-                           wheel_u, s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad,
-                           s.frame, s.excursion_ref_q, s.max_excursion_rad)
+            sun_inertial(p.sun0_inertial, p.sun_rate_inertial, frame_time(ck, frame + 1),
+                         w.sun_i)
+        advance_vehicle(p.plant, wheels_p, p.actuator, dt, torque, w.wheel_hb, w.wheel_hdot,
+                        w.wheel_u, s.wheel_h, s.wheel_peak_fraction, s.x, s.dtheta_rad, s.frame)
+        if tracking:
+            track_excursion(s.excursion_ref_q, s.x, s.max_excursion_rad)
         n_leg = frame_in_leg + 1
-        if wheels_p is not None and p.telemetry_every > 0 \
-                and s.frame[0] % p.telemetry_every == 0:
-            body_vector(wheels_p.axes, s.wheel_h, wheel_hb)  # at the row's time
+        wheels_row(wheels_p, p.telemetry_every, s.frame[0], s.wheel_h, w.wheel_hb)
         record_telemetry(tlm, tlm_rows, p.telemetry_every, ck, s, leg.mode_code, fine, trk,
-                         gyro, volts, wheel_hb, wheel_hdot, s.wheel_unload[0])
+                         gyro, volts, w.wheel_hb, w.wheel_hdot, s.wheel_unload[0])
         note_frame(s.journal, s.journal_n, s.journal_seen, frame, star, star_in_use, trk[1],
                    s.overflow, s.tracker_lock)
         if clip_every_frame or frame_in_leg == done:
             note_clip(s.journal, s.journal_n, s.journal_seen, frame, s.drift_counters,
                       gates[GATE_DRIFT], dac_hi, dac_lo)
-        if wheels_p is not None:
-            note_wheels(s.journal, s.journal_n, s.journal_seen, frame, s.wheel_unload[0],
-                        s.wheel_h, wheels_p.max_momentum_n_m_s)
-        if faults is not None:
-            note_faults(s.journal, s.journal_n, s.journal_seen, fault_seen, frame, faults.n,
-                        fault_state, ONSET, faults.duration_frames)
+        wheels_note(wheels_p, s.journal, s.journal_n, s.journal_seen, frame, s.wheel_unload[0],
+                    s.wheel_h)
+        faults_note(faults, s.journal, s.journal_n, s.journal_seen, fault_seen, frame,
+                    fault_state)
         if dithering:
             record_dither(rec, rec_rows, p.dither_sample_frames, frame_time(ck, n_leg),
                           s.frame[0], s.counters, p.vfc.pulse_weight_arcsec, fine, trk)
         code, settled, sun_gone, star_gone = watch(p.sequencer, leg, sun_in_use, star_in_use,
-                                                   tank_ok, fine, trk, s.cpu, sig, n_leg,
+                                                   tank_ok, fine, trk, s.cpu, w.sig, n_leg,
                                                    settled, sun_gone, star_gone)
         if code != EXIT_NONE:
             s.leg_clock[CLOCK_SETTLE] = settled  # for a next leg that carries it on
-            _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot)
+            _last_row(p, wheels_p, tlm, ck, s, leg, w)
             return code, n_leg
         if s.frame[0] >= leg.pause_at_frame and n_leg < n_max:
-            _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot)
+            _last_row(p, wheels_p, tlm, ck, s, leg, w)
             s.leg_clock[CLOCK_SETTLE] = settled
             s.leg_clock[CLOCK_SUN_GONE] = sun_gone
             s.leg_clock[CLOCK_STAR_GONE] = star_gone
             s.leg_clock[CLOCK_FRAMES] = n_leg
             return EXIT_PAUSE, n_leg
     if n_max > done:  # the last frame flown ends the leg
-        _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot)
+        _last_row(p, wheels_p, tlm, ck, s, leg, w)
     return EXIT_TIMEOUT, max(n_max, done)
 
 
 @njit_stage
-def _last_row(p, wheels_p, tlm, ck, s, leg, fine, trk, gyro, volts, wheel_hb, wheel_hdot):
+def _last_row(p, wheels_p, tlm, ck, s, leg, w):
     """The row of the frame the loop returns on (:func:`allsky.sim.recorder.record_last_row`)."""
-    if wheels_p is not None and p.telemetry_every > 0:
-        body_vector(wheels_p.axes, s.wheel_h, wheel_hb)  # at the row's time
-    record_last_row(tlm, p.telemetry_every, ck, s, leg.mode_code, fine, trk, gyro, volts,
-                    wheel_hb, wheel_hdot, s.wheel_unload[0])
+    wheels_last_row(wheels_p, p.telemetry_every, s.wheel_h, w.wheel_hb)  # at the row's time
+    record_last_row(tlm, p.telemetry_every, ck, s, leg.mode_code, w.fine, w.trk, w.gyro,
+                    w.volts, w.wheel_hb, w.wheel_hdot, s.wheel_unload[0])
 
 
 @njit_stage
@@ -798,20 +793,21 @@ def actuate(pwpf_p, jets_p, dt_s, volts, filter_v, valve, on_frames, propellant_
 
 
 @njit_stage
-def actuate_either(pwpf_p, jets_p, wheels_p, actuator, dt_s, volts, filter_v, valve, on_frames,
-                   propellant_kg, wheel_h, wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot):
+def actuate_vehicle(pwpf_p, jets_p, wheels_p, actuator, dt_s, volts, filter_v, valve, on_frames,
+                    propellant_kg, wheel_h, wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot):
     """:func:`actuate`, or on the wheel vehicle :func:`actuate_wheels`.
 
-    On the wheel vehicle (``actuator`` ACTUATOR_WHEELS) ``torque`` is the
-    jets' unloading torque, and the wheels' share goes to ``wheel_u``,
-    ``wheel_hb`` and ``wheel_hdot`` for :func:`advance_either`.
-    Returns False once the tank is dry.
+    ``wheels_p`` is None on a vehicle without wheels (the loop then compiles
+    :func:`actuate` alone, :mod:`allsky.sim.parts`). On the wheel vehicle
+    (``actuator`` ACTUATOR_WHEELS) ``torque`` is the jets' unloading torque,
+    and the wheels' share goes to ``wheel_u``, ``wheel_hb`` and
+    ``wheel_hdot`` for :func:`advance_vehicle`. Returns False once the tank is dry.
 
     Parameters
     ----------
     pwpf_p : allsky.hardware.pwpf.PwpfParams
         The modulators (the jet vehicle).
-    wheels_p : allsky.vehicle.wheels.WheelParams
+    wheels_p : allsky.vehicle.wheels.WheelParams or None
         The wheel array (the wheel vehicle).
     jets_p : allsky.hardware.jets.JetParams
         Jets 39-41 and their feed.
@@ -831,9 +827,10 @@ def actuate_either(pwpf_p, jets_p, wheels_p, actuator, dt_s, volts, filter_v, va
     wheel_unload : numpy.ndarray
         (4,) int64 the unloader's state (:func:`allsky.vehicle.wheels.unload_valves`).
     """
-    if actuator == ACTUATOR_WHEELS:
-        return actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
-                              wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot)
+    if wheels_p is not None:  # noqa: SIM102 - alone, so numba decides it before typing
+        if actuator == ACTUATOR_WHEELS:
+            return actuate_wheels(wheels_p, jets_p, dt_s, volts, valve, propellant_kg, wheel_h,
+                                  wheel_unload, wheel_u, torque, wheel_hb, wheel_hdot)
     return actuate(pwpf_p, jets_p, dt_s, volts, filter_v, valve, on_frames, propellant_kg,
                    torque)
 
@@ -893,53 +890,28 @@ def count_jet_time(valve, dt_s, jet_on_s):
 
 
 @njit_stage
-def advance(plant_p, dt_s, torque, x, dtheta_rad, frame, excursion_ref_q, max_excursion_rad):
-    """The rigid body over a frame under ``torque``; the clock; the largest excursion.
+def advance_vehicle(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hdot, wheel_u,
+                    wheel_h, wheel_peak_fraction, x, dtheta_rad, frame):
+    """The rigid body (or the gyrostat) over a frame under ``torque``; the clock.
 
-    Parameters
-    ----------
-    plant_p : allsky.vehicle.plant.RigidBodyParams
-        Vehicle 100's mass properties.
-    dt_s : float
-        [s] frame length.
-    x : numpy.ndarray
-        (7,) plant state: quaternion inertial to body, body rate [rad/s]; advanced.
-    dtheta_rad : numpy.ndarray
-        (3,) [rad] written: the frame's body-angle increment (what the gyros see).
-    frame : numpy.ndarray
-        (1,) int64 the mission clock, advanced by one frame.
-    excursion_ref_q : numpy.ndarray
-        (4,) the attitude the mission wants held (all zero: not tracked).
-    max_excursion_rad : numpy.ndarray
-        (1,) [rad] largest rotation away from it so far, updated.
-    """
-    rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
-    _tick(x, frame, excursion_ref_q, max_excursion_rad)
-
-
-@njit_stage
-def advance_either(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hdot, wheel_u,
-                   wheel_h, wheel_peak_fraction, x, dtheta_rad, frame, excursion_ref_q,
-                   max_excursion_rad):
-    """:func:`advance`, or on the wheel vehicle the gyrostat.
-
-    The wheels' momentum ``wheel_hb`` changes at ``wheel_hdot`` (body
-    axes), and the wheel momenta ``wheel_h`` under their motor torques
-    ``wheel_u``.
+    ``wheels_p`` is None on a vehicle without wheels (the loop then compiles
+    the rigid body alone, :mod:`allsky.sim.parts`). On the wheel vehicle the
+    wheels' momentum ``wheel_hb`` changes at ``wheel_hdot`` (body axes), and
+    the wheel momenta ``wheel_h`` under their motor torques ``wheel_u``.
 
     Parameters
     ----------
     plant_p : allsky.vehicle.plant.RigidBodyParams
         The body's mass properties (on the wheel vehicle, less the wheels'
         spin inertia).
-    wheels_p : allsky.vehicle.wheels.WheelParams
+    wheels_p : allsky.vehicle.wheels.WheelParams or None
         The wheel array.
     actuator : int
         ``ACTUATOR_JETS`` or ``ACTUATOR_WHEELS`` (:mod:`allsky.vehicle.wheels`).
     dt_s : float
         [s] frame length.
     torque : numpy.ndarray
-        (3,) [N m] the jets' torque on the body, body axes.
+        (3,) [N m] the torque on the body (the jets', the environment's), body axes.
     wheel_peak_fraction : numpy.ndarray
         (1,) largest ``|h_i| / limit_i`` of any wheel so far, updated.
     x : numpy.ndarray
@@ -948,27 +920,37 @@ def advance_either(plant_p, wheels_p, actuator, dt_s, torque, wheel_hb, wheel_hd
         (3,) [rad] written: the frame's body-angle increment (what the gyros see).
     frame : numpy.ndarray
         (1,) int64 the mission clock, advanced by one frame.
-    excursion_ref_q : numpy.ndarray
-        (4,) the attitude the mission wants held (all zero: not tracked).
-    max_excursion_rad : numpy.ndarray
-        (1,) [rad] largest rotation away from it so far, updated.
     """
-    if actuator == ACTUATOR_WHEELS:
-        rk4_step_gyrostat(plant_p, x, torque, wheel_hb, wheel_hdot, dt_s, dtheta_rad)
-        advance_momentum(wheels_p, wheel_u, dt_s, wheel_h, wheel_peak_fraction)
-    else:
-        rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
-    _tick(x, frame, excursion_ref_q, max_excursion_rad)
+    if wheels_p is not None:  # noqa: SIM102 - alone, so numba decides it before typing
+        if actuator == ACTUATOR_WHEELS:
+            rk4_step_gyrostat(plant_p, x, torque, wheel_hb, wheel_hdot, dt_s, dtheta_rad)
+            advance_momentum(wheels_p, wheel_u, dt_s, wheel_h, wheel_peak_fraction)
+            frame[0] += 1
+            return
+    rk4_step(plant_p, x, torque, dt_s, dtheta_rad)
+    frame[0] += 1
 
 
 @njit_stage
-def _tick(x, frame, excursion_ref_q, max_excursion_rad):
-    """The mission clock (one frame more), and the largest excursion from the reference."""
-    frame[0] += 1
-    if excursion_ref_q[0] != 0.0 or excursion_ref_q[1] != 0.0 \
-            or excursion_ref_q[2] != 0.0 or excursion_ref_q[3] != 0.0:
-        e = _rotation_angle(excursion_ref_q, x)
-        max_excursion_rad[0] = max(max_excursion_rad[0], e)
+def excursion_tracked(excursion_ref_q):
+    """Whether the mission tracks its largest excursion from ``excursion_ref_q``.
+
+    All zero: not tracked. Read once a leg: the mission sets the reference between legs
+    (:meth:`allsky.sim.mission.Mission.track_excursion`).
+    """
+    return (excursion_ref_q[0] != 0.0 or excursion_ref_q[1] != 0.0
+            or excursion_ref_q[2] != 0.0 or excursion_ref_q[3] != 0.0)
+
+
+@njit_stage
+def track_excursion(excursion_ref_q, x, max_excursion_rad):
+    """The largest rotation [rad] away from the attitude ``excursion_ref_q``, updated.
+
+    ``x`` is the plant's state after the frame (its quaternion first);
+    ``max_excursion_rad`` (1,) [rad] the largest so far.
+    """
+    e = _rotation_angle(excursion_ref_q, x)
+    max_excursion_rad[0] = max(max_excursion_rad[0], e)
 
 
 @njit_stage

@@ -367,9 +367,8 @@ def orbit_summary(m) -> dict:
     ck = m.params.clock
     end = m.frame
     horizon = (o.n - 1) * o.step_frames
-    ahead = environment.sunlit_series(o, end, max(end, horizon))
-    dark = np.nonzero(ahead < 1.0)[0]
-    margin = None if dark.size == 0 else clock.time_s(ck, int(dark[0]))
+    dark = environment.first_dark(o, end, horizon)
+    margin = None if dark < 0 else clock.time_s(ck, dark - end)
     flown = environment.sunlit_series(o, 0, end)
     keys = {"gravity_gradient": m.cfg.orbit.gravity_gradient,
             "aerodynamic": m.cfg.orbit.aerodynamic,
@@ -380,7 +379,7 @@ def orbit_summary(m) -> dict:
     occulted = sorted({e["body"] for e in m.journal.of_kind("occultation")
                        if e["active"]})
     return {"kind": m.cfg.orbit.kind,
-            "sunlit_fraction": float(ahead[0]) if ahead.size else None,
+            "sunlit_fraction": float(environment.sunlit_at(o, end)) if end < horizon else None,
             "sunlit_margin_s": margin,
             "eclipsed_s": clock.time_s(ck, int(np.count_nonzero(flown < 1.0))),
             "occulted": occulted,

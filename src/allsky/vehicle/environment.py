@@ -484,11 +484,44 @@ def _sun_at_frame(orbit, frame, out):
 
 @njit_alloc
 def sunlit_series(orbit, first, last):
-    """The Sun's visible fraction at frames ``first`` to ``last`` - 1 of ``orbit``."""
+    """The Sun's visible fraction at frames ``first`` to ``last`` - 1 of ``orbit``.
+
+    Each frame's value is :func:`sunlit_at`'s; an interval between samples
+    that is sunlit at both ends and between (``WHOLE``) is filled with 1.0 at
+    once, as :func:`sunlit_at` would give it frame by frame.
+    """
     out = np.empty(max(last - first, 0))
-    for f in range(first, last):
-        out[f - first] = sunlit_at(orbit, f)
+    step = orbit.step_frames
+    f = first
+    while f < last:
+        k = f // step
+        if k < orbit.n - 1 and orbit.scalars[k, WHOLE] != 0.0:
+            end = min(last, (k + 1) * step)
+            out[f - first:end - first] = 1.0
+            f = end
+        else:
+            out[f - first] = sunlit_at(orbit, f)
+            f += 1
     return out
+
+
+@njit
+def first_dark(orbit, first, last):
+    """The first frame of ``first`` to ``last`` - 1 whose Sun is not whole (-1: none).
+
+    The frames' fractions are :func:`sunlit_at`'s, as in :func:`sunlit_series`.
+    """
+    step = orbit.step_frames
+    f = first
+    while f < last:
+        k = f // step
+        if k < orbit.n - 1 and orbit.scalars[k, WHOLE] != 0.0:
+            f = min(last, (k + 1) * step)
+        elif sunlit_at(orbit, f) < 1.0:
+            return f
+        else:
+            f += 1
+    return -1
 
 
 @njit_alloc

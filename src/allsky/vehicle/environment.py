@@ -509,7 +509,8 @@ def sunlit_series(orbit, first, last):
 def first_dark(orbit, first, last):
     """The first frame of ``first`` to ``last`` - 1 whose Sun is not whole (-1: none).
 
-    The frames' fractions are :func:`sunlit_at`'s, as in :func:`sunlit_series`.
+    ``orbit`` holds the samples; the frames' fractions are :func:`sunlit_at`'s,
+    as in :func:`sunlit_series`.
     """
     step = orbit.step_frames
     f = first

@@ -295,6 +295,7 @@ RULES: dict[str, Callable] = {
     "star_tracker.reference_star": star_name,
     "star_tracker.cone_angle_check_deg": number(in_closed(0, 90, "0 = no check")),
     "star_tracker.bright_gate": boolean,
+    "star_tracker.moving_bodies": one_of("auto", "on", "off"),
     "jets.thrust_n": vector(3, POSITIVE),
     "jets.moment_arm_m": vector(3, POSITIVE),
     "jets.min_on_time_s": number(in_open_closed(0, 1, "cold-gas valves: a few to tens of ms")),

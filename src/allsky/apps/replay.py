@@ -254,7 +254,7 @@ def body_tracks(cfg, span_s) -> list:
     date = cfg.mission.date_utc
     lo, hi = cfg.star_tracker.magnitude_window
     flown = sky_rows.bodies_flown(cfg)
-    n = int(math.ceil(span_s / BODY_STEP_S)) + 1
+    n = math.ceil(span_s / BODY_STEP_S) + 1
     out = []
     for b in bodies.bodies(date):
         ra, dec = [], []
@@ -270,7 +270,7 @@ def body_tracks(cfg, span_s) -> list:
 
 
 def sky_data(cfg, summary, targets, span_s=None) -> dict:
-    """Sun, catalog, bodies, ``targets`` and slit; ``summary`` names the stars (or None).
+    """Sun, stars, bodies, ``targets``, slit; ``summary`` names the stars (or None).
 
     ``cfg`` is the scenario flown: its date (the Sun, the catalog, the Moon
     and the planets over ``span_s`` [s]; None: the longest mission the

@@ -1,4 +1,4 @@
-"""``allsky stars``: the catalog, the moving bodies and what the tracker's window passes.
+"""``allsky stars``: the catalog, the moving bodies and what the window passes.
 
 The stars come from :func:`allsky.vehicle.sky.catalog`, the Moon and the
 planets from :mod:`allsky.vehicle.bodies`; this module prints them.
@@ -9,7 +9,7 @@ import sys
 
 
 def format_stars(stars, window, date_utc, moving=(), seen=False) -> str:
-    """The catalog as a table: magnitude, RA [h], Dec [deg], phase, window, reference star.
+    """The catalog as a table: magnitude, RA [h], Dec [deg], phase, window mark.
 
     ``stars`` are :func:`allsky.vehicle.sky.catalog`'s entries, ``window`` the
     tracker's (brightest, faintest) magnitudes and ``date_utc`` the UTC

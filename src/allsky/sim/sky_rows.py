@@ -36,7 +36,7 @@ from allsky.vehicle import sky
 
 
 def bodies_flown(cfg) -> bool:
-    """Whether scenario ``cfg`` flies the moving bodies (``star_tracker.moving_bodies``)."""
+    """Whether scenario ``cfg`` flies the bodies (``star_tracker.moving_bodies``)."""
     setting = cfg.star_tracker.moving_bodies
     if setting == "auto":
         return cfg.orbit.kind != "none"
@@ -90,11 +90,12 @@ def sky_rows(cfg) -> SkyRows:
 
 
 def body_table(rows: SkyRows, cfg, track, step_s: float) -> np.ndarray:
-    """(n, len(rows.body_names), 3): each body seen from the vehicle in each sample interval.
+    """(n, b, 3): each of ``rows``' b bodies seen from the vehicle, by sample interval.
 
     Row ``k`` is the direction at the middle of the interval from sample
     ``k`` of ``track`` (:class:`allsky.vehicle.orbit.Track`), ``step_s`` [s]
-    long, which the frame loop holds through it.
+    long, which the frame loop holds through it. ``rows`` is
+    :func:`sky_rows`' (its ``body_names``), ``cfg`` the scenario (its date).
     """
     if not rows.body_names:
         return np.zeros((track.t_s.shape[0], 0, 3))

@@ -108,9 +108,10 @@ PHASE_CURVES = {
 
 def magnitude(name: str, r_au: float, delta_au: float, alpha_deg: float,
               ring_sin: float = 0.0) -> float:
-    """Visual magnitude of body ``name`` at distances ``r_au``, ``delta_au``, phase ``alpha_deg``.
+    """Visual magnitude of body ``name``: Mallama and Hilton's law, or Allen's.
 
-    ``ring_sin`` is, for Saturn, the sine of its rings' tilt toward the Earth
+    ``r_au`` and ``delta_au`` [au] are its distances from the Sun and the
+    Earth, ``alpha_deg`` [deg] its phase angle; ``ring_sin`` is, for Saturn, the sine of its rings' tilt toward the Earth
     (the sub-Earth latitude); the magnitude is of the globe and the rings.
     """
     a = abs(float(alpha_deg))
@@ -131,7 +132,7 @@ def _angle(u, v) -> float:
 
 
 def from_earth_km(name: str, date_utc: datetime, offset_s: float = 0.0) -> np.ndarray:
-    """Astrometric geocentric position [km] of body ``name`` at ``date_utc`` + ``offset_s``."""
+    """Astrometric geocentric place [km] of ``name`` at ``date_utc`` + ``offset_s``."""
     return ephemeris.from_earth_km(BODIES[name], ephemeris.tdb_jd(date_utc, offset_s))
 
 
@@ -176,18 +177,18 @@ def bodies(date_utc: datetime) -> list[Body]:
 
 
 def in_window(date_utc: datetime, window) -> list[str]:
-    """Names of the bodies whose magnitude at ``date_utc`` lies in ``window`` (inclusive)."""
+    """The bodies whose magnitude at ``date_utc`` lies in ``window`` (inclusive)."""
     lo, hi = window
     return [b.name for b in bodies(date_utc) if lo <= b.magnitude <= hi]
 
 
 def geocentric_grid_km(names, date_utc: datetime, span_s: float):
-    """``(t_s, km)``: the bodies' geocentric places every :data:`GRID_S` over ``span_s``.
+    """``(t_s, km)``: geocentric places every :data:`GRID_S` over ``span_s``.
 
-    ``km`` is (len(t_s), len(names), 3); the grid starts at ``date_utc`` and
+    ``names`` are the bodies'; ``km`` is (len(t_s), len(names), 3); the grid starts at ``date_utc`` and
     covers ``span_s`` [s] and one step more.
     """
-    n = int(math.ceil(span_s / GRID_S)) + 2
+    n = math.ceil(span_s / GRID_S) + 2
     t = np.arange(n) * GRID_S
     km = np.empty((n, len(names), 3))
     for i, ti in enumerate(t):
@@ -199,7 +200,8 @@ def geocentric_grid_km(names, date_utc: datetime, span_s: float):
 def directions_from(names, date_utc: datetime, t_s, position_km) -> np.ndarray:
     """Unit vectors (len(t_s), len(names), 3) from a vehicle to the bodies, ICRF.
 
-    ``position_km`` (len(t_s), 3) is the vehicle's geocentric position [km]
+    ``names`` are the bodies' (keys of :data:`BODIES`); ``position_km``
+    (len(t_s), 3) is the vehicle's geocentric position [km]
     at mission times ``t_s`` [s] after ``date_utc``. The bodies' geocentric
     places are interpolated linearly in km from :func:`geocentric_grid_km`
     (0.016" for the Moon), each component in axis order.

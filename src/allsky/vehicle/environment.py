@@ -596,9 +596,9 @@ def occulted_series(orbit, directions, first, last):
 
 @njit_alloc
 def occulted_bodies_series(orbit, first, last):
-    """Each moving body behind the Earth's disk, (frames, b) bool, at frames ``first`` to ``last`` - 1.
+    """Each moving body behind the Earth's disk, (frames, b) bool.
 
-    A body's direction is its row of ``orbit.bodies_i`` for the frame's
+    At frames ``first`` to ``last`` - 1 of ``orbit``. A body's direction is its row of ``orbit.bodies_i`` for the frame's
     sample interval, as the frame loop holds it (:func:`occult_stars`).
     """
     b = orbit.bodies_i.shape[1]

@@ -170,7 +170,7 @@ def earth_km(jd: float) -> np.ndarray:
 
 
 def barycentric_km(body: str, jd: float) -> np.ndarray:
-    """``body``'s position [km] about the solar system's barycentre at TDB Julian date ``jd``.
+    """``body``'s position [km] from the barycentre at TDB Julian date ``jd``.
 
     ``body`` is a name of :data:`FILES` other than ``"earthmoon"``, or
     ``"earth"``; the Moon is the Earth's centre plus its geocentric series.

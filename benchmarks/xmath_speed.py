@@ -10,13 +10,19 @@ The best of 7 repetitions is printed, with the C library's figure beside.
 """
 
 import math
+import os
 import sys
+import tempfile
 import time
 
-import numpy as np
+# Compiled afresh in each process: numba's cache of this file's loops would keep the code
+# of whichever checkout's xmath compiled them first (it checks only this file's own stamp).
+os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="xmath-speed-")
 
-from allsky import xmath
-from allsky.jit import njit
+import numpy as np  # noqa: E402
+
+from allsky import xmath  # noqa: E402
+from allsky.jit import njit  # noqa: E402
 
 
 @njit

@@ -64,6 +64,13 @@ def test_the_api_reference_is_in_the_top_bar():
     assert (DOCS / "api" / "index.md").read_text().startswith("# API reference\n")
 
 
+def test_the_api_reference_gives_the_public_api_first_and_the_modules_as_internals():
+    index = (DOCS / "api" / "index.md").read_text()
+    assert index.index("## The Python API\n") < index.index("## Internals\n")
+    assert re.search(r"## Internals\n.*```\{toctree\}\n[^`]*\npackages\n", index, re.DOTALL)
+    assert (DOCS / "api" / "packages.md").read_text().startswith("# Internals\n")
+
+
 def test_the_api_reference_lists_every_package_and_foundation_module():
     from allsky.layers import LAYERS, SRC
 

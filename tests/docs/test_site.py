@@ -189,6 +189,27 @@ def test_the_first_tutorial_plays_its_replay_inline_offline(saved_states):
         driver.quit()
 
 
+def test_the_api_reference_is_in_the_top_bar_of_a_1280_px_window():
+    """Chromium at 1280x720: "API reference" is a link of the top bar, not under "More"."""
+    site = _site()
+    driver = new_driver()  # 1280x720
+    try:
+        driver.get((site / "index.html").as_uri())
+        shown = driver.execute_script("""
+            return Array.from(document.querySelectorAll('.bd-header a.nav-link'))
+              .filter((a) => a.textContent.trim() === 'API reference')
+              .map((a) => ({visible: a.getClientRects().length > 0 && a.offsetWidth > 0,
+                            inMenu: a.closest('.dropdown-menu') !== null,
+                            inNavbar: a.closest('.navbar-nav') !== null}));""")
+        width = driver.execute_script("return window.innerWidth")
+        assert width == 1280, width
+        assert shown, "no link 'API reference' in the top bar"
+        assert all(not s["inMenu"] for s in shown), shown
+        assert any(s["visible"] and s["inNavbar"] for s in shown), shown
+    finally:
+        driver.quit()
+
+
 @pytest.mark.parametrize("query, first", [("fly", "allsky.fly"), ("compare", "allsky.compare"),
                                           ("Flight", "allsky.Flight")])
 def test_the_site_search_gives_the_public_name_first(query, first):

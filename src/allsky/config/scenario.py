@@ -196,6 +196,21 @@ class Scenario:
 
     Vectors are tuples of floats, matrices tuples of tuples, ``mission.date_utc``
     a UTC datetime, ``sequencer.timeout_s`` a read-only mapping mode -> seconds.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> cfg = allsky.load_scenario()
+    >>> cfg
+    <Scenario 2026-11-22T12:00:00Z seed 1: Sirius>
+    >>> cfg.target.star, cfg.gyro.drift_deg_h        # [deg/h] roll, pitch, yaw
+    ('Sirius', (1.2, -0.8, 1.5))
+    >>> allsky.scenario_from_dict(cfg.as_dict()) == cfg
+    True
+    >>> cfg.mission.seed = 2
+    Traceback (most recent call last):
+    ...
+    AttributeError: a Scenario is frozen
     """
 
     __slots__ = ("_sections",)
@@ -327,10 +342,24 @@ def scenario_from_dict(data: Mapping, overrides=()) -> Scenario:
     overrides : iterable of str
         ``KEY=VALUE`` strings applied after ``data``, in order.
 
+    Returns
+    -------
+    Scenario
+        The validated, frozen scenario.
+
     Raises
     ------
     ConfigError
         For an unknown key or any value that breaks its rule.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> cfg = allsky.scenario_from_dict({"target": {"star": "Vega"}, "mission": {"seed": 7}})
+    >>> cfg
+    <Scenario 2026-11-22T12:00:00Z seed 7: Vega>
+    >>> allsky.scenario_from_dict(cfg.as_dict(), ["mission.seed=8"]).mission.seed
+    8
     """
     if isinstance(overrides, str):
         overrides = (overrides,)
@@ -368,6 +397,15 @@ def load_scenario(path=None, overrides=(), disperse=None) -> Scenario:
     ConfigError
         For an unreadable or missing file, a TOML syntax error (with its line),
         an unknown key or any value that breaks its rule.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> allsky.load_scenario(overrides=['target.star="Vega"', "mission.seed=7"])
+    <Scenario 2026-11-22T12:00:00Z seed 7: Vega>
+    >>> cfg = allsky.load_scenario("voyager1-wrong-star")   # a packaged scenario
+    >>> cfg.faults[0]["kind"], cfg.faults[0]["star"]
+    ('wrong_star', 'Rigil Kentaurus')
     """
     path = fault_table.packaged_or_path(path)
     data = {} if path is None else read_toml(path)

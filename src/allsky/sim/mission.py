@@ -76,6 +76,23 @@ class Hooks(NamedTuple):
 
     Passed to :meth:`Mission.run_mode` and :meth:`Mission.run`, never set on
     the mission: the flight is the same with or without them.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.Mission(allsky.load_scenario())
+    >>> legs = []
+    >>> hooks = allsky.Hooks(after_leg=lambda m, mode, leg, rows: legs.append((mode, leg)))
+    >>> m.run_mode(hooks).mode
+    '1'
+    >>> legs
+    [('1', 'sun acquired and settled')]
+    >>> times_s = []                                # [s] every 50 s of mission time
+    >>> m.run_mode(allsky.Hooks(pause_every_s=50.0,
+    ...                         on_pause=lambda m, leg: times_s.append(m.now_s()))).mode
+    '2'
+    >>> times_s
+    [200.0, 250.0]
     """
 
     #: [s] of mission time between calls of ``on_pause`` inside legs (None: no pauses)
@@ -312,6 +329,19 @@ class Mission:
         the holds and the further targets the scenario asks for
         (:func:`allsky.sequencer.modes.mission_plan`); a restored mission
         flies the plan of its ``history``.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.Mission(allsky.load_scenario())
+    >>> m.plan
+    ('1', '2', '3', '4', '5', '6-1', '6-2')
+    >>> record = m.run_mode()           # Mode 1: Sun orientation
+    >>> record.mode, record.end_s       # [s]
+    ('1', 187.3)
+    >>> summary = m.run()               # the rest: Modes 2 to 6-2
+    >>> m.status, round(summary["end"]["true_pointing_error_arcsec"], 1)
+    ('complete', 7.6)
     """
 
     def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None,
@@ -853,6 +883,13 @@ def run_mission(cfg, telemetry=True) -> Mission:
     """Fly a whole mission (Modes 1 to 6-2, holds, every target) and return it.
 
     ``cfg`` is the validated scenario; ``telemetry`` False records none.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.run_mission(allsky.load_scenario(), telemetry=False)
+    >>> m.status, [record.mode for record in m.timeline]
+    ('complete', ['1', '2', '3', '4', '5', '6-1', '6-2'])
     """
     m = Mission(cfg, telemetry=telemetry)
     m.run()

@@ -99,7 +99,18 @@ def tracker_star_names(cfg) -> list:
 
 
 class ModeRecord(NamedTuple):
-    """One line of the mode timeline."""
+    """One line of the mode timeline.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.Mission(allsky.load_scenario())
+    >>> record = m.run_mode()                       # Mode 1: Sun orientation
+    >>> record.mode, record.start_s, record.end_s   # [s]
+    ('1', 0.0, 187.3)
+    >>> record.exit
+    'sun pitch and yaw settled; S14, S15 closed'
+    """
 
     mode: str  #: the mode's name in the mode table ("1" ... "6-2", "dither", ...)
     start_s: float  #: [s] mission time the mode started

@@ -120,8 +120,6 @@ def test_the_inline_replay_fits_its_frame(executed, tmp_path, width):
         driver.quit()
 
 
-@pytest.mark.xfail(strict=True, reason="Replay._repr_html_'s iframe is width: 100% plus a 1 px "
-                   "border each side (content-box): 2 px wider than the output area")
 def test_the_inline_frame_fits_the_output_area(executed, tmp_path):
     """The frame itself in a notebook's output area: the area does not scroll sideways."""
     driver = _open_in_output_area(executed[1], NOTEBOOK_OUTPUT_PX, tmp_path)

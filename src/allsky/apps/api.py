@@ -277,7 +277,8 @@ class Replay:
     def _repr_html_(self) -> str:
         return (f'<iframe class="allsky-replay" title="allsky mission replay" '
                 f'srcdoc="{html.escape(self.html, quote=True)}" '
-                f'style="width: 100%; height: {self.height_px}px; border: 1px solid #ccc">'
+                f'style="width: 100%; box-sizing: border-box; height: {self.height_px}px; '
+                'border: 1px solid #ccc">'
                 "</iframe>")
 
     def save(self, path: str | os.PathLike) -> Path:

@@ -124,3 +124,29 @@ def test_allsky_stars_lists_the_bodies_in_the_window(capsys):
     assert row.split()[1:] == ["-2.17", "9.920", "+13.50", "0.99", "in"]
     assert "Moving bodies inside: 2 (the tracker sees them)" in table
     assert max(len(ln) for ln in table.splitlines()[1:]) <= 100
+
+
+def test_the_bright_gate_counts_the_moons_light_and_moves_it():
+    """The Moon (-11.6 mag) on the boresight fills the slit 10^4.6 times a magnitude-0 star."""
+    from allsky.hardware.star_tracker import slit_flux
+    from allsky.vehicle import quaternion
+
+    gate = [*JUPITER_SKY, "star_tracker.bright_gate=true"]
+    m = Mission(load_scenario("shuttle-free-flyer", overrides=gate), telemetry=False)
+    rows = sky_rows.sky_rows(m.cfg)
+    j = rows.body_names.index("Moon")
+    moon = rows.gate_directions[rows.gate_rows[j]]
+    x = np.cross(moon, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    q = quaternion.from_dcm(np.array([x, np.cross(moon, x), moon]))
+    flux = slit_flux(m.params.tracker, q)
+    assert flux >= 10 ** (0.4 * 11.5)
+    off = Mission(load_scenario("shuttle-free-flyer",
+                                overrides=[*gate, 'star_tracker.moving_bodies="off"']),
+                  telemetry=False)
+    assert slit_flux(off.params.tracker, q) < 10.0  # the stars alone
+    m.run()
+    o = m.params.orbit
+    k = int(o.body_k[0])
+    assert k > 0 and np.array_equal(o.tracker.gate_stars_inertial[rows.gate_rows[j]],
+                                    o.bodies_i[k, j])

@@ -19,7 +19,7 @@ def freeze(v):
 
 
 def thaw(v):
-    """``v`` as plain data again: mappings as dicts, tuples as lists (:func:`freeze` undone)."""
+    """``v`` as plain data again: dicts and lists (:func:`freeze` undone)."""
     if isinstance(v, Mapping):
         return {k: thaw(x) for k, x in v.items()}
     if isinstance(v, tuple):

@@ -100,3 +100,17 @@ def test_a_changed_line_is_found():
     assert unmatched(["a", "c"], "a\nb\nc\n") == ["c"]  # no gap without "..."
     assert unmatched(["a", "x  ..."], "a\nx y z\n") == []
     assert unmatched(["a", "z"], "a\nb\n") == ["z"]
+
+
+#: docs/montecarlo.md's example campaign: 500 runs, about 30 s on two cores.
+CAMPAIGN = ["montecarlo", "--disperse", str(DOCS / "examples" / "gyro_and_sky_dispersions.toml"),
+            "--runs", "500", "--out", "mc/"]
+
+
+@pytest.mark.slow
+def test_the_campaign_sample_is_what_the_campaign_prints(tmp_path, monkeypatch):
+    """The page's first output block is the example campaign's table, line for line."""
+    monkeypatch.chdir(tmp_path)
+    sample = samples("montecarlo.md")[0]
+    assert sample[0].startswith("Monte Carlo campaign: 500 of 500 runs recorded")
+    assert unmatched(sample, _output(CAMPAIGN)) == [], "docs/montecarlo.md's campaign differs"

@@ -19,10 +19,10 @@ import time
 # of whichever checkout's xmath compiled them first (it checks only this file's own stamp).
 os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="xmath-speed-")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from allsky import xmath  # noqa: E402
-from allsky.jit import njit  # noqa: E402
+from allsky import xmath
+from allsky.jit import njit
 
 
 @njit

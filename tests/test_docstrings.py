@@ -33,13 +33,21 @@ Files in :data:`PENDING` are checked but allowed to fail: an expected failure
 (``-ra`` prints the file, the reason and how many parameters are missing). A
 pending file that already passes simply passes; its entry goes when the work
 it waits for lands, and no other file may join the set.
+
+The public API (``allsky.__all__``) is held to more: each of its functions and
+classes has a numpydoc ``Examples`` section, and its examples run as doctests
+(those marked ``# doctest: +SKIP`` fly many missions and are shown, not run).
+These tests import allsky.
 """
 
 import ast
+import doctest
+import inspect
 import re
 
 import pytest
 
+import allsky
 from allsky.layers import SRC
 
 #: [characters] longest summary line (numpydoc: one line that fits the screen).
@@ -222,3 +230,33 @@ def test_the_checker_reads_field_comments(tmp_path):
     # A record's field may be an Attributes entry, a constructor's parameter may not; a
     # static method's first parameter is a parameter.
     assert undocumented(path) == ["P field: d", "P field: e", "Q(): w", "Q.go: z", "Q.make: v"]
+
+
+# -- the public API: examples, and examples that run ---------------------------------------
+
+#: The public functions and classes (``allsky.__all__`` less its constants).
+PUBLIC = [name for name in allsky.__all__
+          if inspect.isfunction(getattr(allsky, name)) or inspect.isclass(getattr(allsky, name))]
+#: doctest options: ``...`` stands for any text (a page's size, a long line's end).
+DOCTEST_FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
+
+
+def test_every_public_function_and_class_has_examples():
+    lacking = [name for name in PUBLIC
+               if "Examples" not in _sections(inspect.cleandoc(getattr(allsky, name).__doc__
+                                                               or ""))]
+    assert not lacking, "no Examples section: " + ", ".join(lacking)
+
+
+@pytest.mark.parametrize("name", PUBLIC)
+def test_the_public_examples_run(name, tmp_path, monkeypatch):
+    """Each example gives the output shown (run in an empty folder: a save writes there)."""
+    monkeypatch.chdir(tmp_path)
+    obj = getattr(allsky, name)
+    tests = doctest.DocTestFinder().find(obj, f"allsky.{name}", globs={})
+    runner = doctest.DocTestRunner(optionflags=DOCTEST_FLAGS)
+    for test in tests:
+        runner.run(test)
+    assert any(test.examples for test in tests), f"allsky.{name}: no examples found"
+    failed = runner.summarize(verbose=False).failed
+    assert failed == 0, f"allsky.{name}: {failed} examples failed (printed above)"

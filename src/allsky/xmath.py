@@ -203,11 +203,16 @@ def _atan01(t):
     """atan(t) for ``0 <= t <= 1`` as (big, small): a table value and the rest.
 
     ``t`` is referred to the nearest k/8: atan t = atan(k/8) + atan u with
-    ``u = (t - k/8) / (1 + t k/8)``, ``|u| <= 1/16``.
+    ``u = (t - k/8) / (1 + t k/8)``, ``|u| <= 1/16``; for k = 0 that is
+    ``t / 1``, so ``u = t`` is taken as it is (the same bits, one division
+    fewer).
     """
     k = int(t * 8.0 + 0.5)
-    c = k * 0.125
-    u = (t - c) / (1.0 + t * c)
+    if k == 0:  # t < 1/16, the sensors' common case: u = t exactly, without a division
+        u = t
+    else:
+        c = k * 0.125
+        u = (t - c) / (1.0 + t * c)
     z = u * u
     p = A1 + z * (A2 + z * (A3 + z * (A4 + z * (A5 + z * (A6 + z * A7)))))
     return ATAN_HI[k], u + (ATAN_LO[k] + (u * z) * p)

@@ -47,6 +47,7 @@ def test_units_are_known_for_every_key_with_a_unit_suffix():
                 "actuators.kind", "wheels.axes", "wheels.unload_fraction",
                 "wheels.unload_end_fraction", "wheels.allocation", "sequencer.recovery",
                 "sequencer.between_targets", "target.sequence", "star_tracker.bright_gate",
+                "star_tracker.moving_bodies",
                 "jets.supply", "orbit.kind", "orbit.j2", "orbit.tle_line1", "orbit.tle_line2",
                 "orbit.gravity_gradient", "orbit.aerodynamic", "orbit.drag_coefficient",
                 "orbit.solar_pressure", "orbit.srp_reflectivity"}

@@ -139,6 +139,9 @@ MISSIONS = {
     "sunset": ("shuttle-free-flyer-sunset", []),
     "wheels": (None, ['actuators.kind="wheels"', "wheels.max_momentum_n_m_s=6"]),
     "hold": (None, ["target.hold_s=300"]),
+    # Jupiter inside the window on the Mariner cards' date: the tracker locks it in Mode 2
+    "jupiter": ("shuttle-free-flyer", ["mission.date_utc=2026-11-28T00:00:00Z",
+                                       "star_tracker.magnitude_window=[-2.5,-0.3]"]),
 }
 
 
@@ -1004,3 +1007,27 @@ def test_words_never_written_read_not_calibrated(other):
         assert "not calibrated (Mode 5 aborted)" in shown[word][1]
     for word in ("SFr", "r\u2192p", "r\u2192y"):
         assert "not cal." not in shown[word][0] and "not calibrated" not in shown[word][1]
+
+
+def test_the_sky_map_draws_the_moon_and_the_planets_where_they_are(other):
+    """``bodies(t_s)`` against the ephemeris; the locked planet ringed as the star in the slit."""
+    from allsky.vehicle import bodies, sky
+
+    driver, table, summary, cfg = other("jupiter")
+    lock = next(e for e in summary["events"] if e["kind"] == "star_lock")
+    assert lock["star"] == "Jupiter"
+    for t_s in (0.0, lock["t_s"] + 1.0, float(table[-1, INDEX["time"]])):
+        got = {b["name"]: b for b in js(driver, "return window.allsky.bodies(arguments[0])", t_s)}
+        assert set(got) == set(bodies.BODIES)
+        for name, b in got.items():
+            r = bodies.from_earth_km(name, cfg.mission.date_utc, t_s)
+            ra, dec = sky.unit_to_radec(r)
+            u, v = sky.radec_to_unit(ra, dec), sky.radec_to_unit(b["ra_deg"], b["dec_deg"])
+            assert math.degrees(math.acos(min(1.0, float(u @ v)))) < 0.002, (name, t_s)
+        assert got["Jupiter"]["in_window"] and got["Jupiter"]["flown"]
+        assert not got["Venus"]["in_window"]
+    state = js(driver, "return window.allsky.seek(arguments[0])", lock["t_s"] + 1.0)
+    assert state["tracker_star"] == "Jupiter"
+    assert "slit on Jupiter" in driver.find_element("id", "sky").get_attribute("aria-label")
+    logs = driver.get_log("browser")
+    assert [e for e in logs if e["level"] in ("SEVERE", "WARNING")] == [], logs

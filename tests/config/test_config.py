@@ -72,7 +72,8 @@ def test_every_default_key_has_its_unit_in_its_name():
                 "reference_star", "apply", "between_targets",
                 "filter_gain", "feedforward", "inertia_estimate_scale", "estimator", "detector",
                 "store_cross_coupling", "kind", "axes", "unload_fraction",
-                "unload_end_fraction", "recovery", "bright_gate", "supply"}
+                "unload_end_fraction", "recovery", "bright_gate", "supply",
+                "moving_bodies"}
     for sec, table in DEFAULT.items():
         for k in table:
             assert k in unitless or k.endswith(units), f"{sec}.{k} has no unit in its name"

@@ -59,7 +59,7 @@ GRAPH = {m: {d for d in _imports(p) if d != m} for m, p in MODULES.items()}
 def test_the_package_has_the_modules_named_by_its_face():
     assert set(MODULES) == {PACKAGE, *(f"{PACKAGE}.{m}" for m in (
         "rules", "checkers", "toml_io", "schema", "cross_rules", "meanings", "dispersion_table", "faults",
-        "scenario", "dispersions"))}
+        "frozen", "scenario", "dispersions"))}
 
 
 def test_no_import_cycle_in_the_config_package():

@@ -64,6 +64,13 @@ def test_the_api_reference_is_in_the_top_bar():
     assert (DOCS / "api" / "index.md").read_text().startswith("# API reference\n")
 
 
+def test_the_api_reference_gives_the_public_api_first_and_the_modules_as_internals():
+    index = (DOCS / "api" / "index.md").read_text()
+    assert index.index("## The Python API\n") < index.index("## Internals\n")
+    assert re.search(r"## Internals\n.*```\{toctree\}\n[^`]*\npackages\n", index, re.DOTALL)
+    assert (DOCS / "api" / "packages.md").read_text().startswith("# Internals\n")
+
+
 def test_the_api_reference_lists_every_package_and_foundation_module():
     from allsky.layers import LAYERS, SRC
 
@@ -178,6 +185,27 @@ def test_the_first_tutorial_plays_its_replay_inline_offline(saved_states):
         errors = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"
                   and "invalid theme mode" not in e["message"]]
         assert errors == []
+    finally:
+        driver.quit()
+
+
+def test_the_api_reference_is_in_the_top_bar_of_a_1280_px_window():
+    """Chromium at 1280x720: "API reference" is a link of the top bar, not under "More"."""
+    site = _site()
+    driver = new_driver()  # 1280x720
+    try:
+        driver.get((site / "index.html").as_uri())
+        shown = driver.execute_script("""
+            return Array.from(document.querySelectorAll('.bd-header a.nav-link'))
+              .filter((a) => a.textContent.trim() === 'API reference')
+              .map((a) => ({visible: a.getClientRects().length > 0 && a.offsetWidth > 0,
+                            inMenu: a.closest('.dropdown-menu') !== null,
+                            inNavbar: a.closest('.navbar-nav') !== null}));""")
+        width = driver.execute_script("return window.innerWidth")
+        assert width == 1280, width
+        assert shown, "no link 'API reference' in the top bar"
+        assert all(not s["inMenu"] for s in shown), shown
+        assert any(s["visible"] and s["inNavbar"] for s in shown), shown
     finally:
         driver.quit()
 

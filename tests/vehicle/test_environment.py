@@ -112,6 +112,38 @@ def test_the_earth_occults_canopus_at_the_geometric_time(flown):
         assert kg == ke and abs(tg - te) <= 0.02, (tg, te)
 
 
+def test_the_earth_occults_jupiter_at_the_geometric_time():
+    """A moving body's row, held per sample interval, is hidden when the closed form says.
+
+    Jupiter on 2026-11-28, inside a window that passes it; from 6678 km its
+    parallax is 0.002", so its direction from the Earth's centre is the
+    closed form's.
+    """
+    from allsky.sim import sky_rows
+    from allsky.vehicle import bodies
+
+    date = ["mission.date_utc=2026-11-28T00:00:00Z",
+            "star_tracker.magnitude_window=[-2.5,-0.3]"]
+    cfg = load_scenario(overrides=[*ORBIT[:-1], "orbit.arg_latitude_deg=210.0", *date])
+    p = build_params(cfg)
+    o = p.orbit
+    j = sky_rows.sky_rows(cfg).body_names.index("Jupiter")
+    t_max = 7000.0
+    hidden = env.occulted_bodies_series(o, 0, clock.frame_at(p.clock, t_max))[:, j]
+    on, off = _first_frames(hidden)
+    got = sorted([(k * p.frame_s, "in") for k in on] + [(k * p.frame_s, "out") for k in off])
+
+    def jupiter_at(t):
+        r = bodies.from_earth_km("Jupiter", cfg.mission.date_utc, t)
+        return r / np.linalg.norm(r)
+    a = orbit.R_EARTH_M + cfg.orbit.altitude_km * 1000.0
+    a_e = math.asin((orbit.R_EARTH_M + cfg.orbit.atmosphere_height_km * 1000.0) / a)
+    expected = _crossings(cfg, jupiter_at, lambda t: a_e, t_max - 1.0)
+    assert len(got) == len(expected) >= 2
+    for (tg, kg), (te, ke) in zip(got, expected):
+        assert kg == ke and abs(tg - te) <= 0.02, (tg, te)
+
+
 def test_the_visible_fraction_is_the_overlap_of_two_disks():
     a_s, a_e = 0.00465, 1.2
     assert env.visible_fraction(a_e + a_s + 1e-9, a_s, a_e) == 1.0

@@ -70,7 +70,21 @@ TELEMETRY_FORMATS = ("parquet", "csv")
 
 
 class InterruptedWarning(UserWarning):
-    """Work stopped by the kernel's interrupt (Ctrl-C); the result is the part done."""
+    """Work stopped by the kernel's interrupt (Ctrl-C); the result is the part done.
+
+    Examples
+    --------
+    A script that must not go on with part of a result makes the warning an
+    error: a Ctrl-C then raises it instead of returning the part done.
+
+    >>> import warnings
+    >>> import allsky
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("error", allsky.InterruptedWarning)
+    ...     f = allsky.fly()
+    >>> f.interrupted
+    False
+    """
 
 
 class StrictError(RuntimeError):
@@ -86,6 +100,18 @@ class StrictError(RuntimeError):
         The mission flown, all of it.
     warnings : list of str
         The summary's warnings.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> try:
+    ...     allsky.fly("gyro-failure-to-target", strict=True)
+    ... except allsky.StrictError as e:
+    ...     print(str(e)[:70])
+    ...     flight = e.flight
+    mission complete, as the sequencer judged, with a warning (and 1 more)
+    >>> flight.status, len(flight.summary["warnings"])
+    ('complete', 2)
     """
 
     def __init__(self, message: str, flight: Flight) -> None:
@@ -230,6 +256,15 @@ class Replay:
         The page's HTML.
     height_px : int
         [px] height of the inline frame.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> r = allsky.fly().replay()     # in Jupyter: the page, inline
+    >>> r
+    <Replay: ... MB page>
+    >>> r.save("replay.html")         # doctest: +SKIP
+    PosixPath('replay.html')
     """
 
     def __init__(self, page: str, height_px: int = REPLAY_HEIGHT_PX) -> None:
@@ -242,7 +277,8 @@ class Replay:
     def _repr_html_(self) -> str:
         return (f'<iframe class="allsky-replay" title="allsky mission replay" '
                 f'srcdoc="{html.escape(self.html, quote=True)}" '
-                f'style="width: 100%; height: {self.height_px}px; border: 1px solid #ccc">'
+                f'style="width: 100%; box-sizing: border-box; height: {self.height_px}px; '
+                'border: 1px solid #ccc">'
                 "</iframe>")
 
     def save(self, path: str | os.PathLike) -> Path:
@@ -296,9 +332,15 @@ class Flight:
     --------
     >>> import allsky
     >>> f = allsky.fly("gyro-failure-to-target")
-    >>> f                          # complete, as the sequencer judged: amber, first warning
-    >>> f.telemetry[["gyro_pitch", "rate_y"]].iloc[-1]   # what the gyro says, the truth
-    >>> f.replay()                 # the replay page, inline
+    >>> f                        # in Jupyter: the summary, in amber, the first warning
+    <Flight complete, as the sequencer judged: Sirius, true pointing error 392461.2 arcsec; ...>
+    >>> last = f.telemetry.iloc[-1]   # what the dead gyro says [arcsec/s], the truth [rad/s]
+    >>> float(last["gyro_pitch"]), round(float(last["rate_y"]), 3)
+    (0.0, 0.338)
+    >>> f.timeline["mode"].tolist()
+    ['1', '2', '3', '4', '5', '6-1', '6-2']
+    >>> f.replay()               # in Jupyter: the replay page, inline
+    <Replay: ... MB page>
     """
 
     def __init__(self, mission: Mission, scenario: Scenario | None = None,
@@ -634,6 +676,8 @@ def fly(scenario: str | os.PathLike | Scenario | Mapping | None = None, *,
     >>> f = allsky.fly(set={"target.star": "Vega", "mission.seed": 7})
     >>> f.status
     'complete'
+    >>> round(f.summary["end"]["true_pointing_error_arcsec"], 1)   # [arcsec] the truth
+    5.0
     """
     from allsky.apps import progress as progress_line
     from allsky.apps.report import fly_drawn, where_stopped
@@ -848,9 +892,18 @@ def compare(runs: int = 1, methods: Iterable[str] = ("legacy", "dither"),
 
     Examples
     --------
+    Eight missions, about 10 s on two cores (shown, not run as a doctest); in
+    Jupyter ``c`` shows itself as the headline table:
+
     >>> import allsky
-    >>> c = allsky.compare(runs=4)   # in Jupyter: the headline table of allsky compare
-    >>> c.groupby("method")["scale_factor_error_ppm.roll"].std()
+    >>> c = allsky.compare(runs=4)   # doctest: +SKIP
+    >>> c.headline()[0]              # doctest: +SKIP
+    'Calibration methods compared on the same vehicle (4 runs, seeds 1-4)'
+    >>> c.groupby("method")["scale_factor_error_ppm.roll"].std()   # doctest: +SKIP
+    method
+    dither    1572.304000
+    legacy       2.648142
+    Name: scale_factor_error_ppm.roll, dtype: float64
     """
     from allsky.apps.output import cap_workers
     from allsky.studies import compare as study
@@ -957,9 +1010,16 @@ def montecarlo(runs: int, scenario: str | os.PathLike | Scenario | Mapping | Non
 
     Examples
     --------
+    Twenty missions, from a checkout (the file is in its ``docs/examples/``);
+    shown, not run as a doctest:
+
     >>> import allsky
-    >>> runs = allsky.montecarlo(20, disperse="docs/examples/gyro_and_sky_dispersions.toml")
-    >>> runs["status"].value_counts()
+    >>> spec = "docs/examples/gyro_and_sky_dispersions.toml"   # the gyros' and sky's spreads
+    >>> runs = allsky.montecarlo(20, disperse=spec)   # doctest: +SKIP
+    >>> runs["status"].value_counts()   # doctest: +SKIP
+    status
+    complete    20
+    Name: count, dtype: int64
     """
     from allsky.apps import campaign
     from allsky.apps.output import cap_workers, check_output, write_atomic

@@ -376,19 +376,23 @@ def _parser() -> argparse.ArgumentParser:
     scenario_args(check)
 
     stars = sub.add_parser(
-        "stars", help="the star catalog, and the stars the tracker's magnitude window passes",
+        "stars", help="the star catalog and the moving bodies, and what the tracker's "
+                      "magnitude window passes",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        description="List the catalog stars with their magnitudes and J2000 positions on the "
-                    "mission date, marking those inside star_tracker.magnitude_window and the "
-                    "planned reference star (star_tracker.reference_star); the tracker "
-                    "locks the first star of the window its slit meets.",
+        description="List the catalog stars, the Moon and the planets Mercury to Saturn with "
+                    "their magnitudes and J2000 positions on the mission date (the bodies "
+                    "with their phases), marking those inside star_tracker.magnitude_window "
+                    "and the planned reference star (star_tracker.reference_star); the "
+                    "tracker locks the first star of the window its slit meets, a body too "
+                    "where star_tracker.moving_bodies flies them.",
         epilog="examples:\n"
                "  allsky stars\n"
                "  allsky stars --window                       # only the stars in the window\n"
                "  allsky stars --date 2030-06-01T00:00:00Z --json -")
     scenario_args(stars)
     stars.add_argument("--window", action="store_true",
-                       help="list only the stars inside the tracker's magnitude window")
+                       help="list only the stars and bodies inside the tracker's magnitude "
+                            "window")
     stars.add_argument("--date", metavar="UTC",
                        help="the date (TOML datetime, e.g. 2026-03-20T12:00:00Z; default: "
                             "mission.date_utc)")

@@ -228,17 +228,56 @@ def target_at(targets, t_s) -> dict:
     return current
 
 
-def _sky(cfg, summary, targets) -> dict:
-    """Sun, catalog, targets and tracker slit for the sky map and the 3-D view."""
-    return sky_data(cfg, summary, targets)
+def _sky(cfg, summary, targets, span_s=None) -> dict:
+    """Sun, catalog, bodies, targets and tracker slit for the sky map and the 3-D view."""
+    return sky_data(cfg, summary, targets, span_s)
 
 
-def sky_data(cfg, summary, targets) -> dict:
-    """Sun, catalog, ``targets`` and slit; ``summary`` names the stars (or None).
+#: [s] the step of the moving bodies' places in the page, which interpolates between them
+#: (the Moon moves 0.09 deg in it, and departs from the straight line by under 0.01")
+BODY_STEP_S = 600.0
 
-    ``cfg`` is the scenario flown: its date (the Sun, the catalog), the
-    tracker's magnitude window, reference star and slit, the sun sensor's cone.
+
+def body_tracks(cfg, span_s) -> list:
+    """The Moon and the planets over ``span_s`` [s] from ``cfg``'s date, for the page.
+
+    Each: ``name``, ``mag`` and ``phase`` at the start, ``win`` (inside the
+    tracker's magnitude window), ``flown`` (the tracker sees the bodies:
+    ``star_tracker.moving_bodies``), and ``ra``, ``dec`` [deg] every
+    :data:`BODY_STEP_S` from 0 (``step_s``). The places are geocentric: from
+    a low orbit the Moon is up to 1 deg elsewhere (the tracker flies the
+    place seen from the vehicle), a planet under 0.001 deg.
     """
+    from allsky.sim import sky_rows
+    from allsky.vehicle import bodies, sky
+
+    date = cfg.mission.date_utc
+    lo, hi = cfg.star_tracker.magnitude_window
+    flown = sky_rows.bodies_flown(cfg)
+    n = math.ceil(span_s / BODY_STEP_S) + 1
+    out = []
+    for b in bodies.bodies(date):
+        ra, dec = [], []
+        for k in range(n):
+            r = bodies.from_earth_km(b.name, date, k * BODY_STEP_S)
+            a, d = sky.unit_to_radec(r)
+            ra.append(round(float(a), 4))
+            dec.append(round(float(d), 4))
+        out.append({"name": b.name, "mag": round(float(b.magnitude), 2),
+                    "phase": round(float(b.phase), 3), "win": bool(lo <= b.magnitude <= hi),
+                    "flown": flown, "step_s": BODY_STEP_S, "ra": ra, "dec": dec})
+    return out
+
+
+def sky_data(cfg, summary, targets, span_s=None) -> dict:
+    """Sun, stars, bodies, ``targets``, slit; ``summary`` names the stars (or None).
+
+    ``cfg`` is the scenario flown: its date (the Sun, the catalog, the Moon
+    and the planets over ``span_s`` [s]; None: the longest mission the
+    scenario allows and an hour), the tracker's magnitude window, reference
+    star and slit, the sun sensor's cone.
+    """
+    from allsky.sim.mission import orbit_span_s
     from allsky.vehicle import sky
 
     date = cfg.mission.date_utc
@@ -253,6 +292,7 @@ def sky_data(cfg, summary, targets) -> dict:
                         for t in targets],
             "reference": reference, "locked": (summary or {}).get("locked_star"),
             "stars": stars, "window": [lo, hi], "date_utc": date.isoformat(),
+            "bodies": body_tracks(cfg, orbit_span_s(cfg) if span_s is None else span_s),
             "slit_long_half_deg": float(cfg.star_tracker.fov_long_half_deg),
             "slit_narrow_half_deg": float(cfg.star_tracker.fov_narrow_half_deg),
             "sun_cone_half_deg": float(cfg.sun_sensor.presence_half_angle_deg)}
@@ -541,7 +581,7 @@ def replay_data(table, summary=None, cfg=None, scenario=None) -> dict:
     journal = (summary or {}).get("events")
     flown = journal_data(cfg, summary, timeline, t_end_s)
     targets, locked = flown.pop("targets"), flown.pop("locked")
-    sky = _sky(cfg, summary, targets)
+    sky = _sky(cfg, summary, targets, t_end_s)
     sky["locked"] = locked
     return {"format": DATA_FORMAT, "columns": _encode_columns(table), **flown,
             "diagram": diagram(), "sky": sky, "config": config,

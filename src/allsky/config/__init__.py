@@ -6,8 +6,9 @@ at load (unknown key -> error) and then passed down as a frozen object.
 Modules, each one job, lowest first: ``rules`` (:class:`ConfigError`, the
 checkers of one value), ``toml_io`` (reading TOML, the writer), ``schema``
 (the keys, :data:`RULES`, :data:`CROSS_RULES`), ``dispersion_table`` (the
-``[dispersions]`` table), ``faults`` (the ``[[faults]]`` tables), ``scenario``
-(merging, overrides, the frozen :class:`Scenario`) and ``dispersions``
+``[dispersions]`` table), ``faults`` (the ``[[faults]]`` tables), ``frozen``
+(a scenario's read-only sections), ``scenario`` (merging, overrides, the
+frozen :class:`Scenario`) and ``dispersions``
 (drawing a scenario per mission seed).
 """
 

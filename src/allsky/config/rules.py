@@ -58,6 +58,25 @@ class ConfigError(Exception):
         The offending value (a number as the float it became; None when none is shown).
     rule : str
         The rule that was broken, in words.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> try:
+    ...     allsky.scenario_from_dict({"mission": {"seed": -1}})
+    ... except allsky.ConfigError as e:
+    ...     print(e.key, e.value)
+    ...     print(e)
+    mission.seed -1
+    mission.seed = -1: must be in [0, 4294967295] (2**32 - 1: 32-bit seeds)
+
+    An unknown key (here a misspelt unit) names the nearest valid ones:
+
+    >>> try:
+    ...     allsky.load_scenario(overrides=["gyro.drift_deg_hr=[1, 2, 3]"])
+    ... except allsky.ConfigError as e:
+    ...     print(e)
+    gyro.drift_deg_hr: unknown key; nearest valid keys: gyro.drift_deg_h, ...
     """
 
     def __init__(self, key, value=_ABSENT, rule=""):

@@ -44,11 +44,11 @@ the rule; no other exception escapes for any file content.
 
 from collections.abc import Mapping
 from datetime import datetime
-from types import MappingProxyType
 
 from allsky.config import dispersion_table
 from allsky.config import faults as fault_table
 from allsky.config.cross_rules import CROSS_RULES
+from allsky.config.frozen import Section, freeze, thaw
 from allsky.config.meanings import describe
 from allsky.config.rules import ConfigError, type_name
 from allsky.config.schema import (
@@ -123,70 +123,6 @@ def parse_override(item: str) -> dict:
     return value
 
 
-# ---------------------------------------------------------------------------
-# The frozen result
-# ---------------------------------------------------------------------------
-
-def _freeze(v):
-    if isinstance(v, Mapping):
-        return MappingProxyType({k: _freeze(x) for k, x in v.items()})
-    if isinstance(v, list | tuple):
-        return tuple(_freeze(x) for x in v)
-    return v
-
-
-def _thaw(v):
-    if isinstance(v, Mapping):
-        return {k: _thaw(x) for k, x in v.items()}
-    if isinstance(v, tuple):
-        return [_thaw(x) for x in v]
-    return v
-
-
-class Section:
-    """One frozen scenario section: its keys as read-only attributes.
-
-    ``name`` is the section's name (``gyro``), as errors show it; ``values``
-    its validated values by key, frozen here (lists to tuples, mappings
-    read-only).
-    """
-
-    __slots__ = ("_name", "_values")
-    __hash__ = None
-
-    def __init__(self, name: str, values: Mapping):
-        object.__setattr__(self, "_name", name)
-        object.__setattr__(self, "_values", {k: _freeze(v) for k, v in values.items()})
-
-    def __getattr__(self, key):
-        if key.startswith("_"):
-            raise AttributeError(key)
-        try:
-            return self._values[key]
-        except KeyError:
-            raise AttributeError(f"scenario section [{self._name}] has no key {key!r}") from None
-
-    def __setattr__(self, key, value):
-        raise AttributeError("a Scenario is frozen")
-
-    def __delattr__(self, key):
-        raise AttributeError("a Scenario is frozen")
-
-    def __dir__(self):
-        return sorted(self._values)
-
-    def __eq__(self, other):
-        if not isinstance(other, Section):
-            return NotImplemented
-        return self._name == other._name and self._values == other._values
-
-    def __reduce__(self):
-        return Section, (self._name, _thaw(self._values))
-
-    def __repr__(self):
-        return f"Section({self._name!r}, {_thaw(self._values)!r})"
-
-
 class Scenario:
     """A validated, frozen scenario: ``cfg.section.key``, and ``cfg.faults``.
 
@@ -196,6 +132,21 @@ class Scenario:
 
     Vectors are tuples of floats, matrices tuples of tuples, ``mission.date_utc``
     a UTC datetime, ``sequencer.timeout_s`` a read-only mapping mode -> seconds.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> cfg = allsky.load_scenario()
+    >>> cfg
+    <Scenario 2026-11-22T12:00:00Z seed 1: Sirius>
+    >>> cfg.target.star, cfg.gyro.drift_deg_h        # [deg/h] roll, pitch, yaw
+    ('Sirius', (1.2, -0.8, 1.5))
+    >>> allsky.scenario_from_dict(cfg.as_dict()) == cfg
+    True
+    >>> cfg.mission.seed = 2
+    Traceback (most recent call last):
+    ...
+    AttributeError: a Scenario is frozen
     """
 
     __slots__ = ("_sections",)
@@ -204,7 +155,7 @@ class Scenario:
     def __init__(self, sections: Mapping[str, Mapping]):
         object.__setattr__(self, "_sections",
                            {name: Section(name, values) if isinstance(values, Mapping)
-                            else _freeze(values) for name, values in sections.items()})
+                            else freeze(values) for name, values in sections.items()})
 
     def __getattr__(self, name):
         if name.startswith("_"):
@@ -229,7 +180,7 @@ class Scenario:
         return self._sections == other._sections
 
     def __reduce__(self):
-        return Scenario, ({n: _thaw(getattr(s, "_values", s))
+        return Scenario, ({n: thaw(getattr(s, "_values", s))
                            for n, s in self._sections.items()},)
 
     def __repr__(self):
@@ -245,7 +196,7 @@ class Scenario:
         for name, sec in self._sections.items():
             if not isinstance(sec, Section):  # the faults: written only when there are some
                 if sec:
-                    out[name] = _thaw(sec)
+                    out[name] = thaw(sec)
                 continue
             table = out[name] = {}
             for k, v in sec._values.items():
@@ -253,7 +204,7 @@ class Scenario:
                     continue
                 if isinstance(v, datetime) and date_as_text:
                     v = iso_utc(v)
-                table[k] = _thaw(v)
+                table[k] = thaw(v)
         return out
 
     def as_dict(self) -> dict:
@@ -327,10 +278,24 @@ def scenario_from_dict(data: Mapping, overrides=()) -> Scenario:
     overrides : iterable of str
         ``KEY=VALUE`` strings applied after ``data``, in order.
 
+    Returns
+    -------
+    Scenario
+        The validated, frozen scenario.
+
     Raises
     ------
     ConfigError
         For an unknown key or any value that breaks its rule.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> cfg = allsky.scenario_from_dict({"target": {"star": "Vega"}, "mission": {"seed": 7}})
+    >>> cfg
+    <Scenario 2026-11-22T12:00:00Z seed 7: Vega>
+    >>> allsky.scenario_from_dict(cfg.as_dict(), ["mission.seed=8"]).mission.seed
+    8
     """
     if isinstance(overrides, str):
         overrides = (overrides,)
@@ -368,6 +333,15 @@ def load_scenario(path=None, overrides=(), disperse=None) -> Scenario:
     ConfigError
         For an unreadable or missing file, a TOML syntax error (with its line),
         an unknown key or any value that breaks its rule.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> allsky.load_scenario(overrides=['target.star="Vega"', "mission.seed=7"])
+    <Scenario 2026-11-22T12:00:00Z seed 7: Vega>
+    >>> cfg = allsky.load_scenario("voyager1-wrong-star")   # a packaged scenario
+    >>> cfg.faults[0]["kind"], cfg.faults[0]["star"]
+    ('wrong_star', 'Rigil Kentaurus')
     """
     path = fault_table.packaged_or_path(path)
     data = {} if path is None else read_toml(path)

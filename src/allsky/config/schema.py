@@ -84,9 +84,7 @@ HOLD_TIMEOUT_ALLOWANCE_S = 60.0
 PROPELLANT_MAX_KG = 1000.0
 
 
-# ---------------------------------------------------------------------------
-# The keys (the default's tables)
-# ---------------------------------------------------------------------------
+# -- The keys (the default's tables) -----------------------------------------
 
 @functools.cache
 def _default_parsed() -> dict:
@@ -142,9 +140,7 @@ def unknown_key(path: tuple, here: dict) -> ConfigError:
     return ConfigError(key, rule=f"unknown key; {hint}")
 
 
-# ---------------------------------------------------------------------------
-# What each key accepts
-# ---------------------------------------------------------------------------
+# -- What each key accepts ---------------------------------------------------
 
 #: [deg/h] Largest integrator drift accepted (1 deg/h = 1 arcsec/s at the converter input).
 INTEGRATOR_DRIFT_MAX_DEG_H = 100.0
@@ -295,6 +291,7 @@ RULES: dict[str, Callable] = {
     "star_tracker.reference_star": star_name,
     "star_tracker.cone_angle_check_deg": number(in_closed(0, 90, "0 = no check")),
     "star_tracker.bright_gate": boolean,
+    "star_tracker.moving_bodies": one_of("auto", "on", "off"),
     "jets.thrust_n": vector(3, POSITIVE),
     "jets.moment_arm_m": vector(3, POSITIVE),
     "jets.min_on_time_s": number(in_open_closed(0, 1, "cold-gas valves: a few to tens of ms")),

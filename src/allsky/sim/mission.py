@@ -35,7 +35,7 @@ from allsky.hardware import (
 )
 from allsky.sequencer import dither, legs, modes
 from allsky.sequencer import master_sequencer as ms
-from allsky.sim import board, frame_loop, journal, record
+from allsky.sim import board, frame_loop, journal, record, sky_rows
 from allsky.sim import faults as sim_faults
 from allsky.sim import state as sim_state
 from allsky.sim.record import (  # noqa: F401 - the mission module's names, kept
@@ -76,6 +76,23 @@ class Hooks(NamedTuple):
 
     Passed to :meth:`Mission.run_mode` and :meth:`Mission.run`, never set on
     the mission: the flight is the same with or without them.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.Mission(allsky.load_scenario())
+    >>> legs = []
+    >>> hooks = allsky.Hooks(after_leg=lambda m, mode, leg, rows: legs.append((mode, leg)))
+    >>> m.run_mode(hooks).mode
+    '1'
+    >>> legs
+    [('1', 'sun acquired and settled')]
+    >>> times_s = []                                # [s] every 50 s of mission time
+    >>> m.run_mode(allsky.Hooks(pause_every_s=50.0,
+    ...                         on_pause=lambda m, leg: times_s.append(m.now_s()))).mode
+    '2'
+    >>> times_s
+    [200.0, 250.0]
     """
 
     #: [s] of mission time between calls of ``on_pause`` inside legs (None: no pauses)
@@ -121,15 +138,13 @@ def build_params(cfg) -> sim_state.Params:
     dt = ck.num / ck.den
     s0, sdot = sky.sun_motion(cfg.mission.date_utc)
     lo, hi = cfg.star_tracker.magnitude_window
-    stars = sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)
-    stars_inertial = np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars],
-                              dtype=float).reshape(-1, 3)
+    rows = sky_rows.sky_rows(cfg)  # the window's stars, then the moving bodies flown
     st = cfg.star_tracker
     tracker = star_tracker.make_params(
         st.fov_long_half_deg * units.DEG2RAD, st.fov_narrow_half_deg * units.DEG2RAD,
-        float(st.noise_arcsec), stars_inertial, [s.magnitude for s in stars], (lo, hi),
+        float(st.noise_arcsec), rows.directions, rows.magnitudes, (lo, hi),
         reference_cone_deg(cfg) * units.DEG2RAD, st.cone_angle_check_deg * units.DEG2RAD,
-        bool(st.bright_gate), *gate_stars(cfg))
+        bool(st.bright_gate), rows.gate_directions, rows.gate_magnitudes)
     el = cfg.electronics
     track, step = orbit.track(cfg, ck, orbit_span_s(cfg))
     return sim_state.Params(
@@ -183,10 +198,11 @@ def build_params(cfg) -> sim_state.Params:
         actuator=wheels.ACTUATOR_CODE[cfg.actuators.kind],
         wheels=wheel_params(cfg),
         faults=sim_faults.compile_faults(
-            cfg, tracker, [s.name for s in stars],
+            cfg, tracker, rows.names,
             lambda name: sky.star_direction_inertial(name, cfg.mission.date_utc),
             lambda name: sky.star(name).magnitude),
-        orbit=environment.build(cfg, track, s0, sdot, step, tracker),
+        orbit=environment.build(cfg, track, s0, sdot, step, tracker,
+                                *_body_motion(rows, cfg, track, step, dt)),
     )
 
 
@@ -284,20 +300,12 @@ def reference_cone_deg(cfg) -> float:
     return star_tracker.cone_angle_deg(math.degrees(xmath.acos(max(-1.0, min(1.0, cos)))))
 
 
-def gate_stars(cfg):
-    """``(directions, magnitudes)`` of the catalog stars the bright gate counts.
-
-    ``cfg`` is the scenario (its date).
-
-    One entry per star (its variant names are one), inside the magnitude
-    window or not, at the mission date; none without a gate
-    (``star_tracker.bright_gate`` false).
-    """
-    if not cfg.star_tracker.bright_gate:
-        return np.zeros((0, 3)), np.zeros(0)
-    stars = [sky.star(n, cfg.mission.date_utc) for n in sky.star_names()]
-    return (np.array([sky.radec_to_unit(s.ra_deg, s.dec_deg) for s in stars]).reshape(-1, 3),
-            np.array([s.magnitude for s in stars]))
+def _body_motion(rows, cfg, track, step_frames, frame_s):
+    """``(table, body_rows, gate_rows)`` of the moving bodies in orbit (:mod:`allsky.sim.sky_rows`)."""
+    if track is None:
+        return np.zeros((0, 0, 3)), rows.body_rows, rows.gate_rows
+    return (sky_rows.body_table(rows, cfg, track, step_frames * frame_s), rows.body_rows,
+            rows.gate_rows)
 
 
 class Mission:
@@ -321,6 +329,19 @@ class Mission:
         the holds and the further targets the scenario asks for
         (:func:`allsky.sequencer.modes.mission_plan`); a restored mission
         flies the plan of its ``history``.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.Mission(allsky.load_scenario())
+    >>> m.plan
+    ('1', '2', '3', '4', '5', '6-1', '6-2')
+    >>> record = m.run_mode()           # Mode 1: Sun orientation
+    >>> record.mode, record.end_s       # [s]
+    ('1', 187.3)
+    >>> summary = m.run()               # the rest: Modes 2 to 6-2
+    >>> m.status, round(summary["end"]["true_pointing_error_arcsec"], 1)
+    ('complete', 7.6)
     """
 
     def __init__(self, cfg, telemetry=True, state=None, next_mode=0, history=None,
@@ -862,6 +883,13 @@ def run_mission(cfg, telemetry=True) -> Mission:
     """Fly a whole mission (Modes 1 to 6-2, holds, every target) and return it.
 
     ``cfg`` is the validated scenario; ``telemetry`` False records none.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.run_mission(allsky.load_scenario(), telemetry=False)
+    >>> m.status, [record.mode for record in m.timeline]
+    ('complete', ['1', '2', '3', '4', '5', '6-1', '6-2'])
     """
     m = Mission(cfg, telemetry=telemetry)
     m.run()

@@ -20,11 +20,11 @@ from allsky.config import faults as fault_config
 from allsky.hardware import gyro, star_tracker
 from allsky.hardware.dac import dac
 from allsky.sim import faults as sim_faults
-from allsky.sim import journal, results
+from allsky.sim import journal, results, sky_rows
 from allsky.sim import state as sim_state
 from allsky.sim.braking import flight_warning
 from allsky.sim.telemetry import INDEX
-from allsky.vehicle import environment, sky, wheels
+from allsky.vehicle import environment, wheels
 from allsky.vocabulary import AXES
 
 #: The layout of a snapshot; 4 since the clock became the frame index (a format-3
@@ -91,16 +91,26 @@ def check_summary(out) -> dict:
 def tracker_star_names(cfg) -> list:
     """Names of the stars the tracker can lock, in the order of ``Params.tracker``.
 
-    ``cfg`` is the scenario: its magnitude window, date and wrong-star faults.
+    ``cfg`` is the scenario: its magnitude window, date, moving bodies and wrong-star faults.
     """
-    lo, hi = cfg.star_tracker.magnitude_window
-    names = [s.name for s in sky.stars_in_magnitude_window(lo, hi, cfg.mission.date_utc)]
-    # A wrong star (a fault) is tracked after the window's own (allsky.sim.faults).
+    names = sky_rows.sky_rows(cfg).names  # the window's stars, then the bodies flown
+    # A wrong star (a fault) is tracked after them (allsky.sim.faults).
     return names + [s for s in sim_faults.wrong_stars(cfg.faults) if s not in names]
 
 
 class ModeRecord(NamedTuple):
-    """One line of the mode timeline."""
+    """One line of the mode timeline.
+
+    Examples
+    --------
+    >>> import allsky
+    >>> m = allsky.Mission(allsky.load_scenario())
+    >>> record = m.run_mode()                       # Mode 1: Sun orientation
+    >>> record.mode, record.start_s, record.end_s   # [s]
+    ('1', 0.0, 187.3)
+    >>> record.exit
+    'sun pitch and yaw settled; S14, S15 closed'
+    """
 
     mode: str  #: the mode's name in the mode table ("1" ... "6-2", "dither", ...)
     start_s: float  #: [s] mission time the mode started
@@ -511,10 +521,16 @@ class OrbitJournal:
                               sunlit_fraction=float(f[k]))
             wrote = True
         self.phase = int(phase[-1])
-        bodies = [*tracker_star_names(m.cfg)[:o.stars_inertial.shape[0]], "target"]
-        dirs = np.ascontiguousarray(np.vstack([o.stars_inertial,
+        names = tracker_star_names(m.cfg)[:o.stars_inertial.shape[0]]
+        fixed = np.setdiff1d(np.arange(len(names)), o.body_rows)  # the stars: fixed rows
+        moving = o.body_rows[o.body_rows >= 0]  # the bodies in the window: rows by interval
+        bodies = [*(names[j] for j in fixed), "target", *(names[j] for j in moving)]
+        dirs = np.ascontiguousarray(np.vstack([o.stars_inertial[fixed],
                                                np.asarray(m.state.target_inertial)[None]]))
         hidden = environment.occulted_series(o, dirs, first, last)
+        if moving.shape[0]:
+            hidden = np.hstack([hidden, environment.occulted_bodies_series(
+                o, first, last)[:, o.body_rows >= 0]])
         seen = self.hidden if self.hidden is not None else np.zeros(len(bodies), dtype=bool)
         steps = np.diff(np.vstack([seen[None, :], hidden]).astype(np.int8), axis=0)
         for k, j in zip(*np.nonzero(steps)):

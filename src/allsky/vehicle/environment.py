@@ -110,14 +110,22 @@ class OrbitParams(NamedTuple):
     env: np.ndarray  #: (N_ENV,) the frame's environment, written by the loop
     work: np.ndarray  #: (4, 3) the frame's nadir, wind, Sun (body) and a torque, written
     peak: np.ndarray  #: (2, 3) PEAK and IMPULSE per torque (gg, aero, srp), updated
+    #: (n, b, 3) each moving body seen from the vehicle in each sample interval (b = 0: none
+    #: flown; allsky.sim.sky_rows)
+    bodies_i: np.ndarray
+    body_rows: np.ndarray  #: (b,) int: each body's row of ``stars_inertial``, -1 if none
+    gate_rows: np.ndarray  #: (b,) int: its row of the tracker's gate stars, -1 if none
+    body_k: np.ndarray  #: (1,) int: the sample interval the bodies' rows hold (-1: none yet)
 
 
 def no_orbit(tracker) -> OrbitParams:
     """The :class:`OrbitParams` of ``kind = "none"`` (``tracker``; never read)."""
     z3 = np.zeros((0, 3))
+    none = np.zeros(0, dtype=np.int64)
     return OrbitParams(0, 1, z3, z3.copy(), z3.copy(), np.zeros((0, N_SCALARS)), False,
                        np.zeros(3), np.zeros(3), z3.copy(), tracker, np.zeros(N_ENV),
-                       np.zeros((4, 3)), np.zeros((2, 3)))
+                       np.zeros((4, 3)), np.zeros((2, 3)), np.zeros((0, 0, 3)), none,
+                       none.copy(), np.full(1, -1, dtype=np.int64))
 
 
 def density_kg_m3(altitude_m):
@@ -178,8 +186,12 @@ def samples(track, sun0, sun_rate, sun_distance_m, atmosphere_height_m,
     return sun_i, nadir, wind, sc
 
 
-def _flags(sc, nadir, stars):
-    """Fill the WHOLE and CHANGES columns of ``sc`` from the samples' geometry."""
+def _flags(sc, nadir, stars, bodies_i=None):
+    """Fill the WHOLE and CHANGES columns of ``sc`` from the samples' geometry.
+
+    ``bodies_i`` (n, b, 3), the moving bodies' rows by sample, flag an
+    interval as the stars do.
+    """
     whole = sc[:, SEP] >= sc[:, EARTH_RADIUS] + sc[:, SUN_RADIUS]
     sc[:-1, WHOLE] = (whole[:-1] & whole[1:]).astype(float)
     if stars.shape[0]:
@@ -191,17 +203,25 @@ def _flags(sc, nadir, stars):
         cos_nadir = (nadir[:, 0:1] * stars[None, :, 0] + nadir[:, 1:2] * stars[None, :, 1]
                      + nadir[:, 2:3] * stars[None, :, 2])
         hidden = cos_nadir > sc[:, EARTH_COS][:, None]
+        if bodies_i is not None and bodies_i.shape[1]:
+            cos_b = (nadir[:, 0:1] * bodies_i[:, :, 0] + nadir[:, 1:2] * bodies_i[:, :, 1]
+                     + nadir[:, 2:3] * bodies_i[:, :, 2])
+            hidden = np.hstack([hidden, cos_b > sc[:, EARTH_COS][:, None]])
         differ = (hidden[:-1] != hidden[1:]).any(axis=1)
         sc[:-1, CHANGES] = differ.astype(float)
     sc[-1, WHOLE] = sc[-2, WHOLE] if sc.shape[0] > 1 else 0.0
 
 
-def build(cfg, track, sun0, sun_rate, step_frames, tracker) -> OrbitParams:
+def build(cfg, track, sun0, sun_rate, step_frames, tracker, bodies_i=None, body_rows=None,
+          gate_rows=None) -> OrbitParams:
     """:class:`OrbitParams` of the scenario ``cfg`` for its ``track`` (None: no orbit).
 
     ``sun0``, ``sun_rate`` are the mission's Sun on its line, ``step_frames``
     the frames between samples, ``tracker`` star tracker 105's parameters; the loop's copy of it gets
-    its own star array, whose rows of occulted stars it zeroes.
+    its own star array, whose rows of occulted stars it zeroes. ``bodies_i``,
+    ``body_rows`` and ``gate_rows`` are the moving bodies' directions by sample
+    interval and their rows of the tracker's stars and gate stars
+    (:mod:`allsky.sim.sky_rows`; None: no bodies).
     """
     if track is None:
         return no_orbit(tracker)
@@ -213,14 +233,23 @@ def build(cfg, track, sun0, sun_rate, step_frames, tracker) -> OrbitParams:
     sun_i, nadir, wind, sc = samples(track, np.asarray(sun0, float), np.asarray(sun_rate, float),
                                      d_sun, o.atmosphere_height_km * 1000.0, cfg_orbit=o)
     stars = np.ascontiguousarray(tracker.stars_inertial.copy())
-    _flags(sc, nadir, stars)
+    none = np.zeros(0, dtype=np.int64)
+    if bodies_i is None or not (np.any(body_rows >= 0) or np.any(gate_rows >= 0)):
+        bodies_i, body_rows, gate_rows = np.zeros((sun_i.shape[0], 0, 3)), none, none.copy()
+    _flags(sc, nadir, stars[np.setdiff1d(np.arange(stars.shape[0]), body_rows)], bodies_i)
+    # the loop's tracker: its own star array, and its own gate array where bodies move in it
     own = tracker._replace(stars_inertial=stars.copy())
+    if np.any(gate_rows >= 0):
+        own = own._replace(gate_stars_inertial=np.ascontiguousarray(
+            tracker.gate_stars_inertial.copy()))
     return OrbitParams(int(track.t_s.shape[0]), int(step_frames), np.ascontiguousarray(sun_i),
                        np.ascontiguousarray(nadir), np.ascontiguousarray(wind),
                        np.ascontiguousarray(sc), bool(o.gravity_gradient),
                        np.array(o.pressure_offset_m, dtype=float),
                        np.array(o.srp_offset_m, dtype=float), stars, own, np.zeros(N_ENV),
-                       np.zeros((4, 3)), np.zeros((2, 3)))
+                       np.zeros((4, 3)), np.zeros((2, 3)), np.ascontiguousarray(bodies_i),
+                       np.asarray(body_rows, dtype=np.int64),
+                       np.asarray(gate_rows, dtype=np.int64), np.full(1, -1, dtype=np.int64))
 
 
 @njit
@@ -338,6 +367,9 @@ def occult_stars(orbit, k, w, force):
     nadir = orbit.work[0]
     _lerp_unit(orbit.nadir_i, k, w, nadir)
     sc = orbit.scalars
+    if orbit.body_rows.shape[0] and orbit.body_k[0] != k:  # a new interval: the bodies move
+        _move_bodies(orbit, k)
+        force = True
     if force or w == 0.0 or sc[k, CHANGES] != 0.0:  # a sample, or where a star changes
         _occult(orbit, nadir, _lerp(sc, k, w, EARTH_COS))
     if sc[k, WHOLE] != 0.0:
@@ -347,6 +379,23 @@ def occult_stars(orbit, k, w, force):
                          _lerp(sc, k, w, EARTH_RADIUS))
     orbit.env[E_SUNLIT] = f
     return f
+
+
+@njit_stage
+def _move_bodies(orbit, k):
+    """The moving bodies' rows of the tracker's stars and gate stars: interval ``k``'s."""
+    src = orbit.stars_inertial
+    gate = orbit.tracker.gate_stars_inertial
+    for j in range(orbit.body_rows.shape[0]):
+        row = orbit.body_rows[j]
+        if row >= 0:
+            for i in range(3):
+                src[row, i] = orbit.bodies_i[k, j, i]
+        row = orbit.gate_rows[j]
+        if row >= 0:
+            for i in range(3):
+                gate[row, i] = orbit.bodies_i[k, j, i]
+    orbit.body_k[0] = k
 
 
 @njit_stage
@@ -541,6 +590,27 @@ def occulted_series(orbit, directions, first, last):
         for j in range(m):
             d = (directions[j, 0] * nadir[0] + directions[j, 1] * nadir[1]
                  + directions[j, 2] * nadir[2])
+            out[f - first, j] = d > cos_e
+    return out
+
+
+@njit_alloc
+def occulted_bodies_series(orbit, first, last):
+    """Each moving body behind the Earth's disk, (frames, b) bool.
+
+    At frames ``first`` to ``last`` - 1 of ``orbit``. A body's direction is its row of ``orbit.bodies_i`` for the frame's
+    sample interval, as the frame loop holds it (:func:`occult_stars`).
+    """
+    b = orbit.bodies_i.shape[1]
+    out = np.zeros((max(last - first, 0), b), dtype=np.bool_)
+    nadir = np.empty(3)
+    for f in range(first, last):
+        k, w = place(orbit, f)
+        _lerp_unit(orbit.nadir_i, k, w, nadir)
+        cos_e = _lerp(orbit.scalars, k, w, EARTH_COS)
+        for j in range(b):
+            d = (orbit.bodies_i[k, j, 0] * nadir[0] + orbit.bodies_i[k, j, 1] * nadir[1]
+                 + orbit.bodies_i[k, j, 2] * nadir[2])
             out[f - first, j] = d > cos_e
     return out
 

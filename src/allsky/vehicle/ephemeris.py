@@ -36,8 +36,12 @@ C_KM_S = 299792.458
 DAY_S = 86400.0
 #: Julian date of J2000.0 (TT)
 J2000_JD = 2451545.0
-#: The bodies of DE421 this module reads, by name: the ``de421`` package's file stem.
-FILES = {"sun": "jpl-sun", "earthmoon": "jpl-earthmoon", "moon": "jpl-moon"}
+#: The bodies of DE421 this module reads, by name: the ``de421`` package's file stem. The
+#: planets' series are of their systems' barycentres (Jupiter's is within 0.002" of the
+#: planet's centre as seen from the Earth: its moons' masses are 2e-4 of its own).
+FILES = {"sun": "jpl-sun", "earthmoon": "jpl-earthmoon", "moon": "jpl-moon",
+         "mercury": "jpl-mercury", "venus": "jpl-venus", "mars": "jpl-mars",
+         "jupiter": "jpl-jupiter", "saturn": "jpl-saturn"}
 
 #: (first day in UTC, TAI - UTC [s]) of each leap second since 1972 (IERS Bulletin C).
 LEAP_SECONDS = (
@@ -165,20 +169,44 @@ def earth_km(jd: float) -> np.ndarray:
     return chebyshev_km("earthmoon", jd) - moon / (1.0 + constants["EMRAT"])
 
 
+def barycentric_km(body: str, jd: float) -> np.ndarray:
+    """``body``'s position [km] from the barycentre at TDB Julian date ``jd``.
+
+    ``body`` is a name of :data:`FILES` other than ``"earthmoon"``, or
+    ``"earth"``; the Moon is the Earth's centre plus its geocentric series.
+    """
+    if body == "earth":
+        return earth_km(jd)
+    if body == "moon":
+        return earth_km(jd) + chebyshev_km("moon", jd)
+    return chebyshev_km(body, jd)
+
+
+def from_earth_km(body: str, jd: float) -> np.ndarray:
+    """Astrometric geocentric position [km] of ``body`` at TDB Julian date ``jd``.
+
+    The body where it was when the light now reaching the Earth's centre
+    left it, less where the Earth's centre is now (both barycentric): two
+    iterations of the light time (a body moving 50 km/s about the
+    barycentre is then placed to 5 m). ``body`` as in :func:`barycentric_km`.
+    """
+    earth = earth_km(jd)
+    there = barycentric_km(body, jd)
+    for _ in range(2):
+        r = there - earth
+        light_days = xmath.norm3(r) / C_KM_S / DAY_S
+        there = barycentric_km(body, jd - light_days)
+    return there - earth
+
+
 def sun_from_earth_km(jd: float) -> np.ndarray:
     """Astrometric geocentric Sun [km] at TDB Julian date ``jd``: light-time included.
 
-    The Sun where it was when the light now reaching the Earth's centre
-    left it (two iterations: the Sun moves about 13 m/s about the
-    barycentre, so the second changes the direction by under 1e-10 rad).
+    :func:`from_earth_km` of the Sun (the Sun moves about 13 m/s about the
+    barycentre, so the second iteration changes the direction by under
+    1e-10 rad).
     """
-    earth = earth_km(jd)
-    sun = chebyshev_km("sun", jd)
-    for _ in range(2):
-        r = sun - earth
-        light_days = xmath.norm3(r) / C_KM_S / DAY_S
-        sun = chebyshev_km("sun", jd - light_days)
-    return sun - earth
+    return from_earth_km("sun", jd)
 
 
 def sun_direction_icrf(date_utc: datetime, offset_s: float = 0.0) -> np.ndarray:

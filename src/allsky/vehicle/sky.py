@@ -26,9 +26,9 @@ Model limits
   only for the Sun (:mod:`allsky.vehicle.environment`: the Sun seen from the
   vehicle, the Earth's shadow, the Earth's disk hiding stars and the
   target); without one the Sun is the geocentric Sun, below. The Moon and
-  the planets are not in the sky: Jupiter (-2.0 mag) and Mars pass through
-  the default magnitude window on some dates, and the tracker does not see
-  them. For the stars the shift is negligible: from a 7000 km baseline
+  the planets are :mod:`allsky.vehicle.bodies`', flown by the tracker as
+  rows of its table (:mod:`allsky.sim.sky_rows`, with an orbit by default).
+  For the stars the shift is negligible: from a 7000 km baseline
   even Rigil Kentaurus (parallax 0.75" per au) moves by
   ``0.75" * 7000 km / 1 au = 3.5e-5"``, far below 0.001". For the Sun it is
   not below 0.001": the solar horizontal parallax is 8.794" per Earth radius,

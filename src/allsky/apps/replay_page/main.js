@@ -568,6 +568,9 @@ window.allsky = {
   /** The targets in flight order: name, start_s, end_s [s]. */
   targets: () => TARGETS.map((x) => ({ name: x.name, start_s: x.start_s, end_s: x.end_s })),
   events: () => D.events.map((e) => Object.assign({}, e)),
+  /** The Moon and the planets at mission time t_s [s] (geocentric, as the sky map draws
+   *  them): [{name, ra_deg, dec_deg, magnitude, phase, in_window, flown}]. */
+  bodies: (t_s) => bodiesAt(Number(t_s)),
   timing: APP.timing,
   ready: false,
 };

@@ -1,4 +1,5 @@
-// skymap.js: RA/Dec map with the Sun, catalog stars, targets and the tracker's slit footprint.
+// skymap.js: RA/Dec map with the Sun, catalog stars, the Moon and the planets, targets and the
+// tracker's slit footprint.
 const SKY = (function () {
   const canvas = document.getElementById("sky");
   let bg = null, bgKey = "";
@@ -149,12 +150,26 @@ const SKY = (function () {
     const cur = TARGETS[s.target];
     marker(ctx, cur.vec, w, h, "#ff6b5b", TARGETS.length > 1
       ? `target ${s.target + 1}/${TARGETS.length} ${cur.name}` : `target ${cur.name}`, 5, undefined, 0);
+    // The Moon and the planets: orange diamonds, ringed where the tracker can lock them.
+    for (const b of bodiesAt(t)) {
+      const [bx, by] = xy(b.ra_deg, b.dec_deg, w, h);
+      const r = Math.max(2.5, Math.min(6, 3 - 0.4 * b.magnitude));
+      ctx.fillStyle = "#ff9f1c"; ctx.beginPath();
+      ctx.moveTo(bx, by - r); ctx.lineTo(bx + r, by); ctx.lineTo(bx, by + r); ctx.lineTo(bx - r, by);
+      ctx.closePath(); ctx.fill();
+      if (b.in_window && b.flown) {
+        ctx.strokeStyle = "#b48cff"; ctx.lineWidth = 1.5;
+        ctx.beginPath(); ctx.arc(bx, by, r + 3.5, 0, 7); ctx.stroke();
+      }
+      L.want(b.name, bx, by, bx + r + 3, by + 4, { font: font(11), colour: "#ffc27a",
+        priority: b.in_window && b.flown ? 5 : 7, h: h - BOTTOM });
+    }
     const x = radec(c[0]), [px, py] = xy(x[0], x[1], w, h);
     ctx.fillStyle = "#7fd0ff"; ctx.beginPath(); ctx.arc(px, py, 3.5, 0, 7); ctx.fill();
     L.want("+x", px, py, px + 5, py + 13, { font: font(12, "bold"), colour: "#7fd0ff", priority: 1,
       h: h - BOTTOM });
     // The star in the slit (the journal's), ringed in white.
-    const inSlit = starInSlit(t), sv = inSlit ? starVec(inSlit) : null;
+    const inSlit = starInSlit(t), sv = inSlit ? starVec(inSlit, t) : null;
     if (sv) {
       const [ra, dec] = radec(sv), [sx, sy] = xy(ra, dec, w, h);
       ctx.strokeStyle = "#ffffff"; ctx.lineWidth = 2;

@@ -337,10 +337,31 @@ function unitFromRadec(ra, dec) {
     Math.sin(dec * RAD)];
 }
 
-/** Inertial direction of a catalog star by name, or null. */
-function starVec(name) {
+/** The Moon and the planets at mission time t_s [s], geocentric (the page's sky):
+ *  [{name, ra_deg, dec_deg, magnitude, phase, in_window, flown}], flown meaning the
+ *  tracker sees them (star_tracker.moving_bodies). Between the samples the direction is
+ *  interpolated; past them, held. */
+function bodiesAt(t_s) {
+  const out = [];
+  for (const b of D.sky.bodies || []) {
+    const n = b.ra.length, x = Math.max(0, Math.min(n - 1, t_s / b.step_s));
+    const k = Math.min(n - 2, Math.floor(x)), w = n > 1 ? x - k : 0;
+    const u = unitFromRadec(b.ra[Math.max(k, 0)], b.dec[Math.max(k, 0)]);
+    const v = n > 1 ? unitFromRadec(b.ra[k + 1], b.dec[k + 1]) : u;
+    const [ra, dec] = radec(norm([0, 1, 2].map((i) => u[i] + w * (v[i] - u[i]))));
+    out.push({ name: b.name, ra_deg: ra, dec_deg: dec, magnitude: b.mag, phase: b.phase,
+      in_window: b.win, flown: b.flown });
+  }
+  return out;
+}
+
+/** Inertial direction of a catalog star, or of a moving body at mission time t_s [s], by
+ *  name; or null. */
+function starVec(name, t_s) {
   const st = D.sky.stars.find((x) => x.name === name);
-  return st ? unitFromRadec(st.ra, st.dec) : null;
+  if (st) return unitFromRadec(st.ra, st.dec);
+  const b = bodiesAt(t_s || 0).find((x) => x.name === name);
+  return b ? unitFromRadec(b.ra_deg, b.dec_deg) : null;
 }
 
 /** The tracker slit's outline in body axes: rays at its edges (yaw across, pitch along). */

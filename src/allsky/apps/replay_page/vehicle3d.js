@@ -49,7 +49,7 @@ const VEHICLE = (function () {
     const sun = sunAt(t);
     const target = TARGETS[s.target];
     const inSlit = starInSlit(t);
-    const slitVec = inSlit ? starVec(inSlit) : null;
+    const slitVec = inSlit ? starVec(inSlit, t) : null;
     // [direction, colour, label, radius, label priority (lower: placed first)]
     const rays = [[sun, "#b07c00", "Sun", 8, 1], [target.vec, "#c0392b", `target ${target.name}`, 5, 0]];
     if (slitVec) rays.push([slitVec, "#6c3fb5", `${inSlit} (in the slit)`, 5, 1]);

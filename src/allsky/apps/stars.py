@@ -32,10 +32,13 @@ def format_stars(stars, window, date_utc, moving=(), seen=False) -> str:
     lines += ["",
              f"  {'star':<16}{'mag':>7}{'RA [h]':>9}{'Dec [deg]':>11}{'phase':>7}  window"]
     for s in rows:
-        mark = ("reference (planned)" if s.get("reference")
-                else ("in" if seen or "phase" not in s else "in (not flown)")
-                if s["in_window"] else "")
-        phase = f"{s['phase']:>7.2f}" if "phase" in s else " " * 7
+        body = "phase" in s
+        mark = ""
+        if s.get("reference"):
+            mark = "reference (planned)"
+        elif s["in_window"]:
+            mark = "in (not flown)" if body and not seen else "in"
+        phase = f"{s['phase']:>7.2f}" if body else " " * 7
         lines.append(f"  {s['name']:<16}{s['magnitude']:>+7.2f}{s['ra_deg'] / 15.0:>9.3f}"
                      f"{s['dec_deg']:>+11.2f}{phase}  {mark}".rstrip())
     return "\n".join(lines)

@@ -176,12 +176,6 @@ def bodies(date_utc: datetime) -> list[Body]:
     return list(_bodies_at(date_utc))
 
 
-def in_window(date_utc: datetime, window) -> list[str]:
-    """The bodies whose magnitude at ``date_utc`` lies in ``window`` (inclusive)."""
-    lo, hi = window
-    return [b.name for b in bodies(date_utc) if lo <= b.magnitude <= hi]
-
-
 def geocentric_grid_km(names, date_utc: datetime, span_s: float):
     """``(t_s, km)``: geocentric places every :data:`GRID_S` over ``span_s``.
 

@@ -580,37 +580,37 @@ def occulted_series(orbit, directions, first, last):
 
     At frames ``first`` to ``last`` - 1 of ``orbit``.
     """
-    m = directions.shape[0]
-    out = np.zeros((max(last - first, 0), m), dtype=np.bool_)
-    nadir = np.empty(3)
-    for f in range(first, last):
-        k, w = place(orbit, f)
-        _lerp_unit(orbit.nadir_i, k, w, nadir)
-        cos_e = _lerp(orbit.scalars, k, w, EARTH_COS)
-        for j in range(m):
-            d = (directions[j, 0] * nadir[0] + directions[j, 1] * nadir[1]
-                 + directions[j, 2] * nadir[2])
-            out[f - first, j] = d > cos_e
-    return out
+    return _occulted(orbit, directions.reshape(1, directions.shape[0], 3), False, first, last)
 
 
 @njit_alloc
 def occulted_bodies_series(orbit, first, last):
     """Each moving body behind the Earth's disk, (frames, b) bool.
 
-    At frames ``first`` to ``last`` - 1 of ``orbit``. A body's direction is its row of ``orbit.bodies_i`` for the frame's
-    sample interval, as the frame loop holds it (:func:`occult_stars`).
+    At frames ``first`` to ``last`` - 1 of ``orbit``. A body's direction is
+    its row of ``orbit.bodies_i`` for the frame's sample interval, as the
+    frame loop holds it (:func:`occult_stars`).
     """
-    b = orbit.bodies_i.shape[1]
-    out = np.zeros((max(last - first, 0), b), dtype=np.bool_)
+    return _occulted(orbit, orbit.bodies_i, True, first, last)
+
+
+@njit_alloc
+def _occulted(orbit, table, by_interval, first, last):
+    """Rows of ``table`` (n, m, 3) behind the Earth's disk, (frames, m) bool.
+
+    Row ``k`` of ``table`` for the frame's sample interval ``k`` with
+    ``by_interval``, else its only row.
+    """
+    m = table.shape[1]
+    out = np.zeros((max(last - first, 0), m), dtype=np.bool_)
     nadir = np.empty(3)
     for f in range(first, last):
         k, w = place(orbit, f)
         _lerp_unit(orbit.nadir_i, k, w, nadir)
         cos_e = _lerp(orbit.scalars, k, w, EARTH_COS)
-        for j in range(b):
-            d = (orbit.bodies_i[k, j, 0] * nadir[0] + orbit.bodies_i[k, j, 1] * nadir[1]
-                 + orbit.bodies_i[k, j, 2] * nadir[2])
+        r = k if by_interval else 0
+        for j in range(m):
+            d = table[r, j, 0] * nadir[0] + table[r, j, 1] * nadir[1] + table[r, j, 2] * nadir[2]
             out[f - first, j] = d > cos_e
     return out
 

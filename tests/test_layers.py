@@ -50,3 +50,19 @@ def test_package_exports_match_the_lazy_table():
     assert set(allsky.__all__) == {"__version__", *allsky._EXPORTS}
     for name in allsky._EXPORTS:
         assert getattr(allsky, name) is not None
+
+
+#: [lines] the most the mission's class may span: it drives the flight, the record keeps it
+MISSION_LINES = 550
+
+
+def test_the_mission_stays_the_driver():
+    """``Mission`` (docstrings included) within MISSION_LINES; what it grows belongs elsewhere."""
+    import ast
+
+    tree = ast.parse((SRC / "sim" / "mission.py").read_text())
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "Mission")
+    span = cls.end_lineno - cls.lineno + 1
+    assert span <= MISSION_LINES, (
+        f"Mission spans {span} lines (at most {MISSION_LINES}): move the record's reading to "
+        "allsky.sim.record, the commands' applying to allsky.sim.commands")

@@ -677,10 +677,7 @@ class Mission:
         return self.summary()
 
     def on_target(self) -> dict:
-        """The truth where Mode 6-2 declares the vehicle on target.
-
-        Written by :func:`allsky.sim.record.on_target`.
-        """
+        """Truth where Mode 6-2 judged it on target: :func:`allsky.sim.record.on_target`."""
         return record.on_target(self)
 
     def program_target(self):
@@ -739,10 +736,7 @@ class Mission:
         self.state.target_inertial[:] = self.target_direction()
 
     def targets(self) -> list:
-        """The record of every target begun, in flight order.
-
-        Written by :func:`allsky.sim.record.targets`.
-        """
+        """Every target begun, in flight order (:func:`allsky.sim.record.targets`)."""
         return record.targets(self)
 
     # -- ground commands (allsky.sim.commands) ----------------------------------
@@ -802,53 +796,32 @@ class Mission:
         return tracker_star_names(self.cfg)[k] if k >= 0 else self.locked_before
 
     def calibration(self) -> dict:
-        """What the mission stored: the drift counted and applied, register 23.
-
-        Written by :func:`allsky.sim.record.calibration`.
-        """
+        """Drifts counted and applied, register 23: :func:`allsky.sim.record.calibration`."""
         return record.calibration(self)
 
     def drift_dac_clipped(self) -> dict:
-        """Per axis: is the drift count beyond its drift DAC's full scale?.
-
-        Written by :func:`allsky.sim.record.drift_dac_clipped`.
-        """
+        """Drift counts past their DACs: :func:`allsky.sim.record.drift_dac_clipped`."""
         return record.drift_dac_clipped(self)
 
     def end(self) -> dict:
-        """The truth at the end of the flight (so far).
-
-        Written by :func:`allsky.sim.record.end`.
-        """
+        """The truth at the end of the flight so far (:func:`allsky.sim.record.end`)."""
         return record.end(self)
 
     def summary(self) -> dict:
-        """The ``--json`` summary (a stable contract).
-
-        Written by :func:`allsky.sim.record.summary`.
-        """
+        """The ``--json`` summary, a stable contract (:func:`allsky.sim.record.summary`)."""
         return record.summary(self)
 
     def orbit_summary(self) -> dict:
-        """The orbit's part of the summary.
-
-        Written by :func:`allsky.sim.record.orbit_summary`.
-        """
+        """The orbit's part of the summary (:func:`allsky.sim.record.orbit_summary`)."""
         return record.orbit_summary(self)
 
     def wheel_summary(self) -> dict:
-        """The reaction wheels at the end.
-
-        Written by :func:`allsky.sim.record.wheel_summary`.
-        """
+        """The reaction wheels at the end (:func:`allsky.sim.record.wheel_summary`)."""
         return record.wheel_summary(self)
 
     # -- snapshot / resume ---------------------------------------------------------
     def snapshot(self):
-        """The mission at the current mode boundary, as data to resume from.
-
-        Written by :func:`allsky.sim.record.snapshot`.
-        """
+        """This mode boundary, as data to resume from (:func:`allsky.sim.record.snapshot`)."""
         return record.snapshot(self)
 
     @classmethod

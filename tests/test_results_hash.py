@@ -162,7 +162,12 @@ def plain_machine_env() -> dict:
     return env
 
 
-def test_the_results_are_the_same_bits_on_a_plainer_machine():
+def test_the_results_are_the_same_bits_on_a_plainer_machine(tmp_path):
+    """The hashes flown again on the plainest paths, compiled into a cache of their own.
+
+    The generic CPU's loop goes to ``tmp_path``, not beside the installed package, whose
+    cache holds the build's loop only (tests/apps/test_warm_up.py).
+    """
     import subprocess
     import sys
     from pathlib import Path
@@ -170,7 +175,8 @@ def test_the_results_are_the_same_bits_on_a_plainer_machine():
     code = ("import json, sys; sys.path.insert(0, 'tests'); import test_results_hash as t; "
             "out = {n: t.mission_hash(*t.CASES[n]) for n in t.CASES}; "
             "out['compare-runs5'] = t.compare_hash(); print(json.dumps(out))")
-    run = subprocess.run([sys.executable, "-c", code], env=plain_machine_env(),
+    env = {**plain_machine_env(), "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    run = subprocess.run([sys.executable, "-c", code], env=env,
                          cwd=Path(__file__).resolve().parents[1], capture_output=True,
                          text=True, timeout=900, check=False)
     assert run.returncode == 0, run.stderr[-2000:]

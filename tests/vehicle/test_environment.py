@@ -201,3 +201,63 @@ def test_the_atmosphere_is_its_table():
     assert env.density_kg_m3(353.628e3 - 3.628e3 + 0.0) == pytest.approx(9.518e-12, rel=1e-12)
     h = 320e3
     assert env.density_kg_m3(h) == pytest.approx(2.418e-11 * math.exp(-20 / 53.628), rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def with_jupiter():
+    """The orbit of the Jupiter occultation above, with its moving bodies' rows."""
+    date = ["mission.date_utc=2026-11-28T00:00:00Z",
+            "star_tracker.magnitude_window=[-2.5,-0.3]"]
+    cfg = load_scenario(overrides=[*ORBIT[:-1], "orbit.arg_latitude_deg=210.0", *date])
+    return build_params(cfg).orbit
+
+
+def _steps_frame_by_frame(o, dirs, cols, first, last, seen):
+    """The steps of occultation_steps from the frame-by-frame series, as the journal took them."""
+    hidden = env.occulted_series(o, dirs, first, last)
+    hidden = np.hstack([hidden, env.occulted_bodies_series(o, first, last)[:, cols]])
+    steps = np.diff(np.vstack([seen[None, :], hidden]).astype(np.int8), axis=0)
+    k, j = np.nonzero(steps)
+    return np.stack([k, j, (steps[k, j] > 0).astype(np.int64)], axis=1), hidden[-1]
+
+
+@settings(max_examples=40, deadline=None)
+@given(first=st.integers(0, 600_000), length=st.integers(1, 60_000),
+       grazing=st.lists(st.tuples(st.integers(0, 700_000), st.floats(-2e-4, 2e-4),
+                                  st.floats(0.0, 2 * math.pi)), max_size=4),
+       free=st.lists(st.tuples(st.floats(-1, 1), st.floats(0, 2 * math.pi)), max_size=2),
+       seen_bits=st.integers(0, 255))
+def test_the_journal_s_occultation_steps_are_the_frame_by_frame_series(
+        with_jupiter, first, length, grazing, free, seen_bits):
+    """occultation_steps skips only frames where no row can cross the limb: the same steps.
+
+    Directions are drawn at random and on the Earth's limb at random frames
+    (``grazing``: within 2e-4 rad of it, where a frame's 5e-5 rad of motion
+    decides), ranges run past the last sample (the place held), and the rows
+    start hidden or not at random.
+    """
+    o = with_jupiter
+    a_e = float(np.arccos(o.scalars[0, env.EARTH_COS]))
+    dirs = []
+    for f, delta, turn in grazing:
+        k, w = env.place(o, f)
+        n = np.empty(3)
+        env._lerp_unit(o.nadir_i, k, w, n)
+        u = np.cross(n, [0.0, 0.0, 1.0])
+        u /= np.linalg.norm(u)
+        v = np.cross(n, u)
+        side = math.cos(turn) * u + math.sin(turn) * v
+        dirs.append(math.cos(a_e + delta) * n + math.sin(a_e + delta) * side)
+    for z, lon in free:
+        r = math.sqrt(1 - z * z)
+        dirs.append([r * math.cos(lon), r * math.sin(lon), z])
+    dirs = np.ascontiguousarray(np.array(dirs, dtype=float).reshape(-1, 3))
+    cols = np.nonzero(o.body_rows >= 0)[0]
+    assert cols.shape[0] >= 1  # Jupiter moves in this window
+    rows = dirs.shape[0] + cols.shape[0]
+    seen = np.array([(seen_bits >> i) & 1 for i in range(rows)], dtype=bool)
+    last = first + length
+    got, state = env.occultation_steps(o, dirs, cols, first, last, seen)
+    want, want_state = _steps_frame_by_frame(o, dirs, cols, first, last, seen)
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(state, want_state)

@@ -501,7 +501,9 @@ class OrbitJournal:
 
         They depend on the orbit and the date only, not on the attitude: they
         are found from the orbit's samples, interpolated as the frame loop
-        interpolates them (:mod:`allsky.vehicle.environment`), frame by frame.
+        interpolates them (:mod:`allsky.vehicle.environment`), frame by frame
+        where a row can cross the limb
+        (:func:`allsky.vehicle.environment.occultation_steps`).
         Returns whether any entry was written.
         """
         o = m.params.orbit
@@ -527,17 +529,13 @@ class OrbitJournal:
         bodies = [*(names[j] for j in fixed), "target", *(names[j] for j in moving)]
         dirs = np.ascontiguousarray(np.vstack([o.stars_inertial[fixed],
                                                np.asarray(m.state.target_inertial)[None]]))
-        hidden = environment.occulted_series(o, dirs, first, last)
-        if moving.shape[0]:
-            hidden = np.hstack([hidden, environment.occulted_bodies_series(
-                o, first, last)[:, o.body_rows >= 0]])
         seen = self.hidden if self.hidden is not None else np.zeros(len(bodies), dtype=bool)
-        steps = np.diff(np.vstack([seen[None, :], hidden]).astype(np.int8), axis=0)
-        for k, j in zip(*np.nonzero(steps)):
+        steps, self.hidden = environment.occultation_steps(
+            o, dirs, np.nonzero(o.body_rows >= 0)[0], first, last, seen)
+        for k, j, active in steps:
             m.journal.note(clock.time_s(ck, first + int(k)), m.current_mode, "occultation",
-                              body=bodies[j], active=bool(steps[k, j] > 0))
+                           body=bodies[j], active=bool(active))
             wrote = True
-        self.hidden = hidden[-1].copy()
         return wrote
 
 

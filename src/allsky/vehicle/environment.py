@@ -615,6 +615,95 @@ def _occulted(orbit, table, by_interval, first, last):
     return out
 
 
+#: [rad] what a bound of :func:`occultation_steps` allows for rounding: far above the ulps
+#: of a unit vector's dot product, far below a frame's motion of the nadir (5e-5 rad at 300 km)
+ROUNDING_RAD = 1e-9
+
+
+@njit_alloc
+def occultation_steps(orbit, fixed, moving, first, last, seen):
+    """Where rows start or stop being behind the Earth's disk, frames ``first`` to ``last`` - 1.
+
+    The rows are ``fixed`` (m, 3), then the columns ``moving`` of
+    ``orbit.bodies_i`` (each body's row for the frame's sample interval); a
+    row is hidden at a frame exactly where :func:`occulted_series` (or
+    :func:`occulted_bodies_series`) says so, and ``seen`` (rows,) bool is
+    what each showed before ``first``. Returns ``(steps, hidden)``: the steps
+    as (n, 3) int64 rows (frame - ``first``, row, 1 hidden / 0 shown), by frame
+    then row, and each row's state at ``last`` - 1.
+
+    An interval's frames are not evaluated one by one where a row cannot
+    cross the limb in it: the interpolated nadir stays within the angle
+    ``theta`` of the interval's first sample (the chord between the samples
+    times pi/2, which bounds the arc, and :data:`ROUNDING_RAD`), and a cosine
+    moves no more than its angle, so a row whose cosine from that sample
+    clears both ends' ``EARTH_COS`` by ``theta`` keeps its side throughout.
+    """
+    n_f = fixed.shape[0]
+    rows = n_f + moving.shape[0]
+    state = seen.copy()
+    steps = np.empty((16, 3), dtype=np.int64)
+    n_steps = 0
+    side = np.zeros(rows, dtype=np.int64)  # this interval: 1 hidden, -1 shown, 0 frame by frame
+    nadir = np.empty(3)
+    sc = orbit.scalars
+    step = orbit.step_frames
+    f = first
+    while f < last:
+        k, w = place(orbit, f)
+        end = last if k == orbit.n - 2 and w == 1.0 else min(last, (k + 1) * step)
+        n0 = orbit.nadir_i[k]
+        n1 = orbit.nadir_i[k + 1]
+        chord = math.sqrt((n1[0] - n0[0]) ** 2 + (n1[1] - n0[1]) ** 2 + (n1[2] - n0[2]) ** 2)
+        theta = 0.5 * math.pi * chord + ROUNDING_RAD
+        c_lo = min(sc[k, EARTH_COS], sc[k + 1, EARTH_COS]) - ROUNDING_RAD
+        c_hi = max(sc[k, EARTH_COS], sc[k + 1, EARTH_COS]) + ROUNDING_RAD
+        mixed = False
+        for j in range(rows):
+            if j < n_f:
+                a, b, c = fixed[j, 0], fixed[j, 1], fixed[j, 2]
+            else:
+                col = moving[j - n_f]
+                a, b, c = orbit.bodies_i[k, col, 0], orbit.bodies_i[k, col, 1], \
+                    orbit.bodies_i[k, col, 2]
+            d0 = a * n0[0] + b * n0[1] + c * n0[2]
+            if d0 - theta > c_hi:
+                side[j] = 1
+            elif d0 + theta < c_lo:
+                side[j] = -1
+            else:
+                side[j] = 0
+                mixed = True
+        for g in range(f, end if mixed else f + 1):
+            if mixed:
+                kg, wg = place(orbit, g)
+                _lerp_unit(orbit.nadir_i, kg, wg, nadir)
+                cos_e = _lerp(sc, kg, wg, EARTH_COS)
+            for j in range(rows):
+                if side[j] != 0:
+                    h = side[j] > 0
+                else:
+                    if j < n_f:
+                        a, b, c = fixed[j, 0], fixed[j, 1], fixed[j, 2]
+                    else:
+                        col = moving[j - n_f]
+                        a, b, c = orbit.bodies_i[k, col, 0], orbit.bodies_i[k, col, 1], \
+                            orbit.bodies_i[k, col, 2]
+                    h = a * nadir[0] + b * nadir[1] + c * nadir[2] > cos_e
+                if h != state[j]:
+                    if n_steps == steps.shape[0]:
+                        grown = np.empty((2 * n_steps, 3), dtype=np.int64)
+                        grown[:n_steps] = steps
+                        steps = grown
+                    steps[n_steps, 0] = g - first
+                    steps[n_steps, 1] = j
+                    steps[n_steps, 2] = 1 if h else 0
+                    n_steps += 1
+                    state[j] = h
+        f = end
+    return steps[:n_steps].copy(), state
+
+
 #: The columns of :func:`orbit_telemetry`, with their units.
 ORBIT_COLUMNS = (("time", "s"), ("sunlit_fraction", "-"), ("eclipse", "-"),
                  ("earth_angle_x", "deg"), ("earth_angle_boresight", "deg"))

@@ -261,3 +261,21 @@ def test_the_journal_s_occultation_steps_are_the_frame_by_frame_series(
     want, want_state = _steps_frame_by_frame(o, dirs, cols, first, last, seen)
     np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(state, want_state)
+
+
+@settings(max_examples=30, deadline=None)
+@given(first=st.integers(0, 600_000), length=st.integers(1, 200_000), phase=st.integers(0, 2))
+def test_the_journal_s_eclipse_steps_are_the_frame_by_frame_fractions(flown, first, length,
+                                                                      phase):
+    """eclipse_steps passes sunlit intervals at once: the phases of sunlit_series, frame by frame."""
+    o = flown[1].orbit
+    assert env.eclipse_steps(o, 0, 700_000, 0)[0].shape[0] >= 4  # the draws pass the shadow
+    last = first + length
+    f = env.sunlit_series(o, first, last)
+    phases = np.where(f >= 1.0, 0, np.where(f <= 0.0, 2, 1))
+    k = np.nonzero(np.diff(np.concatenate([[phase], phases])))[0]
+    at, got, fractions, end = env.eclipse_steps(o, first, last, phase)
+    np.testing.assert_array_equal(at, k)
+    np.testing.assert_array_equal(got, phases[k])
+    np.testing.assert_array_equal(fractions, f[k])
+    assert end == phases[-1]

@@ -494,6 +494,27 @@ class OrbitJournal:
         self.frame = 0  #: the frame journaled up to
         self.phase = 0  #: 0 sunlit, 1 penumbra, 2 umbra at that frame
         self.hidden = None  #: which bodies the Earth hid at that frame
+        self._rows = (None, None, None)  #: (scenario, orbit, their rows): :meth:`_rows_of`
+
+    def _rows_of(self, m):
+        """``(names, fixed, moving)`` of mission ``m``'s scenario, kept while it flies.
+
+        The names of the journal's rows (the fixed stars, "target", the
+        moving bodies), the fixed stars' directions, the bodies' columns of
+        ``orbit.bodies_i``; a scenario and its orbit's samples are never
+        changed in place, so a ground command's new ones are new objects.
+        """
+        cfg, orbit, rows = self._rows
+        o = m.params.orbit
+        if cfg is not m.cfg or orbit is not o:
+            names = tracker_star_names(m.cfg)[:o.stars_inertial.shape[0]]
+            fixed = np.setdiff1d(np.arange(len(names)), o.body_rows)  # the stars: fixed rows
+            moving = o.body_rows[o.body_rows >= 0]  # the bodies in the window: by interval
+            rows = ([*(names[j] for j in fixed), "target", *(names[j] for j in moving)],
+                    np.ascontiguousarray(o.stars_inertial[fixed]),
+                    np.nonzero(o.body_rows >= 0)[0])
+            self._rows = (m.cfg, o, rows)
+        return rows
 
 
     def note(self, m) -> bool:
@@ -512,26 +533,19 @@ class OrbitJournal:
             return False
         self.frame = last
         ck = m.params.clock
-        f = environment.sunlit_series(o, first, last)
-        phase = np.where(f >= 1.0, 0, np.where(f <= 0.0, 2, 1))
-        prev = self.phase
-        wrote = False
+        at, phases, fractions, self.phase = environment.eclipse_steps(o, first, last,
+                                                                       self.phase)
+        wrote = at.shape[0] > 0
         names = ("sunlit", "penumbra", "umbra")
-        for k in np.nonzero(np.diff(np.concatenate([[prev], phase])))[0]:
+        for k, phase, f in zip(at, phases, fractions):
             m.journal.note(clock.time_s(ck, first + int(k)), m.current_mode, "eclipse",
-                              phase=names[phase[k]], active=bool(phase[k] != 0),
-                              sunlit_fraction=float(f[k]))
-            wrote = True
-        self.phase = int(phase[-1])
-        names = tracker_star_names(m.cfg)[:o.stars_inertial.shape[0]]
-        fixed = np.setdiff1d(np.arange(len(names)), o.body_rows)  # the stars: fixed rows
-        moving = o.body_rows[o.body_rows >= 0]  # the bodies in the window: rows by interval
-        bodies = [*(names[j] for j in fixed), "target", *(names[j] for j in moving)]
-        dirs = np.ascontiguousarray(np.vstack([o.stars_inertial[fixed],
+                           phase=names[phase], active=bool(phase != 0),
+                           sunlit_fraction=float(f))
+        bodies, stars, moving = self._rows_of(m)
+        dirs = np.ascontiguousarray(np.vstack([stars,
                                                np.asarray(m.state.target_inertial)[None]]))
         seen = self.hidden if self.hidden is not None else np.zeros(len(bodies), dtype=bool)
-        steps, self.hidden = environment.occultation_steps(
-            o, dirs, np.nonzero(o.body_rows >= 0)[0], first, last, seen)
+        steps, self.hidden = environment.occultation_steps(o, dirs, moving, first, last, seen)
         for k, j, active in steps:
             m.journal.note(clock.time_s(ck, first + int(k)), m.current_mode, "occultation",
                            body=bodies[j], active=bool(active))

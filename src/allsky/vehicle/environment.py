@@ -554,6 +554,48 @@ def sunlit_series(orbit, first, last):
     return out
 
 
+@njit_alloc
+def eclipse_steps(orbit, first, last, phase):
+    """Where the shadow's phase changes, frames ``first`` to ``last`` - 1 of ``orbit``.
+
+    The phase is 0 sunlit (the whole Sun), 1 penumbra, 2 umbra, of each
+    frame's :func:`sunlit_series` value; ``phase`` is the phase before
+    ``first``. Returns ``(frames, phases, fractions)`` of the frames whose
+    phase differs from the frame's before (frame - ``first``, its phase, its
+    visible fraction), and the phase at ``last`` - 1. Intervals sunlit at
+    both ends and between (``WHOLE``) are passed at once.
+    """
+    cap = 8
+    at = np.empty(cap, dtype=np.int64)
+    ph = np.empty(cap, dtype=np.int64)
+    fr = np.empty(cap)
+    n = 0
+    step = orbit.step_frames
+    f = first
+    while f < last:
+        k = f // step
+        whole = k < orbit.n - 1 and orbit.scalars[k, WHOLE] != 0.0
+        x = 1.0 if whole else sunlit_at(orbit, f)
+        now = 0 if x >= 1.0 else (2 if x <= 0.0 else 1)
+        if now != phase:
+            if n == cap:
+                cap *= 2
+                at2 = np.empty(cap, dtype=np.int64)
+                ph2 = np.empty(cap, dtype=np.int64)
+                fr2 = np.empty(cap)
+                at2[:n] = at[:n]
+                ph2[:n] = ph[:n]
+                fr2[:n] = fr[:n]
+                at, ph, fr = at2, ph2, fr2
+            at[n] = f - first
+            ph[n] = now
+            fr[n] = x
+            n += 1
+            phase = now
+        f = min(last, (k + 1) * step) if whole else f + 1
+    return at[:n].copy(), ph[:n].copy(), fr[:n].copy(), phase
+
+
 @njit
 def first_dark(orbit, first, last):
     """The first frame of ``first`` to ``last`` - 1 whose Sun is not whole (-1: none).

@@ -662,6 +662,20 @@ def _occulted(orbit, table, by_interval, first, last):
 ROUNDING_RAD = 1e-9
 
 
+@njit_stage
+def _row_cos(orbit, fixed, moving, k, j, v):
+    """Row ``j`` of :func:`occultation_steps` dotted with the unit vector ``v``.
+
+    The fixed rows first, then the bodies' of interval ``k``; summed in the
+    order of :func:`_occulted`, for the same bits.
+    """
+    if j < fixed.shape[0]:
+        return fixed[j, 0] * v[0] + fixed[j, 1] * v[1] + fixed[j, 2] * v[2]
+    col = moving[j - fixed.shape[0]]
+    t = orbit.bodies_i
+    return t[k, col, 0] * v[0] + t[k, col, 1] * v[1] + t[k, col, 2] * v[2]
+
+
 @njit_alloc
 def occultation_steps(orbit, fixed, moving, first, last, seen):
     """Where rows start or stop being behind the Earth's disk, frames ``first`` to ``last`` - 1.
@@ -681,8 +695,7 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
     moves no more than its angle, so a row whose cosine from that sample
     clears both ends' ``EARTH_COS`` by ``theta`` keeps its side throughout.
     """
-    n_f = fixed.shape[0]
-    rows = n_f + moving.shape[0]
+    rows = fixed.shape[0] + moving.shape[0]
     state = seen.copy()
     steps = np.empty((16, 3), dtype=np.int64)
     n_steps = 0
@@ -702,13 +715,7 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
         c_hi = max(sc[k, EARTH_COS], sc[k + 1, EARTH_COS]) + ROUNDING_RAD
         mixed = False
         for j in range(rows):
-            if j < n_f:
-                a, b, c = fixed[j, 0], fixed[j, 1], fixed[j, 2]
-            else:
-                col = moving[j - n_f]
-                a, b, c = orbit.bodies_i[k, col, 0], orbit.bodies_i[k, col, 1], \
-                    orbit.bodies_i[k, col, 2]
-            d0 = a * n0[0] + b * n0[1] + c * n0[2]
+            d0 = _row_cos(orbit, fixed, moving, k, j, n0)
             if d0 - theta > c_hi:
                 side[j] = 1
             elif d0 + theta < c_lo:
@@ -725,13 +732,7 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
                 if side[j] != 0:
                     h = side[j] > 0
                 else:
-                    if j < n_f:
-                        a, b, c = fixed[j, 0], fixed[j, 1], fixed[j, 2]
-                    else:
-                        col = moving[j - n_f]
-                        a, b, c = orbit.bodies_i[k, col, 0], orbit.bodies_i[k, col, 1], \
-                            orbit.bodies_i[k, col, 2]
-                    h = a * nadir[0] + b * nadir[1] + c * nadir[2] > cos_e
+                    h = _row_cos(orbit, fixed, moving, k, j, nadir) > cos_e
                 if h != state[j]:
                     if n_steps == steps.shape[0]:
                         grown = np.empty((2 * n_steps, 3), dtype=np.int64)

@@ -678,9 +678,10 @@ def _row_cos(orbit, fixed, moving, k, j, v):
 
 @njit_alloc
 def occultation_steps(orbit, fixed, moving, first, last, seen):
-    """Where rows start or stop being behind the Earth's disk, frames ``first`` to ``last`` - 1.
+    """The frames where rows pass behind the Earth's disk, or out from behind it.
 
-    The rows are ``fixed`` (m, 3), then the columns ``moving`` of
+    Frames ``first`` to ``last`` - 1 of ``orbit``'s samples
+    (:class:`OrbitParams`). The rows are ``fixed`` (m, 3), then the columns ``moving`` of
     ``orbit.bodies_i`` (each body's row for the frame's sample interval); a
     row is hidden at a frame exactly where :func:`occulted_series` (or
     :func:`occulted_bodies_series`) says so, and ``seen`` (rows,) bool is

@@ -565,10 +565,7 @@ def eclipse_steps(orbit, first, last, phase):
     visible fraction), and the phase at ``last`` - 1. Intervals sunlit at
     both ends and between (``WHOLE``) are passed at once.
     """
-    cap = 8
-    at = np.empty(cap, dtype=np.int64)
-    ph = np.empty(cap, dtype=np.int64)
-    fr = np.empty(cap)
+    steps = np.empty((8, 2), dtype=np.int64)  # frame - first, phase
     n = 0
     step = orbit.step_frames
     f = first
@@ -578,22 +575,26 @@ def eclipse_steps(orbit, first, last, phase):
         x = 1.0 if whole else sunlit_at(orbit, f)
         now = 0 if x >= 1.0 else (2 if x <= 0.0 else 1)
         if now != phase:
-            if n == cap:
-                cap *= 2
-                at2 = np.empty(cap, dtype=np.int64)
-                ph2 = np.empty(cap, dtype=np.int64)
-                fr2 = np.empty(cap)
-                at2[:n] = at[:n]
-                ph2[:n] = ph[:n]
-                fr2[:n] = fr[:n]
-                at, ph, fr = at2, ph2, fr2
-            at[n] = f - first
-            ph[n] = now
-            fr[n] = x
+            steps = _room(steps, n)
+            steps[n, 0] = f - first
+            steps[n, 1] = now
             n += 1
             phase = now
         f = min(last, (k + 1) * step) if whole else f + 1
-    return at[:n].copy(), ph[:n].copy(), fr[:n].copy(), phase
+    fractions = np.empty(n)
+    for i in range(n):  # sunlit_at gives 1.0 in a WHOLE interval itself
+        fractions[i] = sunlit_at(orbit, first + steps[i, 0])
+    return steps[:n, 0].copy(), steps[:n, 1].copy(), fractions, phase
+
+
+@njit_alloc
+def _room(buf, n):
+    """``buf`` (rows, columns) with room for row ``n``: itself, or a copy twice as long."""
+    if n < buf.shape[0]:
+        return buf
+    grown = np.empty((2 * buf.shape[0], buf.shape[1]), dtype=buf.dtype)
+    grown[:n] = buf[:n]
+    return grown
 
 
 @njit
@@ -735,10 +736,7 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
                 else:
                     h = _row_cos(orbit, fixed, moving, k, j, nadir) > cos_e
                 if h != state[j]:
-                    if n_steps == steps.shape[0]:
-                        grown = np.empty((2 * n_steps, 3), dtype=np.int64)
-                        grown[:n_steps] = steps
-                        steps = grown
+                    steps = _room(steps, n_steps)
                     steps[n_steps, 0] = g - first
                     steps[n_steps, 1] = j
                     steps[n_steps, 2] = 1 if h else 0

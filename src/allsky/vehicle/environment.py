@@ -22,6 +22,26 @@ samples linearly (``at_frame``) and computes, frame by frame:
 * **The Earth's disk** occulting a star or the target: its direction within
   ``a_e`` of the Earth's centre. An occulted star is taken out of star
   tracker 105's view.
+* **The sunlit Earth in star tracker 105's slit.** The slit is bounded by
+  four great circles (pitch = +-``fov_long_half``, yaw = +-``fov_narrow_half``).
+  The tracker is blinded while any sunlit point of the Earth's visible disk
+  lies in it (:func:`earth_glare`): it finds no star and holds none. The
+  decision is geometric, in closed form: the disk reaches into the slit where
+  the largest cosine between the disk's centre and a point of the slit
+  exceeds ``cos a_e`` (the slit's interior, its four edges and its corners,
+  :func:`_disk_in_slit`); a point of the Earth's surface, unit normal ``n``,
+  is sunlit where ``n . s > 0``, and the surface points seen in the slit are
+  those meeting five linear constraints on ``n`` (in view from the vehicle,
+  and inside each of the slit's four planes), whose largest ``n . s`` is found
+  among the Sun's own point, each constraint circle's highest point and the
+  circles' crossings (:func:`brightest_in_slit`). Why geometry and not a
+  flux: a Lambertian Earth of albedo :data:`EARTH_ALBEDO` lit at incidence
+  ``i`` is ``2.4 - 2.5 log10(cos i)`` mag/arcsec^2, so a sunlit area of
+  1e-9 sr (a sliver 0.0004 arcsec wide along the slit) already outshines the
+  bright end of a window at -1 mag, and the whole slit (0.153 sr) sunlit is
+  about -22 mag. The Sun is taken as a point for the terminator (its
+  0.27 deg disk softens it), and the direction to it from the vehicle for
+  every point of the Earth (they differ by at most 4.3e-5 rad).
 * **Torques** on the body, held over the frame (the frame loop adds them to
   the jets'): gravity gradient ``3 mu / r^3 n x (J n)`` (``n`` the unit
   vector to the Earth's centre, body axes, ``J`` the full inertia tensor);
@@ -80,7 +100,19 @@ WHOLE = 7
 #: 1.0 where the Earth's disk begins or ends hiding a window star between this sample and
 #: the next (the loop tests the stars frame by frame only there), 0.0 elsewhere
 CHANGES = 8
-N_SCALARS = 9
+#: [-] cosine of the Earth's angular radius plus the slit's corner angle from the
+#: boresight: with the boresight's cosine from the nadir below it (less
+#: :data:`REACH_MARGIN`), no part of the Earth can be in star tracker 105's slit
+SLIT_REACH = 9
+N_SCALARS = 10
+#: [-] margin on SLIT_REACH: far above the error of interpolating it between samples
+REACH_MARGIN = 1e-6
+#: [-] the Earth's albedo, its surface taken as Lambertian (the Bond albedo, 0.30)
+EARTH_ALBEDO = 0.30
+#: [mag] the Sun's visual magnitude
+SUN_MAGNITUDE = -26.74
+#: [-] a candidate point of :func:`brightest_in_slit` meets a constraint within this
+FEASIBLE_TOL = 1e-12
 
 # Entries of OrbitParams.env, the frame's environment (written by at_frame and the loop).
 E_SUNLIT = 0  #: [-] visible fraction of the Sun's disk
@@ -116,6 +148,9 @@ class OrbitParams(NamedTuple):
     body_rows: np.ndarray  #: (b,) int: each body's row of ``stars_inertial``, -1 if none
     gate_rows: np.ndarray  #: (b,) int: its row of the tracker's gate stars, -1 if none
     body_k: np.ndarray  #: (1,) int: the sample interval the bodies' rows hold (-1: none yet)
+    #: (6, 3) star tracker 105's slit (:func:`slit_geometry`): its planes and corners
+    slit: np.ndarray
+    blind: object  #: the tracker while the sunlit Earth blinds it: no star, no gate star
 
 
 def no_orbit(tracker) -> OrbitParams:
@@ -125,7 +160,40 @@ def no_orbit(tracker) -> OrbitParams:
     return OrbitParams(0, 1, z3, z3.copy(), z3.copy(), np.zeros((0, N_SCALARS)), False,
                        np.zeros(3), np.zeros(3), z3.copy(), tracker, np.zeros(N_ENV),
                        np.zeros((4, 3)), np.zeros((2, 3)), np.zeros((0, 0, 3)), none,
-                       none.copy(), np.full(1, -1, dtype=np.int64))
+                       none.copy(), np.full(1, -1, dtype=np.int64), np.zeros((6, 3)), tracker)
+
+
+def slit_geometry(fov_long_half_rad, fov_narrow_half_rad) -> np.ndarray:
+    """Star tracker 105's slit as :func:`earth_glare` reads it, (6, 3).
+
+    ``fov_long_half_rad`` [rad] is the half field along the slit, ``P``;
+    ``fov_narrow_half_rad`` [rad] the half field across it, ``Y``. Row 0: ``sin P, cos P, cos P tan Y`` and row 1: ``sin Y, cos Y, cos Y tan P``
+    (``P`` the half field along the slit, the pitch output's; ``Y`` across,
+    the yaw output's; the third entries are the tangents of each edge's half
+    length seen from the boresight's plane). Rows 2-5: the four corners, unit
+    vectors in body axes (+z the boresight).
+    """
+    p, y = float(fov_long_half_rad), float(fov_narrow_half_rad)
+    sp, cp, sy, cy = xmath.sin(p), xmath.cos(p), xmath.sin(y), xmath.cos(y)
+    tp, ty = sp / cp, sy / cy
+    out = np.zeros((6, 3))
+    out[0] = sp, cp, cp * ty
+    out[1] = sy, cy, cy * tp
+    n = math.sqrt(tp * tp + ty * ty + 1.0)
+    for i, (a, b) in enumerate(((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))):
+        out[2 + i] = a * tp / n, b * ty / n, 1.0 / n
+    return out
+
+
+def blind_tracker(tracker):
+    """Star tracker 105 as the sunlit Earth leaves it: blind.
+
+    ``tracker`` (the mission's tracker parameters) with no star in view and
+    none for its bright gate.
+    """
+    z3 = np.zeros((0, 3))
+    return tracker._replace(stars_inertial=z3, magnitudes=np.zeros(0),
+                            gate_stars_inertial=z3.copy(), gate_magnitudes=np.zeros(0))
 
 
 def density_kg_m3(altitude_m):
@@ -237,6 +305,9 @@ def build(cfg, track, sun0, sun_rate, step_frames, tracker, bodies_i=None, body_
     if bodies_i is None or not (np.any(body_rows >= 0) or np.any(gate_rows >= 0)):
         bodies_i, body_rows, gate_rows = np.zeros((sun_i.shape[0], 0, 3)), none, none.copy()
     _flags(sc, nadir, stars[np.setdiff1d(np.arange(stars.shape[0]), body_rows)], bodies_i)
+    slit = slit_geometry(tracker.fov_long_half_rad, tracker.fov_narrow_half_rad)
+    corner = xmath.acos(float(slit[2, 2]))  # [rad] a corner's angle from the boresight
+    sc[:, SLIT_REACH] = [xmath.cos(min(a + corner, math.pi)) for a in sc[:, EARTH_RADIUS]]
     # the loop's tracker: its own star array, and its own gate array where bodies move in it
     own = tracker._replace(stars_inertial=stars.copy())
     if np.any(gate_rows >= 0):
@@ -249,7 +320,8 @@ def build(cfg, track, sun0, sun_rate, step_frames, tracker, bodies_i=None, body_
                        np.array(o.srp_offset_m, dtype=float), stars, own, np.zeros(N_ENV),
                        np.zeros((4, 3)), np.zeros((2, 3)), np.ascontiguousarray(bodies_i),
                        np.asarray(body_rows, dtype=np.int64),
-                       np.asarray(gate_rows, dtype=np.int64), np.full(1, -1, dtype=np.int64))
+                       np.asarray(gate_rows, dtype=np.int64), np.full(1, -1, dtype=np.int64),
+                       slit, blind_tracker(own))
 
 
 @njit
@@ -413,6 +485,195 @@ def _occult(orbit, nadir, cos_e):
             dst[j, 0] = src[j, 0]
             dst[j, 1] = src[j, 1]
             dst[j, 2] = src[j, 2]
+
+
+@njit
+def _disk_in_slit(sl, cx, cy, cz, ce):
+    """Whether the Earth's disk reaches into star tracker 105's slit ``sl``.
+
+    ``cx``, ``cy``, ``cz`` are the unit vector to the Earth's centre in body axes,
+    ``ce`` the cosine of the disk's angular radius; ``sl`` is
+    :func:`slit_geometry`'s. The largest cosine between the centre and a
+    point of the slit is 1 with the centre inside; else it lies on an edge
+    (a great circle's arc: ``A cos t + B sin t`` at its top, where that falls
+    within the arc) or at a corner.
+    """
+    sp, cp, tp = sl[0, 0], sl[0, 1], sl[0, 2]
+    sy, cy_, ty = sl[1, 0], sl[1, 1], sl[1, 2]
+    if cz > 0.0 and abs(cx) * cp <= cz * sp and abs(cy) * cy_ <= cz * sy:
+        return True
+    ce2 = ce * ce
+    for sgn in (1.0, -1.0):
+        a = sgn * cx * sp + cz * cp  # the pitch edges, t measured along each
+        if a > 0.0 and abs(cy) <= a * tp and a * a + cy * cy > ce2:
+            return True
+        a = sgn * cy * sy + cz * cy_  # the yaw edges
+        if a > 0.0 and abs(cx) <= a * ty and a * a + cx * cx > ce2:
+            return True
+    for i in range(2, 6):
+        if cx * sl[i, 0] + cy * sl[i, 1] + cz * sl[i, 2] > ce:
+            return True
+    return False
+
+
+@njit
+def _meets(caps, bs, px, py, pz, skip1, skip2):
+    """Whether the point ``p`` meets every constraint ``caps[j] . p >= bs[j]`` but two."""
+    for j in range(5):
+        if j != skip1 and j != skip2:
+            a = caps[j]
+            if a[0] * px + a[1] * py + a[2] * pz < bs[j] - FEASIBLE_TOL:
+                return False
+    return True
+
+
+@njit
+def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz):
+    """The Sun's incidence cosine at the slit's most directly lit point of Earth.
+
+    ``cx``, ``cy``, ``cz`` are the unit vector to the Earth's centre and
+    ``ux``, ``uy``, ``uz`` to the Sun, body axes; ``ce`` the cosine of the Earth's angular radius;
+    ``sl`` the slit (:func:`slit_geometry`). Returns -2.0 where no point of
+    the Earth is in the slit; a value at most 0 where only its night side is.
+
+    In units of the Earth's radius (with the atmosphere height) the vehicle is
+    at ``-c / sin a_e``. A surface point of unit normal ``n`` is in view where
+    ``-c . n >= sin a_e``, and in the slit where it lies inside each of the
+    slit's four planes through the vehicle, ``m . n >= -(m . c) / sin a_e``
+    (``m`` a plane's inward normal): five constraints linear in ``n``. The
+    largest ``n . u`` over the points meeting them is at the Sun's own point
+    (``n = u``), or at the highest point of one constraint's circle, or where
+    two circles cross; the candidates meeting every constraint are compared.
+    """
+    sa = np.sqrt(max(1.0 - ce * ce, 0.0))
+    sp, cp = sl[0, 0], sl[0, 1]
+    sy, cy_ = sl[1, 0], sl[1, 1]
+    caps = ((-cx, -cy, -cz), (-cp, 0.0, sp), (cp, 0.0, sp), (0.0, -cy_, sy), (0.0, cy_, sy))
+    bs = (sa, (cp * cx - sp * cz) / sa, -(cp * cx + sp * cz) / sa,
+          (cy_ * cy - sy * cz) / sa, -(cy_ * cy + sy * cz) / sa)
+    if _meets(caps, bs, ux, uy, uz, -1, -1):
+        return 1.0
+    best = -2.0
+    for j in range(5):  # the highest point of each circle
+        b = bs[j]
+        if abs(b) >= 1.0:
+            continue
+        a = caps[j]
+        t = a[0] * ux + a[1] * uy + a[2] * uz
+        vx, vy, vz = ux - t * a[0], uy - t * a[1], uz - t * a[2]
+        nv2 = vx * vx + vy * vy + vz * vz
+        if nv2 < 1e-24:
+            continue
+        r = np.sqrt((1.0 - b * b) / nv2)
+        px, py, pz = b * a[0] + r * vx, b * a[1] + r * vy, b * a[2] + r * vz
+        if _meets(caps, bs, px, py, pz, j, -1):
+            best = max(best, b * t + r * nv2)
+    for j in range(5):  # where two circles cross
+        for k in range(j + 1, 5):
+            aj, ak = caps[j], caps[k]
+            bj, bk = bs[j], bs[k]
+            d = aj[0] * ak[0] + aj[1] * ak[1] + aj[2] * ak[2]
+            den = 1.0 - d * d
+            if den < 1e-15:
+                continue
+            al = (bj - d * bk) / den
+            be = (bk - d * bj) / den
+            g2 = (1.0 - (al * bj + be * bk)) / den
+            if g2 < 0.0:
+                continue
+            g = np.sqrt(g2)
+            wx = aj[1] * ak[2] - aj[2] * ak[1]
+            wy = aj[2] * ak[0] - aj[0] * ak[2]
+            wz = aj[0] * ak[1] - aj[1] * ak[0]
+            for sgn in (1.0, -1.0):
+                px = al * aj[0] + be * ak[0] + sgn * g * wx
+                py = al * aj[1] + be * ak[1] + sgn * g * wy
+                pz = al * aj[2] + be * ak[2] + sgn * g * wz
+                if _meets(caps, bs, px, py, pz, j, k):
+                    best = max(best, px * ux + py * uy + pz * uz)
+    return best
+
+
+@njit
+def _body_rows(q):
+    """The rows of the body-from-inertial matrix of ``q`` (quaternion.dcm_body_from_inertial)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    r0 = (w * w + x * x - y * y - z * z, 2.0 * (x * y + w * z), 2.0 * (x * z - w * y))
+    r1 = (2.0 * (x * y - w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z + w * x))
+    r2 = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z)
+    return r0, r1, r2
+
+
+@njit_stage
+def earth_glare(orbit, k, w, q, sun_i):
+    """Whether sunlit Earth lies in star tracker 105's slit at attitude ``q``.
+
+    ``orbit``'s samples; ``k``, ``w`` place the frame between samples
+    (:func:`place`); ``sun_i`` is the unit vector to the Sun, inertial. Call
+    :func:`occult_stars` first in the frame (it leaves the frame's nadir in
+    ``orbit.work[0]``). Most frames end at the first test: the boresight too
+    far from the nadir (``SLIT_REACH``) for any of the Earth to be in the
+    slit. Where the disk is in it, a vehicle whose whole visible Earth is
+    sunlit (or dark) is answered at once, and only near the terminator is the
+    slit's brightest point found (:func:`brightest_in_slit`).
+    """
+    nadir = orbit.work[0]
+    r0, r1, r2 = _body_rows(q)
+    sc = orbit.scalars
+    cz = r2[0] * nadir[0] + r2[1] * nadir[1] + r2[2] * nadir[2]
+    if cz < _lerp(sc, k, w, SLIT_REACH) - REACH_MARGIN:
+        return False
+    cx = r0[0] * nadir[0] + r0[1] * nadir[1] + r0[2] * nadir[2]
+    cy = r1[0] * nadir[0] + r1[1] * nadir[1] + r1[2] * nadir[2]
+    ce = _lerp(sc, k, w, EARTH_COS)
+    if not _disk_in_slit(orbit.slit, cx, cy, cz, ce):
+        return False
+    # The Sun's angle psi from the zenith against the visible cap's radius lam (cos lam =
+    # sin a_e): all of it sunlit where psi + lam < 90 deg, all dark where psi - lam > 90 deg.
+    cpsi = -(nadir[0] * sun_i[0] + nadir[1] * sun_i[1] + nadir[2] * sun_i[2])
+    spsi = np.sqrt(max(1.0 - cpsi * cpsi, 0.0))
+    sa = np.sqrt(max(1.0 - ce * ce, 0.0))
+    if cpsi * sa - spsi * ce > 0.0:
+        return True
+    if cpsi * sa + spsi * ce < 0.0:
+        return False
+    return _brightest_at(orbit.slit, r0, r1, r2, cx, cy, cz, ce, sun_i) > 0.0
+
+
+@njit
+def _brightest_at(sl, r0, r1, r2, cx, cy, cz, ce, sun_i):
+    ux = r0[0] * sun_i[0] + r0[1] * sun_i[1] + r0[2] * sun_i[2]
+    uy = r1[0] * sun_i[0] + r1[1] * sun_i[1] + r1[2] * sun_i[2]
+    uz = r2[0] * sun_i[0] + r2[1] * sun_i[1] + r2[2] * sun_i[2]
+    return brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz)
+
+
+@njit_stage
+def glare_cos(orbit, k, w, q, sun_i):
+    """:func:`brightest_in_slit` of the frame.
+
+    ``orbit``, ``k``, ``w``, ``q`` and ``sun_i`` as :func:`earth_glare` takes them.
+    """
+    nadir = orbit.work[0]
+    r0, r1, r2 = _body_rows(q)
+    cx = r0[0] * nadir[0] + r0[1] * nadir[1] + r0[2] * nadir[2]
+    cy = r1[0] * nadir[0] + r1[1] * nadir[1] + r1[2] * nadir[2]
+    cz = r2[0] * nadir[0] + r2[1] * nadir[1] + r2[2] * nadir[2]
+    return _brightest_at(orbit.slit, r0, r1, r2, cx, cy, cz,
+                         _lerp(orbit.scalars, k, w, EARTH_COS), sun_i)
+
+
+def surface_brightness(cos_incidence) -> float:
+    """[mag/arcsec^2] the sunlit Earth's surface at incidence cosine ``cos_incidence``.
+
+    A Lambertian surface of albedo :data:`EARTH_ALBEDO`: its radiance is
+    ``albedo cos i / pi`` of the Sun's irradiance per steradian; +inf in the dark.
+    """
+    c = float(cos_incidence)
+    if c <= 0.0:
+        return math.inf
+    arcsec2_sr = (math.pi / 648000.0) ** 2
+    return SUN_MAGNITUDE - 2.5 * xmath.log10(EARTH_ALBEDO * c / math.pi * arcsec2_sr)
 
 
 @njit_stage
@@ -748,7 +1009,8 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
 
 #: The columns of :func:`orbit_telemetry`, with their units.
 ORBIT_COLUMNS = (("time", "s"), ("sunlit_fraction", "-"), ("eclipse", "-"),
-                 ("earth_angle_x", "deg"), ("earth_angle_boresight", "deg"))
+                 ("earth_angle_x", "deg"), ("earth_angle_boresight", "deg"),
+                 ("earth_glare", "-"))
 
 
 @njit_alloc
@@ -776,19 +1038,25 @@ def _orbit_rows(orbit, frames, q, times):
     return out
 
 
-def orbit_telemetry(orbit, ck, table) -> np.ndarray:
+def orbit_telemetry(orbit, ck, table, glare=()) -> np.ndarray:
     """The orbit's columns (:data:`ORBIT_COLUMNS`) beside a telemetry ``table``.
 
     For each row (its ``time`` and attitude quaternion, the first six
     columns of :data:`allsky.sim.recorder.COLUMNS`): the visible fraction of
     the Sun, the eclipse flag (1 while any of it is hidden), and the angle
     [deg] of the Earth's centre from body +x (the sun sensor's axis) and from
-    +z (star tracker 105's boresight). ``orbit`` holds the samples, ``ck`` is
-    the mission's clock.
+    +z (star tracker 105's boresight), and the glare flag (1 while the
+    sunlit Earth in the slit blinds the tracker, from ``glare``: the
+    journal's ``earth_glare`` entries as ``(frame, active)`` in time order).
+    ``orbit`` holds the samples, ``ck`` is the mission's clock.
     """
     from allsky import clock
 
     t = np.ascontiguousarray(table[:, 0], dtype=float)
     frames = np.array([clock.frame_at(ck, float(x)) for x in t], dtype=np.int64)
     q = np.ascontiguousarray(table[:, 2:6], dtype=float)
-    return _orbit_rows(orbit, frames, q, t)
+    rows = _orbit_rows(orbit, frames, q, t)
+    flag = np.zeros(frames.shape[0])
+    for frame, active in glare:  # each entry holds from its frame on
+        flag[frames >= frame] = 1.0 if active else 0.0
+    return np.column_stack([rows, flag])

@@ -280,6 +280,16 @@ EVENT_KINDS = (
     EventKind("occultation", 14, (
         F("body", "", "a star of the tracker's magnitude window, or `target`"),
         F("active", "", "true when the Earth's disk begins to hide it, false when it clears"))),
+    EventKind("earth_glare", 15, (
+        F("active", "", "true as sunlit Earth enters the tracker's slit (it is blinded: no "
+                        "star found, none held), false as the last of it leaves"),
+        F("star", "", "the star, or `stray light`, the tracker held as it was blinded; null "
+                      "for none (and at the end)"),
+        F("cos_incidence", "", "the cosine of the Sun's incidence at the most directly lit "
+                               "point of the Earth in the slit, as it enters", False),
+        F("surface_brightness_mag_arcsec2", "mag/arcsec^2",
+          "that point's brightness (a Lambertian Earth of albedo 0.30), as it enters", False),
+        F("in_use", "", "S12 or S13 closed"))),
 )
 del F
 #: Journal kind name -> :class:`EventKind`.

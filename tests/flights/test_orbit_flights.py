@@ -28,9 +28,15 @@ def test_the_free_flyer_completes_in_daylight(free_flyer):
     assert s["status"] == "complete"
     orb = s["orbit"]
     assert orb["kind"] == "circular" and orb["sunlit_fraction"] == 1.0
-    assert orb["eclipsed_s"] == 0.0 and orb["sunlit_margin_s"] > 1500.0
-    # ejected 2 s after sunrise: the journal's last eclipse entry is before ejection, none
-    assert not [e for e in s["events"] if e["kind"] == "eclipse"]
+    assert orb["sunlit_margin_s"] > 1500.0
+    # ejected in the umbra 3 minutes before sunrise: Mode 1 meets the Sun as it rises
+    ecl = [(e["mode"], e["phase"]) for e in s["events"] if e["kind"] == "eclipse"]
+    assert ecl == [("1", "umbra"), ("1", "penumbra"), ("1", "sunlit")]
+    assert 140.0 < orb["eclipsed_s"] < 187.0
+    # the sunlit Earth blinds the tracker only where the sequencer does not need a star
+    glare = [e for e in s["events"] if e["kind"] == "earth_glare"]
+    assert {e["mode"] for e in glare} == {"4", "6-1"}
+    assert not any(e["in_use"] for e in glare if e["active"])
     gg = orb["torques"]["gravity_gradient"]
     # the issue's figure: about 1.2e-3 N m at most on this inertia at 300 km
     assert 5e-4 < gg["peak_n_m"] < 1.3e-3
@@ -54,7 +60,11 @@ def test_orbit_sunset_in_mode_5_aborts_for_the_reason_the_journal_names(sunset):
 def test_the_orbits_telemetry_follows_the_journal(sunset):
     m, s = sunset
     rows = m.orbit_telemetry()
-    assert rows.shape == (m.telemetry().shape[0], 5)
+    assert rows.shape == (m.telemetry().shape[0], 6)
+    # the glare flag follows the journal's earth_glare entries
+    for e in (e for e in s["events"] if e["kind"] == "earth_glare"):
+        after = rows[rows[:, 0] >= e["t_s"] - 1e-9]
+        assert after[0, 5] == (1.0 if e["active"] else 0.0)
     penumbra = next(e["t_s"] for e in s["events"] if e["kind"] == "eclipse")
     dark = rows[rows[:, 2] == 1.0, 0]
     assert dark[0] == pytest.approx(penumbra, abs=0.1 + 1e-9)
@@ -105,20 +115,22 @@ def test_window_bad_orbit_flag_exits_2(capsys):
 
 def test_window_cli_writes_its_json(tmp_path, capsys):
     out = tmp_path / "w.json"
-    assert main(["window", "--orbit", "300,28.5,0,136", "--every", "2700", "--workers", "1",
+    assert main(["window", "--orbit", "300,28.5,0,124", "--every", "2700", "--workers", "1",
                  "--json", str(out), "--quiet"]) == 0
     data = json.loads(out.read_text())
     assert len(data["rows"]) == 3 and data["rows"][0]["status"] == "complete"
     assert "Ejection window" in capsys.readouterr().out
 
 
-def test_the_earth_hides_canopus_from_a_faulted_loop_too():
-    """A fault that changes nothing flies the orbit's flight exactly, the Earth's disk included.
+def test_the_sunlit_earth_takes_canopus_from_a_faulted_loop_too():
+    """A fault that changes nothing flies the orbit's flight exactly, the Earth included.
 
-    Ejected at argument of latitude 250 deg (ascending node 315 deg), the Earth
-    rises over Canopus in Mode 5 (907.67 s): the tracker loses it and the
-    sequencer aborts. The loop with faults takes the orbit's tracker, its
-    hidden stars, as its tracker without a fault.
+    Ejected at argument of latitude 250 deg (ascending node 315 deg), the
+    sunlit Earth enters the tracker's slit in Mode 5 (633.2 s), as the yaw
+    calibration begins to turn the slit about Canopus: the tracker is
+    blinded, loses Canopus, and the sequencer aborts. The loop with faults
+    takes the orbit's tracker (its hidden stars, its blinding) as its tracker
+    without a fault.
     """
     orbit = ["orbit.arg_latitude_deg=250.0", "orbit.raan_deg=315.0"]
     inert = ['faults=[{kind="gyro_bias_step", axis="roll", start_s=1.0, size_deg_h=0.0}]']
@@ -128,8 +140,9 @@ def test_the_earth_hides_canopus_from_a_faulted_loop_too():
         flights.append((m, m.run()))
     (plain, a), (faulted, b) = flights
     assert faulted.params.faults.n == 1
-    hidden = [e for e in b["events"] if e["kind"] == "occultation" and e["body"] == "Canopus"]
-    assert hidden and hidden[0]["mode"] == "5"
+    blinded = [e for e in b["events"] if e["kind"] == "earth_glare" and e["active"]]
+    assert [(e["mode"], e["star"], e["in_use"]) for e in blinded][-1] == ("5", "Canopus", True)
+    assert blinded[-1]["t_s"] == pytest.approx(633.2, abs=0.05)
     assert b["status"] == "aborted" and "star lost" in b["abort_reason"]
     assert np.array_equal(plain.telemetry(), faulted.telemetry())
     # the same journal, but for the fault's own entry (and the abort naming it)

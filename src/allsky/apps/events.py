@@ -177,6 +177,12 @@ def event_text(e) -> str:
                 f"({100 * e['sunlit_fraction']:.0f} % of the Sun's disk in view)")
     if kind == "occultation":
         return f"orbit: the Earth {'hides' if e['active'] else 'no longer hides'} {e['body']}"
+    if kind == "earth_glare":
+        if not e["active"]:
+            return "tracker: the sunlit Earth leaves the slit"
+        held = f", {e['star']} lost" if e.get("star") else ""
+        return (f"tracker: blinded by the sunlit Earth in the slit "
+                f"({e['surface_brightness_mag_arcsec2']:.1f} mag/arcsec^2){held}")
     return kind
 
 
@@ -239,7 +245,8 @@ def page_log(events) -> list:
                              "lock_dropped": "the tracker's bright gate",
                              "saturation": "a saturation", "fault": "an injected fault",
                              "eclipse": "the Earth's shadow (the orbit)",
-                             "occultation": "the Earth's disk (the orbit)"}[kind]
+                             "occultation": "the Earth's disk (the orbit)",
+                             "earth_glare": "the sunlit Earth in the slit (the orbit)"}[kind]
         out.append(row)
     return out
 

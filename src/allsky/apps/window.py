@@ -37,7 +37,8 @@ def format_window(result, wall_s=None) -> str:
     lines = [(f"Ejection window: {len(rows)} ejection times every {result['every_s']:g} s over "
              f"one orbit ({result['period_s']:.0f} s)"), "",
              (f"  {'start':>7}  {'UTC':<20} {'u0':>6}  {'outcome':<9} {'margin':>8}  "
-             f"{'ref occ':<7} {'tgt occ':<7} {'pointing':>9}  {'propellant':>10}")]
+             f"{'ref occ':<7} {'tgt occ':<7} {'glare':>7}  {'pointing':>9}  "
+             f"{'propellant':>10}")]
     notes = {}
     for r in rows:
         if r["status"] == "complete":
@@ -51,16 +52,21 @@ def format_window(result, wall_s=None) -> str:
         u0 = r.get("arg_latitude_deg")
         pe = r.get("pointing_error_arcsec")
         prop = r.get("propellant_kg")
+        glare = r.get("earth_glare_s")
+        glare = "-" if glare is None else f"{glare:.0f} s" + ("*" if r.get("glare_took_star")
+                                                              else " ")
         lines.append(
             f"  {r['offset_s']:>6.0f}s  {(r.get('date_utc') or '-'):<20} "
             f"{'-' if u0 is None else f'{u0:.1f}':>6}  {outcome:<9} {margin:>8}  "
             f"{'yes' if r.get('reference_occulted') else 'no':<7} "
-            f"{'yes' if r.get('target_occulted') else 'no':<7} "
+            f"{'yes' if r.get('target_occulted') else 'no':<7} {glare:>7}  "
             f"{'-' if pe is None else f'{pe:.1f}':>8}\"  "
             f"{'-' if prop is None else f'{prop:.3f} kg':>10}")
     lines += ["", ("  start: ejection after the scenario's date; u0: argument of latitude "
               "at ejection [deg];"), ("  margin: end of the flight to the next orbit sunset; "
-              "occ: the Earth hid the reference star / the target in flight")]
+              "occ: the Earth hid the reference star / the target in flight"),
+              ("  glare: sunlit Earth in the tracker's slit, blinding it; * where it took "
+               "the star the loop was closed on")]
     lines += [f"  A{n}  {text}" for text, n in notes.items()]
     done = sum(r["status"] == "complete" for r in rows)
     tail = f" in {wall_s:.0f} s" if wall_s is not None else ""

@@ -82,7 +82,10 @@ CHECKED = SEEN_MAG + 1
 #: [-] the light of the catalog's stars in the slit this frame, in magnitude-0 stars (the
 #: bright gate's; 0.0 without a gate)
 SLIT_FLUX = CHECKED + 1
-N_LOCK = SLIT_FLUX + 1
+#: 1.0 while sunlit Earth in the slit blinds the tracker (in orbit:
+#: :func:`allsky.vehicle.environment.earth_glare`), 0.0 otherwise
+GLARE = SLIT_FLUX + 1
+N_LOCK = GLARE + 1
 
 
 class StarTrackerParams(NamedTuple):
@@ -163,6 +166,7 @@ def new_lock() -> np.ndarray:
     lock[SEEN_MAG] = 0.0
     lock[CHECKED] = 0.0
     lock[SLIT_FLUX] = 0.0
+    lock[GLARE] = 0.0
     return lock
 
 

@@ -92,6 +92,8 @@ from allsky.sim.parts import (
     faults_sense,
     faults_tracker,
     faults_upset,
+    orbit_blind,
+    orbit_glare,
     orbit_next,
     orbit_shadow,
     orbit_sky,
@@ -368,12 +370,15 @@ def _run_frames(p, s, leg, tlm, tlm_rows, rec, rec_rows, w, wheels_p, faults, or
         tracker_p, kh, wh, sunlit = orbit_sky(orbit, k_orbit, w_orbit, frame_in_leg == done,
                                               p.tracker)
         tracker_p = faults_tracker(faults, fault_state, frame, tracker_p, s.tracker_lock)
+        tracker_p = orbit_glare(orbit, kh, wh, s.x, w.sun_i, tracker_p, s.tracker_lock,
+                                s.journal, s.journal_n, frame, star_in_use)
         star = sense(p.sun, tracker_p, p.gyro, dt, w.sun_i, s.x, s.dtheta_rad,
                      frame % rrw_every == 0, s.gyro_rw_arcsec_s, s.rng, s.tracker_lock,
                      cone_armed, w.sun_b, fine, trk, gyro)
         orbit_shadow(orbit, sunlit, fine)
         star = faults_sense(faults, tracker_p, fault_state, frame, dt, s.dtheta_rad, fine, trk,
                             gyro, s.tracker_lock, star, cone_armed)
+        star = orbit_blind(orbit, s.tracker_lock, star, trk)
         if tracker_p.bright_gate_mag > -np.inf:  # every light in the slit, glints too
             star = bright_gate(tracker_p, s.tracker_lock, star, trk)
         if star_in_use and star >= 0:

@@ -31,6 +31,7 @@ from allsky.hardware import star_tracker as trk
 from allsky.hardware.star_tracker import FALSE_TARGET
 from allsky.jit import njit_stage
 from allsky.units import ARCSEC2DEG, RAD2DEG
+from allsky.vehicle.environment import surface_brightness as _brightness
 from allsky.vocabulary import AXES, EVENT_KIND, FAULT_KINDS, GROUND_COMMANDS, SATURATIONS
 
 #: Rows of the frame loop's buffer. The mission drains it every slice of at most
@@ -45,6 +46,7 @@ LOCK_REJECTED = EVENT_KIND["lock_rejected"].code
 LOCK_DROPPED = EVENT_KIND["lock_dropped"].code
 SATURATION = EVENT_KIND["saturation"].code
 FAULT = EVENT_KIND["fault"].code
+EARTH_GLARE = EVENT_KIND["earth_glare"].code
 
 # Saturation codes (row WHAT), in the order of the vocabulary's SATURATIONS.
 DAC_CLIP, COUNTER_OVERFLOW, WHEEL_LIMIT, WHEEL_UNLOADING = 1, 2, 3, 4
@@ -147,6 +149,20 @@ def note_frame(journal, journal_n, seen, frame, star, star_in_use, cone_arcsec, 
             if (mask >> i) & 1 and not (was >> i) & 1:
                 _write(journal, journal_n, frame, SATURATION, COUNTER_OVERFLOW, i, 1.0, 0.0, 0.0)
         seen[SEEN_OVERFLOW] = mask
+
+
+@njit_stage
+def note_glare(journal, journal_n, frame, active, held, cos_incidence, star_in_use):
+    """Sunlit Earth entering (``active``) or leaving star tracker 105's slit.
+
+    ``held`` is the target the tracker held as it was blinded (-1 none,
+    :data:`FALSE_TARGET`), ``cos_incidence`` the cosine of the Sun's
+    incidence at the slit's most directly lit point of the Earth;
+    ``star_in_use``: S12 or S13 closed. ``journal``, ``journal_n`` and
+    ``frame`` are :func:`note_frame`'s.
+    """
+    _write(journal, journal_n, frame, EARTH_GLARE, 0, held if active else -1,
+           1.0 if active else 0.0, cos_incidence, star_in_use)
 
 
 @njit_stage
@@ -309,6 +325,12 @@ class Decoder:
         if kind == LOCK_DROPPED:
             return {"kind": "lock_dropped", "star": self.star(i), "magnitude": a,
                     "gate_magnitude": self.gate_magnitude, "in_use": bool(c)}
+        if kind == EARTH_GLARE:
+            out = {"kind": "earth_glare", "active": bool(a), "star": self.star(i)}
+            if a:
+                out.update(cos_incidence=b, surface_brightness_mag_arcsec2=_brightness(b))
+            out["in_use"] = bool(c)
+            return out
         if kind == FAULT:
             f = self.faults[i]
             return {"kind": "fault", "fault": i, "fault_kind": f["kind"],

@@ -777,13 +777,16 @@ class Mission:
 
         Columns :data:`allsky.vehicle.environment.ORBIT_COLUMNS`: time [s],
         the Sun's visible fraction, the eclipse flag, the Earth's angle from
-        +x and from the tracker's boresight [deg]
+        +x and from the tracker's boresight [deg], the glare flag
         (:func:`allsky.vehicle.environment.orbit_telemetry`).
         """
         if self.params.orbit.n == 0:
             return None
-        return environment.orbit_telemetry(self.params.orbit, self.params.clock,
-                                           self.telemetry(start_row))
+        ck = self.params.clock
+        glare = [(clock.frame_at(ck, e["t_s"]), e["active"])
+                 for e in self.journal.of_kind("earth_glare")]
+        return environment.orbit_telemetry(self.params.orbit, ck, self.telemetry(start_row),
+                                           glare)
 
     def pointing_error_arcsec(self) -> float:
         """True angle between the roll axis and the target being flown."""

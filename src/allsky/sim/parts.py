@@ -14,6 +14,7 @@ A test of ``is None`` that numba can decide stands alone in its ``if``:
 without faults.
 """
 
+from allsky.hardware import star_tracker as trk
 from allsky.hardware.jets import thrust_fraction
 from allsky.jit import njit_stage
 from allsky.sim.faults import (
@@ -24,10 +25,12 @@ from allsky.sim.faults import (
     fault_tracker,
     fault_upset,
 )
-from allsky.sim.journal import note_clip, note_faults, note_wheels
+from allsky.sim.journal import note_clip, note_faults, note_glare, note_wheels
 from allsky.vehicle.environment import (
     dim_sun,
+    earth_glare,
     env_torque,
+    glare_cos,
     held,
     next_place,
     occult_stars,
@@ -79,6 +82,54 @@ def orbit_sky(orbit, k, w, first, tracker_p):
         sunlit = occult_stars(orbit, kh, wh, first)
         return orbit.tracker, kh, wh, sunlit
     return tracker_p, kh, wh, sunlit
+
+
+@njit_stage
+def orbit_glare(orbit, kh, wh, x, sun_i, tracker_p, lock, journal, journal_n, frame,
+                star_in_use):
+    """Star tracker 105 this frame: blind while sunlit Earth is in its slit.
+
+    Returns ``tracker_p``, or while the sunlit Earth is in the slit
+    (:func:`allsky.vehicle.environment.earth_glare`) the tracker that sees no
+    star (``orbit.blind``). Its onset and end are journal entries (the
+    target held as it was blinded, the slit's most directly lit point), and
+    ``lock[GLARE]`` remembers it. ``kh``, ``wh`` place the frame between the
+    orbit's samples (:func:`orbit_tracker` returns them); ``x`` is the state (its attitude first),
+    ``sun_i`` the Sun's direction, inertial; ``star_in_use``: S12 or S13 closed.
+
+    ``orbit`` is the orbit's samples (:class:`allsky.vehicle.environment.OrbitParams`) or
+    None. The other arguments (``lock``, ``journal``, ``journal_n``, ``frame``) are those
+    of :func:`allsky.sim.journal.note_glare`.
+    """
+    if orbit is not None:
+        lit = earth_glare(orbit, kh, wh, x, sun_i)
+        if lit != (lock[trk.GLARE] != 0.0):
+            note_glare(journal, journal_n, frame, lit, lock[trk.HELD],
+                       glare_cos(orbit, kh, wh, x, sun_i) if lit else 0.0, star_in_use)
+            lock[trk.GLARE] = 1.0 if lit else 0.0
+        if lit:
+            return orbit.blind
+    return tracker_p
+
+
+@njit_stage
+def orbit_blind(orbit, lock, star, trk_out):
+    """After the faults: a blinded tracker holds nothing, a glint's outputs included.
+
+    Returns the target held (-1 while blinded, else ``star``); ``trk_out`` are
+    star tracker 105's outputs, cleared while blinded; ``lock`` its memory.
+
+    ``orbit`` is the orbit's samples (:class:`allsky.vehicle.environment.OrbitParams`) or
+    None.
+    """
+    if orbit is not None:  # noqa: SIM102 - numba decides this test alone (module docstring)
+        if lock[trk.GLARE] != 0.0:
+            trk_out[0] = 0.0
+            trk_out[1] = 0.0
+            trk_out[2] = 0.0
+            lock[trk.HELD] = trk.NONE
+            return -1
+    return star
 
 
 @njit_stage

@@ -367,7 +367,9 @@ def orbit_summary(m) -> dict:
     the time from the end of the flight to the next orbit sunset (the
     onset of the penumbra; 0 in the shadow, None past the orbit's
     samples); ``eclipsed_s`` and ``occulted``, the time spent in the
-    shadow and the bodies the Earth hid while flying; ``torques``, each
+    shadow and the bodies the Earth hid while flying; ``earth_glare_s``, the
+    time sunlit Earth blinded star tracker 105, and ``glare_took_star``,
+    whether it took a star the loop was closed on; ``torques``, each
     environment torque's ``peak_n_m`` and ``impulse_n_m_s`` (its
     magnitude integrated over the flight), or None where it is off.
 
@@ -388,11 +390,24 @@ def orbit_summary(m) -> dict:
                       if on else None) for i, (name, on) in enumerate(keys.items())}
     occulted = sorted({e["body"] for e in m.journal.of_kind("occultation")
                        if e["active"]})
+    glare = m.journal.of_kind("earth_glare")
+    blinded, since = 0, None  # frames blinded, and the frame the open one began
+    for e in glare:
+        f = clock.frame_at(ck, e["t_s"])
+        if e["active"]:
+            since = f
+        elif since is not None:
+            blinded, since = blinded + f - since, None
+    if since is not None:
+        blinded += end - since
     return {"kind": m.cfg.orbit.kind,
             "sunlit_fraction": float(environment.sunlit_at(o, end)) if end < horizon else None,
             "sunlit_margin_s": margin,
             "eclipsed_s": clock.time_s(ck, int(np.count_nonzero(flown < 1.0))),
             "occulted": occulted,
+            "earth_glare_s": clock.time_s(ck, blinded),
+            "glare_took_star": any(e["active"] and e["in_use"] and e["star"] is not None
+                                   for e in glare),
             "torques": torques}
 
 

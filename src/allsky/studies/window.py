@@ -7,8 +7,9 @@ their rates, :func:`allsky.vehicle.orbit.circular_rates`; a two-line element
 set is propagated to the new date by SGP4). Each candidate is a whole
 mission; the row says how it ended, the sunlit margin at its end (the time
 from the end of Mode 6-2, or the hold, to the next orbit sunset), whether
-the Earth hid the planned reference star or the target while it flew, and
-the propellant used.
+the Earth hid the planned reference star or the target while it flew, how
+long sunlit Earth blinded the star tracker (and whether it took the star the
+loop was closed on), and the propellant used.
 """
 
 from __future__ import annotations
@@ -71,6 +72,8 @@ def fly_candidate(data: dict, offset_s: float) -> dict:
             "outcome": "complete" if s["status"] == "complete" else s["abort_reason"],
             "sunlit_margin_s": orb.get("sunlit_margin_s"),
             "eclipsed_s": orb.get("eclipsed_s"),
+            "earth_glare_s": orb.get("earth_glare_s"),
+            "glare_took_star": orb.get("glare_took_star"),
             "reference_occulted": ref in occulted,
             "target_occulted": "target" in occulted,
             "target": target_name(target_specs(cfg)[0]),

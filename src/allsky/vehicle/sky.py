@@ -25,7 +25,7 @@ Model limits
   modelled only with an ``[orbit]`` (:mod:`allsky.vehicle.orbit`), and then
   only for the Sun (:mod:`allsky.vehicle.environment`: the Sun seen from the
   vehicle, the Earth's shadow, the Earth's disk hiding stars and the
-  target); without one the Sun is the geocentric Sun, below. The Moon and
+  target, the sunlit Earth blinding the star tracker); without one the Sun is the geocentric Sun, below. The Moon and
   the planets are :mod:`allsky.vehicle.bodies`', flown by the tracker as
   rows of its table (:mod:`allsky.sim.sky_rows`, with an orbit by default).
   For the stars the shift is negligible: from a 7000 km baseline

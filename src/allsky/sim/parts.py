@@ -94,7 +94,7 @@ def orbit_glare(orbit, kh, wh, x, sun_i, tracker_p, lock, journal, journal_n, fr
     star (``orbit.blind``). Its onset and end are journal entries (the
     target held as it was blinded, the slit's most directly lit point), and
     ``lock[GLARE]`` remembers it. ``kh``, ``wh`` place the frame between the
-    orbit's samples (:func:`orbit_tracker` returns them); ``x`` is the state (its attitude first),
+    orbit's samples (:func:`orbit_sky` returns them); ``x`` is the state (its attitude first),
     ``sun_i`` the Sun's direction, inertial; ``star_in_use``: S12 or S13 closed.
 
     ``orbit`` is the orbit's samples (:class:`allsky.vehicle.environment.OrbitParams`) or

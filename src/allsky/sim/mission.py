@@ -783,10 +783,8 @@ class Mission:
         if self.params.orbit.n == 0:
             return None
         ck = self.params.clock
-        glare = [(clock.frame_at(ck, e["t_s"]), e["active"])
-                 for e in self.journal.of_kind("earth_glare")]
         return environment.orbit_telemetry(self.params.orbit, ck, self.telemetry(start_row),
-                                           glare)
+                                           record.glare_edges(self.journal, ck))
 
     def pointing_error_arcsec(self) -> float:
         """True angle between the roll axis and the target being flown."""

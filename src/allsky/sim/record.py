@@ -360,6 +360,15 @@ def summary(m) -> dict:
     return check_summary(out)
 
 
+def glare_edges(journal, ck) -> list:
+    """The journal's ``earth_glare`` entries as ``(frame, active)``, in time order.
+
+    ``journal`` is the flight's :class:`allsky.sim.journal.Journal`, ``ck``
+    the mission's clock: each entry's frame is the one its time names.
+    """
+    return [(clock.frame_at(ck, e["t_s"]), e["active"]) for e in journal.of_kind("earth_glare")]
+
+
 def orbit_summary(m) -> dict:
     """The orbit's part of the summary (a mission in orbit only).
 
@@ -392,9 +401,8 @@ def orbit_summary(m) -> dict:
                        if e["active"]})
     glare = m.journal.of_kind("earth_glare")
     blinded, since = 0, None  # frames blinded, and the frame the open one began
-    for e in glare:
-        f = clock.frame_at(ck, e["t_s"])
-        if e["active"]:
+    for f, active in glare_edges(m.journal, ck):
+        if active:
             since = f
         elif since is not None:
             blinded, since = blinded + f - since, None

@@ -270,7 +270,7 @@ def bright_gate(p, lock, star, out):
     return star
 
 
-@njit
+@njit_stage
 def search_and_hold(p, q, lock, out, rng, cone_armed, sun_pitch_arcsec):
     """The lock of star tracker 105 for attitude ``q`` and its outputs, into ``out``.
 

@@ -212,3 +212,22 @@ def test_the_flown_blinding_is_what_rays_through_the_slit_find(flown):
         checked += 1
     assert checked > 500
     assert blinded[~near].any() and not blinded[~near].all()
+
+
+@settings(max_examples=400, deadline=None)
+@given(altitude_km=st.floats(150.0, 3000.0), centre=directions, sun=directions,
+       toward=st.floats(0.0, 1.0))
+def test_asking_only_whether_the_slit_is_lit_gives_the_full_searchs_answer(
+        altitude_km, centre, sun, toward):
+    """earth_glare's early stop (``enough=0``) is lit exactly where the full search is."""
+    c = _unit(_unit(centre) + toward * 3.0 * np.array([0.0, 0.0, 1.0]))
+    u = _unit(sun)
+    sin_ae = 6378.137 / (6378.137 + altitude_km)
+    ce = math.sqrt(1.0 - sin_ae * sin_ae)
+    best = env.brightest_in_slit(SLIT, c[0], c[1], c[2], ce, u[0], u[1], u[2])
+    quick = env.brightest_in_slit(SLIT, c[0], c[1], c[2], ce, u[0], u[1], u[2], 0.0)
+    assert (quick > 0.0) == (best > 0.0)
+    if best <= 0.0:
+        assert quick == best  # nothing lit: both searched every candidate
+    else:
+        assert 0.0 < quick <= best

@@ -528,7 +528,7 @@ def _meets(caps, bs, px, py, pz, skip1, skip2):
 
 
 @njit
-def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz):
+def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz, enough=2.0):
     """The Sun's incidence cosine at the slit's most directly lit point of Earth.
 
     ``cx``, ``cy``, ``cz`` are the unit vector to the Earth's centre and
@@ -544,6 +544,12 @@ def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz):
     largest ``n . u`` over the points meeting them is at the Sun's own point
     (``n = u``), or at the highest point of one constraint's circle, or where
     two circles cross; the candidates meeting every constraint are compared.
+    A candidate is tested against the constraints only where it would be the
+    largest so far. With ``enough`` below 1, the search stops at the first
+    candidate above it and returns that value (not always the largest):
+    :func:`earth_glare` asks only whether any point is sunlit (``enough =
+    0``), and the night side's candidates, all at most 0, are then never
+    tested against the constraints.
     """
     sa = np.sqrt(max(1.0 - ce * ce, 0.0))
     sp, cp = sl[0, 0], sl[0, 1]
@@ -565,9 +571,13 @@ def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz):
         if nv2 < 1e-24:
             continue
         r = np.sqrt((1.0 - b * b) / nv2)
-        px, py, pz = b * a[0] + r * vx, b * a[1] + r * vy, b * a[2] + r * vz
-        if _meets(caps, bs, px, py, pz, j, -1):
-            best = max(best, b * t + r * nv2)
+        v = b * t + r * nv2
+        if v > best:
+            px, py, pz = b * a[0] + r * vx, b * a[1] + r * vy, b * a[2] + r * vz
+            if _meets(caps, bs, px, py, pz, j, -1):
+                best = v
+                if best > enough:
+                    return best
     for j in range(5):  # where two circles cross
         for k in range(j + 1, 5):
             aj, ak = caps[j], caps[k]
@@ -589,8 +599,11 @@ def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz):
                 px = al * aj[0] + be * ak[0] + sgn * g * wx
                 py = al * aj[1] + be * ak[1] + sgn * g * wy
                 pz = al * aj[2] + be * ak[2] + sgn * g * wz
-                if _meets(caps, bs, px, py, pz, j, k):
-                    best = max(best, px * ux + py * uy + pz * uz)
+                v = px * ux + py * uy + pz * uz
+                if v > best and _meets(caps, bs, px, py, pz, j, k):
+                    best = v
+                    if best > enough:
+                        return best
     return best
 
 
@@ -637,15 +650,15 @@ def earth_glare(orbit, k, w, q, sun_i):
         return True
     if cpsi * sa + spsi * ce < 0.0:
         return False
-    return _brightest_at(orbit.slit, r0, r1, r2, cx, cy, cz, ce, sun_i) > 0.0
+    return _brightest_at(orbit.slit, r0, r1, r2, cx, cy, cz, ce, sun_i, 0.0) > 0.0
 
 
 @njit
-def _brightest_at(sl, r0, r1, r2, cx, cy, cz, ce, sun_i):
+def _brightest_at(sl, r0, r1, r2, cx, cy, cz, ce, sun_i, enough):
     ux = r0[0] * sun_i[0] + r0[1] * sun_i[1] + r0[2] * sun_i[2]
     uy = r1[0] * sun_i[0] + r1[1] * sun_i[1] + r1[2] * sun_i[2]
     uz = r2[0] * sun_i[0] + r2[1] * sun_i[1] + r2[2] * sun_i[2]
-    return brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz)
+    return brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz, enough)
 
 
 @njit_stage
@@ -660,7 +673,7 @@ def glare_cos(orbit, k, w, q, sun_i):
     cy = r1[0] * nadir[0] + r1[1] * nadir[1] + r1[2] * nadir[2]
     cz = r2[0] * nadir[0] + r2[1] * nadir[1] + r2[2] * nadir[2]
     return _brightest_at(orbit.slit, r0, r1, r2, cx, cy, cz,
-                         _lerp(orbit.scalars, k, w, EARTH_COS), sun_i)
+                         _lerp(orbit.scalars, k, w, EARTH_COS), sun_i, 2.0)
 
 
 def surface_brightness(cos_incidence) -> float:

@@ -26,6 +26,7 @@ Compiled code has the clock as :class:`ClockParams` (``Params.clock``) and
 :func:`frame_time`, the same division.
 """
 
+import functools
 import math
 from fractions import Fraction
 from typing import NamedTuple
@@ -57,7 +58,14 @@ def decimal(value) -> Fraction:
         return value
     if isinstance(value, int):
         return Fraction(value)
-    return Fraction(repr(float(value)))
+    return _float_decimal(float(value))
+
+
+@functools.lru_cache(maxsize=4096)
+def _float_decimal(value: float) -> Fraction:
+    """:func:`decimal` of a float, kept: a mission asks for the same few durations at every
+    leg, and parsing a repr into a Fraction takes some 5 us."""
+    return Fraction(repr(value))
 
 
 def clock(frame_s) -> ClockParams:
@@ -66,6 +74,12 @@ def clock(frame_s) -> ClockParams:
     if f <= 0:
         raise ValueError(f"frame length {frame_s!r} s must be positive")
     return ClockParams(f.numerator, f.denominator)
+
+
+@functools.lru_cache(maxsize=64)
+def _frame_length(c: ClockParams) -> Fraction:
+    """[s] the frame length of clock ``c`` as a Fraction."""
+    return Fraction(c.num, c.den)
 
 
 def time_s(c: ClockParams, frame) -> float:
@@ -94,7 +108,7 @@ def frame_at(c: ClockParams, t_s) -> int:
     """
     if isinstance(t_s, float) and math.isinf(t_s):
         return NEVER if t_s > 0 else 0
-    return max(0, math.ceil(decimal(t_s) / Fraction(c.num, c.den)))
+    return max(0, math.ceil(decimal(t_s) / _frame_length(c)))
 
 
 def frames_for(c: ClockParams, d_s) -> int:
@@ -104,7 +118,7 @@ def frames_for(c: ClockParams, d_s) -> int:
     """
     if isinstance(d_s, float) and math.isinf(d_s):
         return NEVER
-    return max(0, math.ceil(decimal(d_s) / Fraction(c.num, c.den)))
+    return max(0, math.ceil(decimal(d_s) / _frame_length(c)))
 
 
 def frames_within(c: ClockParams, d_s) -> int:
@@ -115,4 +129,4 @@ def frames_within(c: ClockParams, d_s) -> int:
     """
     if isinstance(d_s, float) and math.isinf(d_s):
         return NEVER
-    return max(0, math.floor(decimal(d_s) / Fraction(c.num, c.den)))
+    return max(0, math.floor(decimal(d_s) / _frame_length(c)))

@@ -163,6 +163,10 @@ _RESOLVED = {}
 RESOLVED_KEPT = 8
 #: numba's type of an argument, by its fingerprint (the Params of a scenario's shape).
 _TYPES = {}
+#: (entry, the compiled code) by the entry and its arguments' fingerprints
+_CALLS = {}
+#: The entries kept in :data:`_CALLS`.
+CALLS_KEPT = 256
 
 
 def _resolved(entry, args):
@@ -187,24 +191,33 @@ def _resolved(entry, args):
     if known is None or known[0] is not entry or known[1] is not p or known[2] is not s:
         if len(_RESOLVED) >= RESOLVED_KEPT:
             _RESOLVED.clear()
-        known = (entry, p, s, {})
+        try:  # once for these objects: the shape of the scenario's Params and State
+            shapes = (compute_fingerprint(p), compute_fingerprint(s))
+        except (TypeError, ValueError):
+            return entry
+        known = (entry, p, s, shapes)
         _RESOLVED[key] = known
-    by_small = known[3]
     try:
         small = compute_fingerprint(args[2:])
     except (TypeError, ValueError):  # numba could not fingerprint it: its dispatcher types it
         return entry
-    call = by_small.get(small)
-    if call is None:
-        try:
-            sig = (_type_of(p), _type_of(s)) + tuple(_type_of(a) for a in args[2:])
-        except (TypeError, ValueError):
-            return entry
-        cres = entry.overloads.get(sig)
-        if cres is None:  # not compiled yet: the dispatcher compiles it; resolved next time
-            return entry
-        call = by_small[small] = cres.entry_point
-    return call
+    # By fingerprints, so that the next mission of the same shape (a Monte Carlo's) finds
+    # its code without hashing the Params' numba type again (a few hundred hashes)
+    by_shape = (id(entry), known[3], small)
+    found = _CALLS.get(by_shape)
+    if found is not None and found[0] is entry:
+        return found[1]
+    try:
+        sig = (_type_of(p), _type_of(s)) + tuple(_type_of(a) for a in args[2:])
+    except (TypeError, ValueError):
+        return entry
+    cres = entry.overloads.get(sig)
+    if cres is None:  # not compiled yet: the dispatcher compiles it; resolved next time
+        return entry
+    if len(_CALLS) >= CALLS_KEPT:
+        _CALLS.clear()
+    _CALLS[by_shape] = (entry, cres.entry_point)
+    return cres.entry_point
 
 
 def _type_of(value):

@@ -357,6 +357,11 @@ COMMAND_FIELDS = frozenset(
     + [f for k in FAULT_KINDS for f in k.fields + k.optional])
 
 
+#: kind -> (the fields it may carry, the fields it must), from its declaration
+_ALLOWED = {name: (spec.names | (COMMAND_FIELDS if spec.more else frozenset()), spec.required)
+            for name, spec in EVENT_KIND.items()}
+
+
 def check_fields(kind, fields) -> None:
     """Refuse an entry of ``kind`` whose ``fields`` its declaration does not allow.
 
@@ -364,12 +369,15 @@ def check_fields(kind, fields) -> None:
     declare (:data:`allsky.vocabulary.EVENT_KINDS`) or one it requires and
     the entry lacks.
     """
-    spec = EVENT_KIND.get(kind)
-    if spec is None:
+    sets = _ALLOWED.get(kind)
+    if sets is None:
         raise ValueError(f"unknown journal kind {kind!r}")
-    allowed = spec.names | (COMMAND_FIELDS if spec.more else frozenset())
+    allowed, required = sets
+    keys = fields.keys()
+    if keys <= allowed and required <= keys:
+        return
     unknown = sorted(set(fields) - allowed)
-    missing = sorted(spec.required - set(fields))
+    missing = sorted(required - set(fields))
     if unknown or missing:
         raise ValueError(f"journal entry {kind!r}: "
                          + "; ".join(([f"undeclared field(s) {unknown}"] if unknown else [])

@@ -88,14 +88,22 @@ def check_summary(out) -> dict:
     return out
 
 
+#: The last scenario :func:`tracker_star_names` was asked for, and its names (a scenario
+#: is immutable; the summary asks twice, a live session at every lock).
+_NAMES_OF = [None, ()]
+
+
 def tracker_star_names(cfg) -> list:
     """Names of the stars the tracker can lock, in the order of ``Params.tracker``.
 
     ``cfg`` is the scenario: its magnitude window, date, moving bodies and wrong-star faults.
     """
-    names = sky_rows.sky_rows(cfg).names  # the window's stars, then the bodies flown
-    # A wrong star (a fault) is tracked after them (allsky.sim.faults).
-    return names + [s for s in sim_faults.wrong_stars(cfg.faults) if s not in names]
+    if _NAMES_OF[0] is not cfg:
+        names = sky_rows.sky_rows(cfg).names  # the window's stars, then the bodies flown
+        # A wrong star (a fault) is tracked after them (allsky.sim.faults).
+        _NAMES_OF[:] = [cfg, tuple(names + [s for s in sim_faults.wrong_stars(cfg.faults)
+                                            if s not in names])]
+    return list(_NAMES_OF[1])
 
 
 class ModeRecord(NamedTuple):

@@ -378,10 +378,9 @@ def check_fields(kind, fields) -> None:
         return
     unknown = sorted(set(fields) - allowed)
     missing = sorted(required - set(fields))
-    if unknown or missing:
-        raise ValueError(f"journal entry {kind!r}: "
-                         + "; ".join(([f"undeclared field(s) {unknown}"] if unknown else [])
-                                     + ([f"missing field(s) {missing}"] if missing else [])))
+    raise ValueError(f"journal entry {kind!r}: "
+                     + "; ".join(([f"undeclared field(s) {unknown}"] if unknown else [])
+                                 + ([f"missing field(s) {missing}"] if missing else [])))
 
 
 class Journal:

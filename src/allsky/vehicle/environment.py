@@ -527,8 +527,12 @@ def _meets(caps, bs, px, py, pz, skip1, skip2):
     return True
 
 
+#: [-] ``enough`` of :func:`brightest_in_slit` that no incidence cosine exceeds: the full search
+FULL_SEARCH = 2.0
+
+
 @njit
-def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz, enough=2.0):
+def brightest_in_slit(sl, cx, cy, cz, ce, ux, uy, uz, enough=FULL_SEARCH):
     """The Sun's incidence cosine at the slit's most directly lit point of Earth.
 
     ``cx``, ``cy``, ``cz`` are the unit vector to the Earth's centre and
@@ -673,7 +677,7 @@ def glare_cos(orbit, k, w, q, sun_i):
     cy = r1[0] * nadir[0] + r1[1] * nadir[1] + r1[2] * nadir[2]
     cz = r2[0] * nadir[0] + r2[1] * nadir[1] + r2[2] * nadir[2]
     return _brightest_at(orbit.slit, r0, r1, r2, cx, cy, cz,
-                         _lerp(orbit.scalars, k, w, EARTH_COS), sun_i, 2.0)
+                         _lerp(orbit.scalars, k, w, EARTH_COS), sun_i, FULL_SEARCH)
 
 
 def surface_brightness(cos_incidence) -> float:

@@ -263,6 +263,34 @@ def test_the_journal_s_occultation_steps_are_the_frame_by_frame_series(
     np.testing.assert_array_equal(state, want_state)
 
 
+def test_the_umbra_flag_is_a_bound_every_frame_between_is_dark(flown):
+    """UMBRA only skips work: every frame of a flagged interval has visible_fraction 0.
+
+    The frames' angles are interpolated as the loop interpolates them
+    (``a + w (b - a)``, ``w = j / step``); visible_fraction is 0 exactly where
+    the Sun's disk lies within the Earth's (``c <= a_e - a_s``).
+    """
+    o = flown[1].orbit
+    sc = o.scalars
+    ks = np.nonzero(sc[:-1, env.UMBRA])[0]
+    assert ks.shape[0] > 1000  # the orbit passes the umbra, interval after interval
+    w = np.arange(o.step_frames + 1) / o.step_frames
+
+    def lerp(col):
+        a, b = sc[ks, col][:, None], sc[ks + 1, col][:, None]
+        return a + w * (b - a)
+
+    c, a_e, a_s = lerp(env.SEP), lerp(env.EARTH_RADIUS), lerp(env.SUN_RADIUS)
+    assert np.all(c < a_s + a_e) and np.all(c <= a_e - a_s)
+    for k in ks[:: max(1, ks.shape[0] // 20)]:  # and the compiled formula says so
+        for j in (0, o.step_frames // 2, o.step_frames):
+            assert env.visible_fraction(float(c[ks == k, j][0]), float(a_s[ks == k, j][0]),
+                                        float(a_e[ks == k, j][0])) == 0.0
+    # and only the shadow's edges are left to the frames: the penumbra, a few seconds
+    edge = np.nonzero((sc[:-1, env.UMBRA] == 0.0) & (sc[:-1, env.WHOLE] == 0.0))[0]
+    assert edge.shape[0] < ks.shape[0] // 10
+
+
 @settings(max_examples=30, deadline=None)
 @given(first=st.integers(0, 600_000), length=st.integers(1, 200_000), phase=st.integers(0, 2))
 def test_the_journal_s_eclipse_steps_are_the_frame_by_frame_fractions(flown, first, length,

@@ -104,7 +104,14 @@ CHANGES = 8
 #: boresight: with the boresight's cosine from the nadir below it (less
 #: :data:`REACH_MARGIN`), no part of the Earth can be in star tracker 105's slit
 SLIT_REACH = 9
-N_SCALARS = 10
+#: 1.0 where the Sun is behind the Earth's disk by more than :data:`UMBRA_MARGIN` at this
+#: sample and the next, 0.0 elsewhere: the frames between are in the umbra, the rounding
+#: of their interpolated angles included (the loop skips the shadow's computation there)
+UMBRA = 10
+N_SCALARS = 11
+#: [rad] margin of UMBRA: far above the rounding of the three interpolated angles
+#: (about 1e-15 rad), far below a frame's motion of the shadow's edge (about 1e-5 rad)
+UMBRA_MARGIN = 1e-9
 #: [-] margin on SLIT_REACH: far above the error of interpolating it between samples
 REACH_MARGIN = 1e-6
 #: [-] the Earth's albedo, its surface taken as Lambertian (the Bond albedo, 0.30)
@@ -255,13 +262,17 @@ def samples(track, sun0, sun_rate, sun_distance_m, atmosphere_height_m,
 
 
 def _flags(sc, nadir, stars, bodies_i=None):
-    """Fill the WHOLE and CHANGES columns of ``sc`` from the samples' geometry.
+    """Fill the WHOLE, UMBRA and CHANGES columns of ``sc`` from the samples' geometry.
 
     ``bodies_i`` (n, b, 3), the moving bodies' rows by sample, flag an
     interval as the stars do.
     """
     whole = sc[:, SEP] >= sc[:, EARTH_RADIUS] + sc[:, SUN_RADIUS]
     sc[:-1, WHOLE] = (whole[:-1] & whole[1:]).astype(float)
+    # Each angle's interpolation is linear between the samples up to its rounding, so a margin
+    # kept at both ends is kept between them
+    umbra = sc[:, SEP] + sc[:, SUN_RADIUS] <= sc[:, EARTH_RADIUS] - UMBRA_MARGIN
+    sc[:-1, UMBRA] = (umbra[:-1] & umbra[1:]).astype(float)
     if stars.shape[0]:
         # a star's angle from the nadir changes by at most the orbit's rate times the step:
         # flag an interval whose either end lies within that much of the limb, or whose ends
@@ -278,6 +289,7 @@ def _flags(sc, nadir, stars, bodies_i=None):
         differ = (hidden[:-1] != hidden[1:]).any(axis=1)
         sc[:-1, CHANGES] = differ.astype(float)
     sc[-1, WHOLE] = sc[-2, WHOLE] if sc.shape[0] > 1 else 0.0
+    sc[-1, UMBRA] = sc[-2, UMBRA] if sc.shape[0] > 1 else 0.0
 
 
 def build(cfg, track, sun0, sun_rate, step_frames, tracker, bodies_i=None, body_rows=None,
@@ -408,13 +420,23 @@ def _lerp(a, k, w, j):
 def sunlit_at(orbit, frame):
     """Visible fraction of the Sun's disk at ``frame`` of ``orbit`` (interpolated)."""
     k, w = place(orbit, frame)
-    sc = orbit.scalars
-    if sc[k, WHOLE] != 0.0:  # as the frame loop: whole at both ends, whole between
+    return _sun_fraction(orbit.scalars, k, w)
+
+
+@njit_stage
+def _sun_fraction(sc, k, w):
+    """Visible fraction of the Sun ``w`` of the way through interval ``k`` of the samples ``sc``.
+
+    The loop's rule and the journal's: whole where both ends are (``WHOLE``),
+    none in the umbra (``UMBRA``, which :func:`visible_fraction` would give
+    frame by frame), else the interpolated angles' overlap.
+    """
+    if sc[k, WHOLE] != 0.0:
         return 1.0
-    c = _lerp(sc, k, w, SEP)
-    a_e = _lerp(sc, k, w, EARTH_RADIUS)
-    a_s = _lerp(sc, k, w, SUN_RADIUS)
-    return visible_fraction(c, a_s, a_e)
+    if sc[k, UMBRA] != 0.0:
+        return 0.0
+    return visible_fraction(_lerp(sc, k, w, SEP), _lerp(sc, k, w, SUN_RADIUS),
+                            _lerp(sc, k, w, EARTH_RADIUS))
 
 
 @njit_stage
@@ -444,11 +466,7 @@ def occult_stars(orbit, k, w, force):
         force = True
     if force or w == 0.0 or sc[k, CHANGES] != 0.0:  # a sample, or where a star changes
         _occult(orbit, nadir, _lerp(sc, k, w, EARTH_COS))
-    if sc[k, WHOLE] != 0.0:
-        orbit.env[E_SUNLIT] = 1.0
-        return 1.0
-    f = visible_fraction(_lerp(sc, k, w, SEP), _lerp(sc, k, w, SUN_RADIUS),
-                         _lerp(sc, k, w, EARTH_RADIUS))
+    f = _sun_fraction(sc, k, w)
     orbit.env[E_SUNLIT] = f
     return f
 
@@ -809,27 +827,44 @@ def _sun_at_frame(orbit, frame, out):
     _lerp_unit(orbit.sun_i, k, w, out)
 
 
+# The scans over frames below do their work in kernels compiled without numba's runtime
+# (allsky.jit.njit): with it on, every array of the orbit's tuple is reference-counted each
+# time the tuple is handed to a helper, which made the journal's scans between legs take 36
+# times as long. Their njit_alloc wrappers only allocate what the kernels fill.
 @njit_alloc
 def sunlit_series(orbit, first, last):
     """The Sun's visible fraction at frames ``first`` to ``last`` - 1 of ``orbit``.
 
     Each frame's value is :func:`sunlit_at`'s; an interval between samples
     that is sunlit at both ends and between (``WHOLE``) is filled with 1.0 at
-    once, as :func:`sunlit_at` would give it frame by frame.
+    once, one in the umbra (``UMBRA``) with 0.0, as :func:`sunlit_at` gives
+    them frame by frame.
     """
     out = np.empty(max(last - first, 0))
+    _fill_sunlit(orbit, first, last, out)
+    return out
+
+
+@njit
+def _fill_sunlit(orbit, first, last, out):
+    """:func:`sunlit_series` into ``out``."""
     step = orbit.step_frames
     f = first
     while f < last:
         k = f // step
-        if k < orbit.n - 1 and orbit.scalars[k, WHOLE] != 0.0:
+        if k < orbit.n - 1 and _one_fraction(orbit.scalars, k):
             end = min(last, (k + 1) * step)
-            out[f - first:end - first] = 1.0
+            out[f - first:end - first] = orbit.scalars[k, WHOLE]  # 1.0 whole, 0.0 umbra
             f = end
         else:
             out[f - first] = sunlit_at(orbit, f)
             f += 1
-    return out
+
+
+@njit_stage
+def _one_fraction(sc, k):
+    """Whether interval ``k`` of the samples ``sc`` has one visible fraction: 1 or 0 throughout."""
+    return sc[k, WHOLE] != 0.0 or sc[k, UMBRA] != 0.0
 
 
 @njit_alloc
@@ -841,38 +876,43 @@ def eclipse_steps(orbit, first, last, phase):
     ``first``. Returns ``(frames, phases, fractions)`` of the frames whose
     phase differs from the frame's before (frame - ``first``, its phase, its
     visible fraction), and the phase at ``last`` - 1. Intervals sunlit at
-    both ends and between (``WHOLE``) are passed at once.
+    both ends and between (``WHOLE``), or in the umbra (``UMBRA``), are
+    passed at once.
     """
     steps = np.empty((8, 2), dtype=np.int64)  # frame - first, phase
+    fractions = np.empty(8)
+    n, end_phase = _eclipse_scan(orbit, first, last, phase, steps, fractions)
+    if n > steps.shape[0]:  # more than the buffer holds: scanned again into one that fits
+        steps = np.empty((n, 2), dtype=np.int64)
+        fractions = np.empty(n)
+        _eclipse_scan(orbit, first, last, phase, steps, fractions)
+    return steps[:n, 0].copy(), steps[:n, 1].copy(), fractions[:n].copy(), end_phase
+
+
+@njit
+def _eclipse_scan(orbit, first, last, phase, steps, fractions):
+    """:func:`eclipse_steps` into ``steps`` and ``fractions``, as many as they hold.
+
+    Returns ``(n, phase)``: the number of changes found (all counted, even
+    those beyond the buffers) and the phase at ``last`` - 1.
+    """
     n = 0
     step = orbit.step_frames
     f = first
     while f < last:
         k = f // step
-        whole = k < orbit.n - 1 and orbit.scalars[k, WHOLE] != 0.0
-        x = 1.0 if whole else sunlit_at(orbit, f)
+        one = k < orbit.n - 1 and _one_fraction(orbit.scalars, k)
+        x = sunlit_at(orbit, f)  # at once where it is one fraction
         now = 0 if x >= 1.0 else (2 if x <= 0.0 else 1)
         if now != phase:
-            steps = _room(steps, n)
-            steps[n, 0] = f - first
-            steps[n, 1] = now
+            if n < steps.shape[0]:
+                steps[n, 0] = f - first
+                steps[n, 1] = now
+                fractions[n] = x
             n += 1
             phase = now
-        f = min(last, (k + 1) * step) if whole else f + 1
-    fractions = np.empty(n)
-    for i in range(n):  # sunlit_at gives 1.0 in a WHOLE interval itself
-        fractions[i] = sunlit_at(orbit, first + steps[i, 0])
-    return steps[:n, 0].copy(), steps[:n, 1].copy(), fractions, phase
-
-
-@njit_alloc
-def _room(buf, n):
-    """``buf`` (rows, columns) with room for row ``n``: itself, or a copy twice as long."""
-    if n < buf.shape[0]:
-        return buf
-    grown = np.empty((2 * buf.shape[0], buf.shape[1]), dtype=buf.dtype)
-    grown[:n] = buf[:n]
-    return grown
+        f = min(last, (k + 1) * step) if one else f + 1
+    return n, phase
 
 
 @njit
@@ -922,18 +962,22 @@ def _occulted(orbit, table, by_interval, first, last):
     Row ``k`` of ``table`` for the frame's sample interval ``k`` with
     ``by_interval``, else its only row.
     """
-    m = table.shape[1]
-    out = np.zeros((max(last - first, 0), m), dtype=np.bool_)
-    nadir = np.empty(3)
+    out = np.zeros((max(last - first, 0), table.shape[1]), dtype=np.bool_)
+    _fill_occulted(orbit, table, by_interval, first, last, np.empty(3), out)
+    return out
+
+
+@njit
+def _fill_occulted(orbit, table, by_interval, first, last, nadir, out):
+    """:func:`_occulted` into ``out``; ``nadir`` (3,) is work space."""
     for f in range(first, last):
         k, w = place(orbit, f)
         _lerp_unit(orbit.nadir_i, k, w, nadir)
         cos_e = _lerp(orbit.scalars, k, w, EARTH_COS)
         r = k if by_interval else 0
-        for j in range(m):
+        for j in range(table.shape[1]):
             d = table[r, j, 0] * nadir[0] + table[r, j, 1] * nadir[1] + table[r, j, 2] * nadir[2]
             out[f - first, j] = d > cos_e
-    return out
 
 
 #: [rad] what a bound of :func:`occultation_steps` allows for rounding: far above the ulps
@@ -976,11 +1020,29 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
     clears both ends' ``EARTH_COS`` by ``theta`` keeps its side throughout.
     """
     rows = fixed.shape[0] + moving.shape[0]
-    state = seen.copy()
     steps = np.empty((16, 3), dtype=np.int64)
-    n_steps = 0
-    side = np.zeros(rows, dtype=np.int64)  # this interval: 1 hidden, -1 shown, 0 frame by frame
+    state = seen.copy()
+    side = np.zeros(rows, dtype=np.int64)
     nadir = np.empty(3)
+    n = _occultation_scan(orbit, fixed, moving, first, last, state, side, nadir, steps)
+    if n > steps.shape[0]:  # more than the buffer holds: scanned again into one that fits
+        steps = np.empty((n, 3), dtype=np.int64)
+        state = seen.copy()
+        _occultation_scan(orbit, fixed, moving, first, last, state, side, nadir, steps)
+    return steps[:n].copy(), state
+
+
+@njit
+def _occultation_scan(orbit, fixed, moving, first, last, state, side, nadir, steps):
+    """:func:`occultation_steps` into ``steps``, as many as it holds; ``state`` moves on.
+
+    ``state`` (rows,) bool starts as what each row showed before ``first``
+    and ends as its state at ``last`` - 1; ``side`` (rows,) int64 and
+    ``nadir`` (3,) are work space. Returns the number of steps found (all
+    counted, even those beyond the buffer).
+    """
+    rows = fixed.shape[0] + moving.shape[0]
+    n_steps = 0
     sc = orbit.scalars
     step = orbit.step_frames
     f = first
@@ -993,7 +1055,7 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
         theta = 0.5 * math.pi * chord + ROUNDING_RAD
         c_lo = min(sc[k, EARTH_COS], sc[k + 1, EARTH_COS]) - ROUNDING_RAD
         c_hi = max(sc[k, EARTH_COS], sc[k + 1, EARTH_COS]) + ROUNDING_RAD
-        mixed = False
+        mixed = False  # this interval's side of each row: 1 hidden, -1 shown, 0 frame by frame
         for j in range(rows):
             d0 = _row_cos(orbit, fixed, moving, k, j, n0)
             if d0 - theta > c_hi:
@@ -1003,6 +1065,7 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
             else:
                 side[j] = 0
                 mixed = True
+        cos_e = 0.0
         for g in range(f, end if mixed else f + 1):
             if mixed:
                 kg, wg = place(orbit, g)
@@ -1014,14 +1077,14 @@ def occultation_steps(orbit, fixed, moving, first, last, seen):
                 else:
                     h = _row_cos(orbit, fixed, moving, k, j, nadir) > cos_e
                 if h != state[j]:
-                    steps = _room(steps, n_steps)
-                    steps[n_steps, 0] = g - first
-                    steps[n_steps, 1] = j
-                    steps[n_steps, 2] = 1 if h else 0
+                    if n_steps < steps.shape[0]:
+                        steps[n_steps, 0] = g - first
+                        steps[n_steps, 1] = j
+                        steps[n_steps, 2] = 1 if h else 0
                     n_steps += 1
                     state[j] = h
         f = end
-    return steps[:n_steps].copy(), state
+    return n_steps
 
 
 #: The columns of :func:`orbit_telemetry`, with their units.
@@ -1033,7 +1096,13 @@ ORBIT_COLUMNS = (("time", "s"), ("sunlit_fraction", "-"), ("eclipse", "-"),
 @njit_alloc
 def _orbit_rows(orbit, frames, q, times):
     out = np.empty((frames.shape[0], 5))
-    nadir = np.empty(3)
+    _fill_orbit_rows(orbit, frames, q, times, np.empty(3), out)
+    return out
+
+
+@njit
+def _fill_orbit_rows(orbit, frames, q, times, nadir, out):
+    """:func:`orbit_telemetry`'s first five columns into ``out``; ``nadir`` (3,) is work space."""
     for i in range(frames.shape[0]):
         f = frames[i]
         k, w = place(orbit, f)
@@ -1052,7 +1121,6 @@ def _orbit_rows(orbit, frames, q, times):
         out[i, 2] = 1.0 if s < 1.0 else 0.0
         out[i, 3] = xmath.atan2(np.sqrt(ny * ny + nz * nz), nx) * (180.0 / math.pi)
         out[i, 4] = xmath.atan2(np.sqrt(nx * nx + ny * ny), nz) * (180.0 / math.pi)
-    return out
 
 
 def orbit_telemetry(orbit, ck, table, glare=()) -> np.ndarray:

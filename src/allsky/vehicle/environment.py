@@ -140,7 +140,7 @@ class OrbitParams(NamedTuple):
     sun_i: np.ndarray  #: (n, 3) unit vector, vehicle to the Sun, inertial
     nadir_i: np.ndarray  #: (n, 3) unit vector, vehicle to the Earth's centre
     wind_i: np.ndarray  #: [m/s] (n, 3) velocity relative to the atmosphere
-    scalars: np.ndarray  #: (n, N_SCALARS) the columns SEP ... SRP
+    scalars: np.ndarray  #: (n, N_SCALARS) the columns SEP ... UMBRA
     gravity_gradient: bool  #: the gravity-gradient torque acts
     pressure_offset_m: np.ndarray  #: [m] (3,) centre of pressure, body axes
     srp_offset_m: np.ndarray  #: [m] (3,) centre of solar pressure, body axes

@@ -854,7 +854,7 @@ def _fill_sunlit(orbit, first, last, out):
         k = f // step
         if k < orbit.n - 1 and _one_fraction(orbit.scalars, k):
             end = min(last, (k + 1) * step)
-            out[f - first:end - first] = orbit.scalars[k, WHOLE]  # 1.0 whole, 0.0 umbra
+            out[f - first:end - first] = _sun_fraction(orbit.scalars, k, 0.0)
             f = end
         else:
             out[f - first] = sunlit_at(orbit, f)
@@ -1065,7 +1065,6 @@ def _occultation_scan(orbit, fixed, moving, first, last, state, side, nadir, ste
             else:
                 side[j] = 0
                 mixed = True
-        cos_e = 0.0
         for g in range(f, end if mixed else f + 1):
             if mixed:
                 kg, wg = place(orbit, g)

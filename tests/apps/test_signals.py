@@ -171,3 +171,42 @@ def test_many_signals_at_random_moments(name, telemetry, tmp_path):
         workdir.mkdir()
         codes.append(interrupt(argv, workdir, rng, span * 1.2)[0])
     assert set(codes) <= {0, 1, 130}
+
+
+def test_the_handler_imports_nothing(monkeypatch):
+    """A signal that arrives during an import is sent again, with no import of its own.
+
+    Python 3.11's module locks are not re-entrant: an import inside the
+    handler, in the middle of another (``threading`` itself may be the module
+    half imported), breaks the one under way with a ``KeyError`` in importlib
+    or a partially initialised module. So the handler's path for a signal
+    inside an import must call no ``__import__`` at all.
+    """
+    import builtins
+
+    from allsky.apps import cli
+
+    imported = []
+    real = builtins.__import__
+
+    def recording(name, *args, **kwargs):
+        imported.append(name)
+        return real(name, *args, **kwargs)
+
+    def frame_in_import():
+        code = compile("import sys\nframe = sys._getframe()", "<frozen importlib._bootstrap>",
+                       "exec")
+        space = {}
+        exec(code, space)  # noqa: S102 - a frame named as importlib's, for the handler to see
+        return space["frame"]
+
+    frame = frame_in_import()
+    monkeypatch.setattr(cli, "_running", [])  # the resend thread finds no command: no signal
+    monkeypatch.setattr(cli, "_signalled", [])
+    builtins.__import__ = recording
+    try:
+        cli._interrupt(signal.SIGTERM, frame)
+    finally:
+        builtins.__import__ = real
+    assert imported == []
+    assert cli._signalled == [signal.SIGTERM]

@@ -30,6 +30,7 @@ line ``allsky: interrupted; ...``; 141 stdout's reader went away (``| head``) af
 every file asked for was written. Never a bare traceback.
 """
 
+import _thread
 import argparse
 import errno
 import os
@@ -762,18 +763,23 @@ def _in_import(frame) -> bool:
 
 
 def _resend(signum):
+    time.sleep(IMPORT_RETRY_S)
     if _running:
         os.kill(os.getpid(), signum)
 
 
 def _deliver_again(signum=None):
-    """Send the last signal again shortly (one swallowed, or caught inside an import)."""
-    import threading
+    """Send the last signal again shortly (one swallowed, or caught inside an import).
 
+    It runs inside a signal handler, perhaps in the middle of an import, so it
+    imports nothing and waits for nothing: Python 3.11's import locks are not
+    re-entrant, and an import here (``threading`` itself may be the module half
+    imported) would break the import under way (a ``KeyError`` in importlib, or
+    a partially initialised module). A bare thread of ``_thread``, a built-in
+    module, sleeps and sends the signal.
+    """
     signum = signum or (_signalled[-1] if _signalled else signal.SIGINT)
-    timer = threading.Timer(IMPORT_RETRY_S, _resend, (signum,))
-    timer.daemon = True
-    timer.start()
+    _thread.start_new_thread(_resend, (signum,))
 
 
 def _interrupt(signum, frame):

@@ -149,7 +149,7 @@ class CompiledFunction:
         return f"<compiled function {self.__qualname__} (numba loads on first use)>"
 
 
-def jitable(py_func):
+def jitable(py_func=None, *, inline=False):
     """A plain Python function ``py_func`` that compiled code may call as if compiled.
 
     The function stays what it is: Python calls it as Python, without
@@ -158,7 +158,18 @@ def jitable(py_func):
     (``numba.extending.register_jitable``), so that compiled functions that
     call it compile its body into their own code, with the same arithmetic
     and therefore the same bits.
+
+    ``@jitable(inline=True)`` has numba put the function's body into each
+    caller's before LLVM sees it (numba's ``inline="always"``), where LLVM
+    would keep a call: for a small function called from few places on the
+    frame's critical path (:func:`allsky.xmath._atan01`, whose pair of
+    results a call returns through memory). Inlining changes no operation,
+    so the bits stay the same; it costs compile time at every call site.
     """
+    if py_func is None:
+        return functools.partial(jitable, inline=inline)
+    if inline:
+        _inlined.add(py_func)
     if _numba is not None:
         _register_jitable(_numba, py_func)
     else:
@@ -166,10 +177,17 @@ def jitable(py_func):
     return py_func
 
 
+#: The :func:`jitable` functions numba inlines into their callers.
+_inlined = set()
+
+
 def _register_jitable(numba, py_func):
     from numba.extending import register_jitable
 
-    register_jitable(py_func)
+    if py_func in _inlined:
+        register_jitable(inline="always")(py_func)
+    else:
+        register_jitable(py_func)
 
 
 def _njit(numba, options, py_func):

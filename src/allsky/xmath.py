@@ -198,14 +198,16 @@ def tan(x):
 
 
 # -- inverse tangent, sine, cosine ------------------------------------------------------
-@jitable
+@jitable(inline=True)
 def _atan01(t):
     """atan(t) for ``0 <= t <= 1`` as (big, small): a table value and the rest.
 
     ``t`` is referred to the nearest k/8: atan t = atan(k/8) + atan u with
     ``u = (t - k/8) / (1 + t k/8)``, ``|u| <= 1/16``; for k = 0 that is
     ``t / 1``, so ``u = t`` is taken as it is (the same bits, one division
-    fewer).
+    fewer). Compiled into :func:`atan2`'s body: called, it returned its pair
+    through memory on the frame's critical path (the four atan2 of a frame),
+    about 1 ms of a 23 ms mission.
     """
     k = int(t * 8.0 + 0.5)
     if k == 0:  # t < 1/16, the sensors' common case: u = t exactly, without a division

@@ -159,12 +159,14 @@ def jitable(py_func=None, *, inline=False):
     call it compile its body into their own code, with the same arithmetic
     and therefore the same bits.
 
-    ``@jitable(inline=True)`` has numba put the function's body into each
-    caller's before LLVM sees it (numba's ``inline="always"``), where LLVM
-    would keep a call: for a small function called from few places on the
-    frame's critical path (:func:`allsky.xmath._atan01`, whose pair of
-    results a call returns through memory). Inlining changes no operation,
-    so the bits stay the same; it costs compile time at every call site.
+    With ``inline`` true (``@jitable(inline=True)``) numba puts the
+    function's body into each caller's before LLVM sees it (numba's
+    ``inline="always"``), where LLVM would keep a call: for a small function
+    on the frame's critical path (:func:`allsky.xmath._atan01`, whose pair
+    of results a call returns through memory). Inlining changes no
+    operation, so the bits stay the same; it costs compile time at every
+    call site. A function inlined so must not assign one variable on two
+    paths (numba's inliner warns of it).
     """
     if py_func is None:
         return functools.partial(jitable, inline=inline)

@@ -211,10 +211,18 @@ def _atan01(t):
     """
     k = int(t * 8.0 + 0.5)
     if k == 0:  # t < 1/16, the sensors' common case: u = t exactly, without a division
-        u = t
-    else:
-        c = k * 0.125
-        u = (t - c) / (1.0 + t * c)
+        return _atan_near(t, 0)
+    c = k * 0.125
+    return _atan_near((t - c) / (1.0 + t * c), k)
+
+
+@jitable(inline=True)
+def _atan_near(u, k):
+    """atan(k/8 + ...) as (big, small) from ``u`` (``|u| <= 1/16``), for :func:`_atan01`.
+
+    Its own function so that no variable of ``_atan01`` is assigned on two
+    paths: numba's inliner warns of such a variable (``NumbaIRAssumptionWarning``).
+    """
     z = u * u
     p = A1 + z * (A2 + z * (A3 + z * (A4 + z * (A5 + z * (A6 + z * A7)))))
     return ATAN_HI[k], u + (ATAN_LO[k] + (u * z) * p)

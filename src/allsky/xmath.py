@@ -218,7 +218,7 @@ def _atan01(t):
 
 @jitable(inline=True)
 def _atan_near(u, k):
-    """atan(k/8 + ...) as (big, small) from ``u`` (``|u| <= 1/16``), for :func:`_atan01`.
+    """atan(k/8) + atan(u) as (big, small), ``|u| <= 1/16``, for :func:`_atan01`.
 
     Its own function so that no variable of ``_atan01`` is assigned on two
     paths: numba's inliner warns of such a variable (``NumbaIRAssumptionWarning``).

@@ -280,3 +280,44 @@ def test_the_build_note_is_said_once(tmp_path, monkeypatch, capsys):
         assert capsys.readouterr().err == ""
     finally:
         os.chmod(tmp_path, 0o755)
+
+
+def test_the_compile_lock_taken_again_inside_its_block_is_the_one_held():
+    """A warm-up's mission compiles its loop under the lock the warm-up holds: no wait."""
+    import threading
+
+    def nested():
+        with warm_up.compile_lock(), warm_up.compile_lock():
+            pass
+
+    t = threading.Thread(target=nested, daemon=True)
+    t.start()
+    t.join(timeout=30)
+    assert not t.is_alive(), "a second flock of the same file waited for the first"
+    assert warm_up._held == {}
+
+
+def test_a_leg_that_compiles_says_so_and_holds_the_lock(default_cfg, monkeypatch):
+    """run_leg's compile is announced (True, then False) and runs under the machine's lock."""
+    from allsky.sim import frame_loop
+    from allsky.sim.mission import Mission
+
+    heard, locked = [], []
+    real = frame_loop.leg_entry
+
+    def leg_entry(p):
+        loop = real(p)
+
+        def fly(*args):
+            locked.append(bool(warm_up._held))
+            return loop(*args)
+
+        return fly
+
+    monkeypatch.setattr(frame_loop, "leg_entry", leg_entry)
+    monkeypatch.setattr(frame_loop, "_LOADED", set())
+    monkeypatch.setattr(frame_loop, "needs_compiling", lambda entries: not heard)
+    monkeypatch.setattr(warm_up, "ON_COMPILE", [lambda on: heard.append(on)])
+    Mission(default_cfg, telemetry=False).run_mode()
+    assert heard == [True, False]  # the first leg only: it compiled
+    assert locked[0] and not any(locked[1:])  # under the lock, and later legs not

@@ -7,6 +7,7 @@ kills its own process), which is what the kernel's out-of-memory killer or
 
 import os
 import signal
+import time
 from pathlib import Path
 
 import pytest
@@ -138,3 +139,65 @@ def test_no_worker_outlives_the_pool():
     list(it)
     pool.close()
     assert not any(p.is_alive() for p in processes)
+
+
+def _compiling_or_gated(job):
+    """Job "compile" says it compiles the frame loop and would take ten minutes; "gate"
+    marks that it was taken, then ends after a moment; a number is squared."""
+    if job == "compile":
+        from allsky.sim import warm_up
+
+        for tell in warm_up.ON_COMPILE:  # as frame_loop.run_leg does before a compile
+            tell(True)
+        time.sleep(600)
+    if isinstance(job, tuple):
+        Path(job[1]).touch()
+        time.sleep(0.5)
+        return "flown"
+    return job * job
+
+
+def _wait_for(path):
+    deadline = time.monotonic() + 60
+    while not path.exists():
+        assert time.monotonic() < deadline, f"{path} never appeared"
+        time.sleep(0.01)
+
+
+def test_finish_ends_a_compiling_worker_at_once_and_waits_for_a_flying_one(tmp_path):
+    """After a Ctrl-C a compile (a minute on an empty cache) is not waited for; a flight is."""
+    taken = tmp_path / "taken"
+    pool = WorkerPool(_compiling_or_gated, 2)
+    it = pool.results([(0, "compile"), (1, 1), (2, ("gate", str(taken)))])
+    assert next(it) == (1, 1)  # job 0 compiles on one worker; job 2 went to the other
+    _wait_for(taken)
+    compiling = [w.process for w in pool._busy.values() if w.key == 0]
+    t0 = time.monotonic()
+    rest = pool.finish()
+    waited = time.monotonic() - t0
+    pool.close()
+    assert rest == [(2, "flown")]
+    assert not compiling[0].is_alive()
+    assert waited < 60  # liveness: the compile alone would take 600 s
+
+
+def _slow_start(marks):
+    try:
+        os.close(os.open(Path(marks) / "slow", os.O_CREAT | os.O_EXCL))
+    except FileExistsError:
+        return  # the other worker: ready at once
+    time.sleep(600)  # this one starts for ten minutes (its loop compiling in its initializer)
+
+
+def test_finish_ends_a_worker_still_starting_at_once(tmp_path):
+    """A job handed to a worker still in its initializer was never under way."""
+    pool = WorkerPool(_square, 2, initializer=_slow_start, initargs=(str(tmp_path),))
+    it = pool.results((k, k) for k in range(10))
+    first = next(it)
+    t0 = time.monotonic()
+    rest = pool.finish()
+    waited = time.monotonic() - t0
+    pool.close()
+    got = dict([first, *rest])
+    assert all(v == k * k for k, v in got.items())
+    assert waited < 60  # liveness: the slow start alone would take 600 s

@@ -104,6 +104,7 @@ from allsky.sim.parts import (
     wheels_row,
 )
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_last_row, record_telemetry  # noqa: F401
+from allsky.sim.warm_up import compiling, needs_compiling
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
 from allsky.vehicle.wheels import (
@@ -139,6 +140,8 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     run again with ``resume=1`` carries on as if it had never stopped (the
     noise generator is not reseeded). A leg ends with its settle count in
     ``s.leg_clock``, where a next leg with ``carry_settle=1`` starts from it.
+    A leg whose loop must compile first (nothing in numba's cache) compiles
+    under the machine's lock, said to :data:`allsky.sim.warm_up.ON_COMPILE`.
     Returns ``(exit_code, frames_flown_in_the_leg)``.
 
     Parameters
@@ -153,7 +156,21 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
         (1,) int64 fill count of ``rec``.
     """
     args = (p, s, leg, tlm, tlm_rows, rec, rec_rows)
-    return _resolved(leg_entry(p), args)(*args)
+    entry = leg_entry(p)
+    if entry not in _LOADED:  # the first leg of this entry in this process
+        if needs_compiling((entry,)):  # nothing in the cache: it compiles now
+            with compiling(entry):
+                out = entry(*args)
+        else:
+            out = entry(*args)
+        _LOADED.add(entry)
+        return out
+    return _resolved(entry, args)(*args)
+
+
+#: The entries this process has called (compiled, loaded from the cache or built ahead of
+#: time): only the first call of each may compile.
+_LOADED = set()
 
 
 #: The compiled entries resolved for recent (entry, params, state): the call

@@ -57,6 +57,16 @@ def needs_compiling(dispatchers=None) -> bool:
     return False
 
 
+#: Compile locks this process holds, by (thread, source file): a lock taken again inside
+#: its own block (a warm-up's mission compiling its loop) is the one already held, since a
+#: second ``flock`` of the same file from this process would wait for itself.
+_held = {}
+#: Called as ``f(True)`` before this process compiles a frame-loop entry (or waits for
+#: another process's compile of it), ``f(False)`` after: a pool's worker tells its parent,
+#: which ends a compiling worker at once on Ctrl-C (:mod:`allsky.studies.pool`).
+ON_COMPILE = []
+
+
 @contextlib.contextmanager
 def compile_lock(dispatcher=None):
     """Hold the machine's compile lock for ``dispatcher`` inside the block.
@@ -66,14 +76,25 @@ def compile_lock(dispatcher=None):
     it, whatever cache directory each one uses, and nothing is written.
     Where the platform has no ``fcntl`` (Windows) or the file cannot be
     opened, the block runs without a lock: a second process may then
-    compile too, which costs time, never results.
+    compile too, which costs time, never results. Inside a block that holds
+    it already (the same thread), the lock is not taken again.
     """
+    import _thread
+
     try:
         import fcntl
     except ImportError:
         fcntl = None
     d = dispatcher or entry_points()[0]
     source = getattr(getattr(d, "py_func", d), "__code__", None)
+    key = (_thread.get_ident(), getattr(source, "co_filename", None))
+    if key in _held:
+        _held[key] += 1
+        try:
+            yield
+        finally:
+            _held[key] -= 1
+        return
     handle = None
     if fcntl is not None and source is not None:
         try:
@@ -83,12 +104,35 @@ def compile_lock(dispatcher=None):
             if handle is not None:
                 handle.close()
             handle = None
+    _held[key] = 1
     try:
         yield
     finally:
+        del _held[key]
         if handle is not None:
             fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
             handle.close()
+
+
+@contextlib.contextmanager
+def compiling(dispatcher):
+    """A compile of ``dispatcher`` inside the block: said to :data:`ON_COMPILE`, locked.
+
+    :func:`allsky.sim.frame_loop.run_leg` flies a leg whose loop is not yet
+    compiled (nor in the cache) inside it: the callbacks hear that this
+    process is compiling (which may take a minute, or wait for another
+    process's compile) and, after, that it is done; the compile holds the
+    machine's lock (:func:`compile_lock`), so that workers starting together
+    compile once and the others load the cache.
+    """
+    for f in ON_COMPILE:
+        f(True)
+    try:
+        with compile_lock(dispatcher):
+            yield
+    finally:
+        for f in ON_COMPILE:
+            f(False)
 
 
 def compile_once(fly, dispatchers=None) -> bool:

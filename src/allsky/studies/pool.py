@@ -112,13 +112,15 @@ def _unblock():
 
 
 #: A worker's messages: it took the job (so a death from now on is the job's), its result,
-#: the exception it raised.
-_TOOK, _DONE, _FAILED = 0, 1, 2
+#: the exception it raised, and that it starts (True) or ends (False) compiling the frame
+#: loop (:data:`allsky.sim.warm_up.ON_COMPILE`).
+_TOOK, _DONE, _FAILED, _COMPILING = 0, 1, 2, 3
 
 
 def _serve(conn, parent_pid, fn, initializer, initargs):
     """A worker's life: set up, then answer each job (:data:`_TOOK`, then its result)."""
     worker_process_setup(parent_pid)
+    _tell_compiles(conn)
     broken = None
     if initializer is not None:
         try:
@@ -149,6 +151,19 @@ def _serve(conn, parent_pid, fn, initializer, initargs):
             return
 
 
+def _tell_compiles(conn):
+    """Make this worker tell its parent when it compiles the frame loop, and when done."""
+    from allsky.sim import warm_up
+
+    def tell(on):
+        try:
+            conn.send((_COMPILING, bool(on)))
+        except (OSError, ValueError):  # the parent is gone: its watch ends this worker
+            pass
+
+    warm_up.ON_COMPILE[:] = [tell]
+
+
 class _Worker:
     def __init__(self, ctx, fn, initializer, initargs):
         self.conn, child = ctx.Pipe()
@@ -165,6 +180,7 @@ class _Worker:
             child.close()
         self.key = self.job = None
         self.took = False  # the worker said it took its job (a death then is the job's)
+        self.compiling = False  # it said it is compiling the frame loop (or waits for it)
 
     def give(self, key, job):
         self.key, self.job, self.took = key, job, False
@@ -268,9 +284,13 @@ class WorkerPool:
             try:
                 while w.conn.poll():
                     message = w.conn.recv()
-                    if message[0] != _TOOK:
+                    if message[0] == _TOOK:
+                        w.took = True
+                    elif message[0] == _COMPILING:
+                        w.compiling = message[1]
+                    else:
                         break
-                    w.took, message = True, None
+                    message = None
             except (EOFError, OSError):
                 message = None
             if message is None:
@@ -326,18 +346,30 @@ class WorkerPool:
         """After a Ctrl-C: hand out nothing more; the jobs under way, finished.
 
         Waits for the workers' current jobs and returns their ``(key,
-        result)``. A second Ctrl-C (or SIGTERM) during the wait ends the
+        result)``. A job is under way once its worker took it and while it is
+        not compiling: a worker still starting (its initializer, the job not
+        yet taken) or compiling the frame loop (a minute on an empty cache, or
+        waiting for another process's compile) is ended at once, and its job
+        with it. A second Ctrl-C (or SIGTERM) during the wait ends the
         workers at once and returns what had finished.
         """
         self._jobs, self._queue = iter(()), []
         out = []
+
+        def keep(pairs):
+            out.extend((key, result) for key, result in pairs if not isinstance(result, Died))
+            self._queue = []  # a job whose worker died is not flown again now
+
         try:
             while self._busy:
+                keep(self._collect(set(self._busy)))  # what they said so far (no wait)
+                for w in [w for w in self._busy.values() if w.compiling or not w.took]:
+                    del self._busy[w.conn]
+                    w.end(at_once=True)
+                if not self._busy:
+                    break
                 waits = [*self._busy, *(w.process.sentinel for w in self._busy.values())]
-                for key, result in self._collect(connection.wait(waits)):
-                    if not isinstance(result, Died):
-                        out.append((key, result))
-                self._queue = []  # a job whose worker died is not flown again now
+                keep(self._collect(connection.wait(waits)))
         except KeyboardInterrupt:
             self.close(at_once=True)
         return out

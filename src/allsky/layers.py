@@ -42,7 +42,7 @@ LAYERS = (
     Layer("", "foundations", "units and conversions, the vocabulary (modes, fault kinds, "
           "axes, actions, journal kinds), the exact arithmetic (the same bits on every "
           "machine), the jit decorators and their caches (the on-disk key, the functions "
-          "built ahead of time), the noise source"),
+          "built ahead of time, the compile lock), the noise source"),
 )
 #: Package -> rank (0 = bottom).
 RANK = {layer.package: len(LAYERS) - 1 - i for i, layer in enumerate(LAYERS)}

@@ -286,19 +286,24 @@ def test_the_compile_lock_taken_again_inside_its_block_is_the_one_held():
     """A warm-up's mission compiles its loop under the lock the warm-up holds: no wait."""
     import threading
 
+    from allsky import compiles
+
+    loop = warm_up.entry_points()[0]
+
     def nested():
-        with warm_up.compile_lock(), warm_up.compile_lock():
+        with compiles.compile_lock(loop), compiles.compile_lock(loop):
             pass
 
     t = threading.Thread(target=nested, daemon=True)
     t.start()
     t.join(timeout=30)
     assert not t.is_alive(), "a second flock of the same file waited for the first"
-    assert warm_up._held == {}
+    assert compiles._held == {}
 
 
 def test_a_leg_that_compiles_says_so_and_holds_the_lock(default_cfg, monkeypatch):
     """run_leg's compile is announced (True, then False) and runs under the machine's lock."""
+    from allsky import compiles
     from allsky.sim import frame_loop
     from allsky.sim.mission import Mission
 
@@ -309,7 +314,7 @@ def test_a_leg_that_compiles_says_so_and_holds_the_lock(default_cfg, monkeypatch
         loop = real(p)
 
         def fly(*args):
-            locked.append(bool(warm_up._held))
+            locked.append(bool(compiles._held))
             return loop(*args)
 
         return fly
@@ -317,7 +322,7 @@ def test_a_leg_that_compiles_says_so_and_holds_the_lock(default_cfg, monkeypatch
     monkeypatch.setattr(frame_loop, "leg_entry", leg_entry)
     monkeypatch.setattr(frame_loop, "_LOADED", set())
     monkeypatch.setattr(frame_loop, "needs_compiling", lambda entries: not heard)
-    monkeypatch.setattr(warm_up, "ON_COMPILE", [lambda on: heard.append(on)])
+    monkeypatch.setattr(compiles, "ON_COMPILE", [lambda on: heard.append(on)])
     Mission(default_cfg, telemetry=False).run_mode()
     assert heard == [True, False]  # the first leg only: it compiled
     assert locked[0] and not any(locked[1:])  # under the lock, and later legs not

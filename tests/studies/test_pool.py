@@ -145,9 +145,9 @@ def _compiling_or_gated(job):
     """Job "compile" says it compiles the frame loop and would take ten minutes; "gate"
     marks that it was taken, then ends after a moment; a number is squared."""
     if job == "compile":
-        from allsky.sim import warm_up
+        from allsky import compiles
 
-        for tell in warm_up.ON_COMPILE:  # as frame_loop.run_leg does before a compile
+        for tell in compiles.ON_COMPILE:  # as frame_loop.run_leg does before a compile
             tell(True)
         time.sleep(600)
     if isinstance(job, tuple):

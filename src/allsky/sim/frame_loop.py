@@ -42,6 +42,7 @@ import numpy as np
 
 from allsky import xmath
 from allsky.clock import frame_time
+from allsky.compiles import compiling, needs_compiling
 from allsky.computer.computer_sequencer import sequencer_step
 from allsky.computer.cpu import target_step
 from allsky.gauss import seed as gauss_seed
@@ -104,7 +105,6 @@ from allsky.sim.parts import (
     wheels_row,
 )
 from allsky.sim.recorder import N_REC, N_TLM, record_dither, record_last_row, record_telemetry  # noqa: F401
-from allsky.sim.warm_up import compiling, needs_compiling
 from allsky.vehicle.plant import rk4_step, rk4_step_gyrostat
 from allsky.vehicle.quaternion import rotate_to_body
 from allsky.vehicle.wheels import (
@@ -141,7 +141,7 @@ def run_leg(p, s, leg, tlm, tlm_rows, rec, rec_rows):
     noise generator is not reseeded). A leg ends with its settle count in
     ``s.leg_clock``, where a next leg with ``carry_settle=1`` starts from it.
     A leg whose loop must compile first (nothing in numba's cache) compiles
-    under the machine's lock, said to :data:`allsky.sim.warm_up.ON_COMPILE`.
+    under the machine's lock, said to :data:`allsky.compiles.ON_COMPILE`.
     Returns ``(exit_code, frames_flown_in_the_leg)``.
 
     Parameters

@@ -6,12 +6,12 @@ on two cores); every later process loads it from numba's on-disk cache
 ``NUMBA_CACHE_DIR`` when that is set. :func:`needs_compiling` tells, before
 anything runs, whether the next mission of this process will compile;
 :func:`warm_up` compiles (or loads) everything a mission calls, holding a
-lock (:func:`compile_lock`) while it compiles, so that processes starting
+lock (:func:`allsky.compiles.compile_lock`) while it compiles, so that processes starting
 together on one machine (local workers, Dask workers sharing a cache
 directory) compile once and the others load the result.
 """
 
-import contextlib
+from allsky import compiles
 
 #: [s] How long compiling takes on the project's 2-core machine, measured with an empty
 #: cache (CPU time of one process, which is its wall time on an idle machine;
@@ -37,115 +37,22 @@ def entry_points(params=None) -> tuple:
 def needs_compiling(dispatchers=None) -> bool:
     """Whether calling ``dispatchers`` (default :func:`entry_points`) will compile.
 
-    False when each is loaded in this process already, runs as plain Python
-    (``NUMBA_DISABLE_JIT=1``), or has entries in numba's on-disk cache index
-    for its current source (read the way numba reads it: an index of another
-    source or numba version counts as empty).
+    See :func:`allsky.compiles.needs_compiling`.
     """
-    from allsky.jit import CompiledFunction
-
-    for d in entry_points() if dispatchers is None else dispatchers:
-        if isinstance(d, CompiledFunction) and d.ahead_of_time():
-            continue  # built at install (allsky.aot): nothing to load or compile
-        if not hasattr(d, "signatures") or d.signatures:
-            continue
-        try:
-            if not d._cache._cache_file._load_index():
-                return True
-        except Exception:  # noqa: BLE001 - numba internals moved: assume a compile
-            return True
-    return False
-
-
-#: Compile locks this process holds, by (thread, source file): a lock taken again inside
-#: its own block (a warm-up's mission compiling its loop) is the one already held, since a
-#: second ``flock`` of the same file from this process would wait for itself.
-_held = {}
-#: Called as ``f(True)`` before this process compiles a frame-loop entry (or waits for
-#: another process's compile of it), ``f(False)`` after: a pool's worker tells its parent,
-#: which ends a compiling worker at once on Ctrl-C (:mod:`allsky.studies.pool`).
-ON_COMPILE = []
-
-
-@contextlib.contextmanager
-def compile_lock(dispatcher=None):
-    """Hold the machine's compile lock for ``dispatcher`` inside the block.
-
-    The lock is an ``flock`` on the dispatcher's source file, opened for
-    reading: every process on the machine that runs this installation shares
-    it, whatever cache directory each one uses, and nothing is written.
-    Where the platform has no ``fcntl`` (Windows) or the file cannot be
-    opened, the block runs without a lock: a second process may then
-    compile too, which costs time, never results. Inside a block that holds
-    it already (the same thread), the lock is not taken again.
-    """
-    import _thread
-
-    try:
-        import fcntl
-    except ImportError:
-        fcntl = None
-    d = dispatcher or entry_points()[0]
-    source = getattr(getattr(d, "py_func", d), "__code__", None)
-    key = (_thread.get_ident(), getattr(source, "co_filename", None))
-    if key in _held:
-        _held[key] += 1
-        try:
-            yield
-        finally:
-            _held[key] -= 1
-        return
-    handle = None
-    if fcntl is not None and source is not None:
-        try:
-            handle = open(source.co_filename, "rb")  # noqa: SIM115 - held across the yield
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
-        except OSError:
-            if handle is not None:
-                handle.close()
-            handle = None
-    _held[key] = 1
-    try:
-        yield
-    finally:
-        del _held[key]
-        if handle is not None:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
-            handle.close()
-
-
-@contextlib.contextmanager
-def compiling(dispatcher):
-    """A compile of ``dispatcher`` inside the block: said to :data:`ON_COMPILE`, locked.
-
-    :func:`allsky.sim.frame_loop.run_leg` flies a leg whose loop is not yet
-    compiled (nor in the cache) inside it: the callbacks hear that this
-    process is compiling (which may take a minute, or wait for another
-    process's compile) and, after, that it is done; the compile holds the
-    machine's lock (:func:`compile_lock`), so that workers starting together
-    compile once and the others load the cache.
-    """
-    for f in ON_COMPILE:
-        f(True)
-    try:
-        with compile_lock(dispatcher):
-            yield
-    finally:
-        for f in ON_COMPILE:
-            f(False)
+    return compiles.needs_compiling(entry_points() if dispatchers is None else dispatchers)
 
 
 def compile_once(fly, dispatchers=None) -> bool:
     """Call ``fly()``, which calls ``dispatchers``: they compile once per machine.
 
-    When something needs compiling, ``fly`` runs under :func:`compile_lock`;
+    When something needs compiling, ``fly`` runs under :func:`allsky.compiles.compile_lock`;
     a process that waited for the lock then finds the cache written and loads
     it. Returns whether this process compiled (numba's cache misses).
     """
     ds = entry_points() if dispatchers is None else tuple(dispatchers)
     misses = _misses(ds)
     if needs_compiling(ds):
-        with compile_lock(ds[0]):
+        with compiles.compile_lock(ds[0]):
             fly()
     else:
         fly()

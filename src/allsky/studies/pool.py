@@ -113,7 +113,7 @@ def _unblock():
 
 #: A worker's messages: it took the job (so a death from now on is the job's), its result,
 #: the exception it raised, and that it starts (True) or ends (False) compiling the frame
-#: loop (:data:`allsky.sim.warm_up.ON_COMPILE`).
+#: loop (:data:`allsky.compiles.ON_COMPILE`).
 _TOOK, _DONE, _FAILED, _COMPILING = 0, 1, 2, 3
 
 
@@ -153,7 +153,7 @@ def _serve(conn, parent_pid, fn, initializer, initargs):
 
 def _tell_compiles(conn):
     """Make this worker tell its parent when it compiles the frame loop, and when done."""
-    from allsky.sim import warm_up
+    from allsky import compiles
 
     def tell(on):
         try:
@@ -161,7 +161,7 @@ def _tell_compiles(conn):
         except (OSError, ValueError):  # the parent is gone: its watch ends this worker
             pass
 
-    warm_up.ON_COMPILE[:] = [tell]
+    compiles.ON_COMPILE[:] = [tell]
 
 
 class _Worker:

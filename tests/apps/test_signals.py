@@ -201,7 +201,8 @@ def test_the_handler_imports_nothing(monkeypatch):
         return space["frame"]
 
     frame = frame_in_import()
-    monkeypatch.setattr(cli, "_running", [])  # the resend thread finds no command: no signal
+    monkeypatch.setattr(cli, "_running", [True])  # a command under way
+    monkeypatch.setattr(cli, "_resend", lambda signum: None)  # its thread sends nothing here
     monkeypatch.setattr(cli, "_signalled", [])
     builtins.__import__ = recording
     try:
@@ -210,3 +211,16 @@ def test_the_handler_imports_nothing(monkeypatch):
         builtins.__import__ = real
     assert imported == []
     assert cli._signalled == [signal.SIGTERM]
+
+
+def test_a_signal_after_the_command_changes_nothing(monkeypatch):
+    """Between the command's end and its handlers' restoring, the handler raises nothing."""
+    from allsky.apps import cli
+
+    monkeypatch.setattr(cli, "_running", [])
+    monkeypatch.setattr(cli, "_signalled", [])
+    assert cli._interrupt(signal.SIGHUP, None) is None
+    assert cli._signalled == []
+    monkeypatch.setattr(cli, "_running", [True])
+    with pytest.raises(KeyboardInterrupt):
+        cli._interrupt(signal.SIGHUP, None)

@@ -788,8 +788,13 @@ def _interrupt(signum, frame):
     A compiled extension being imported (numba's) turns a KeyboardInterrupt
     raised under it into an ImportError and prints it; so a signal that
     arrives during an import is sent again a moment later, until the import
-    is done, and raised there.
+    is done, and raised there. Once the command is over (its exit code
+    decided, :data:`_running` empty) a signal changes nothing: one sent
+    again, or the second of two, that arrives while ``main`` restores the
+    handlers is dropped here rather than raised out of ``main``.
     """
+    if not _running:
+        return
     _signalled.append(signum)
     if _in_import(frame):
         _deliver_again(signum)

@@ -32,9 +32,9 @@ READERS = {
     "allsky.vehicle.ephemeris": "the DE421 ephemeris's coefficient arrays, the de421 "
                                 "package's data files, memory-mapped",
     "allsky.jit_cache": "numba's cache files, hashed to check them before numba loads them",
-    "allsky.sim.warm_up": "the frame loop's own source, opened read-only to hold an flock "
-                          "on it: the machine's compile lock (one process compiles, the "
-                          "others wait and load its cache)",
+    "allsky.compiles": "the frame loop's own source, opened read-only to hold an flock "
+                       "on it: the machine's compile lock (one process compiles, the "
+                       "others wait and load its cache)",
 }
 #: Library modules that say one line on stderr (and tidy the files they own) because the
 #: issue they meet has no front end between it and the user, and why.

@@ -57,14 +57,14 @@ def test_the_mission_is_a_host():
 NAMED_TUPLE_API = {"_replace", "_asdict", "_fields", "_make", "_exit"}
 #: Private fields of other libraries read where they offer no public way, each guarded:
 #: argparse's list of a parser's actions and subparsers (the generated CLI reference),
-#: numba's cache locators and index (allsky.jit_cache, allsky.sim.warm_up).
+#: numba's cache locators and index (allsky.jit_cache, allsky.compiles).
 LIBRARY_INTERNALS = {("apps/cli.py", "_actions"), ("apps/docgen.py", "_actions"),
                      ("apps/docgen.py", "_SubParsersAction"), ("apps/warm.py", "_cache"),
                      # numba's cache file methods, wrapped to check each file's digest
                      *(("jit_cache.py", n) for n in ("_save_data", "_load_index",
                                                      "_load_data", "_allsky_heals")),
                      ("jit_cache.py", "_CacheLocator"), ("jit_cache.py", "_CacheImpl"),
-                     ("jit_cache.py", "_locator_classes"), ("sim/warm_up.py", "_cache")}
+                     ("jit_cache.py", "_locator_classes"), ("compiles.py", "_cache")}
 #: A module's own classes working together: the scenario reads its sections' values, the
 #: jit decorators make their own compiled functions.
 SAME_MODULE = {("config/scenario.py", "_values"), ("jit.py", "_make"),
